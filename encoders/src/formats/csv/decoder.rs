@@ -1,0 +1,250 @@
+use crate::error::{Error, Location, Result};
+use crate::event::{Event, Polarity, Resolution};
+use crate::formats::{CHUNK_EVENTS, Checker, EventSource, Format, OpenOptions, StreamInfo, io};
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+/// Column positions of the four fields.
+#[derive(Debug, Clone, Copy)]
+struct Columns {
+    t: usize,
+    x: usize,
+    y: usize,
+    p: usize,
+    count: usize,
+}
+
+const DEFAULT_COLUMNS: Columns = Columns { t: 0, x: 1, y: 2, p: 3, count: 4 };
+
+/// Streams events from a CSV file, a chunk at a time.
+pub struct Decoder<R: BufRead = BufReader<File>> {
+    path: PathBuf,
+    reader: R,
+    line: Vec<u8>,
+    line_no: u64,
+    columns: Option<Columns>,
+    info: StreamInfo,
+    checker: Checker,
+    events: Vec<Event>,
+    pending: Option<Vec<u8>>,
+    saw_any: bool,
+}
+
+impl Decoder {
+    pub fn open(path: &Path, options: &OpenOptions) -> Result<Self> {
+        let file = File::open(path).map_err(|e| io(path, e))?;
+        Self::from_reader(BufReader::with_capacity(1 << 20, file), path, options)
+    }
+}
+
+impl<R: BufRead> Decoder<R> {
+    /// Reads the leading comments (for a declared resolution) and the optional header line.
+    pub fn from_reader(reader: R, path: &Path, options: &OpenOptions) -> Result<Self> {
+        let mut d = Self {
+            path: path.to_path_buf(),
+            reader,
+            line: Vec::new(),
+            line_no: 0,
+            columns: None,
+            info: StreamInfo { format: Format::Csv, resolution: options.resolution, source: None },
+            checker: Checker::new(path, options.resolution),
+            events: Vec::with_capacity(CHUNK_EVENTS),
+            pending: None,
+            saw_any: false,
+        };
+        // Leading comments and the header, up to the first data line, which is kept for later.
+        while d.read_line()? {
+            d.saw_any = true;
+            let text = trim(&d.line);
+            if text.is_empty() {
+                continue;
+            }
+            if text[0] == b'#' {
+                d.comment(options)?;
+                continue;
+            }
+            if text[0].is_ascii_alphabetic() {
+                d.columns = Some(d.header()?);
+                continue;
+            }
+            d.pending = Some(std::mem::take(&mut d.line));
+            break;
+        }
+        if !d.saw_any {
+            return Err(Error::Empty { path: d.path.clone(), expected: "lines of t_us,x,y,p".into() });
+        }
+        Ok(d)
+    }
+
+    fn read_line(&mut self) -> Result<bool> {
+        self.line.clear();
+        let n = self.reader.read_until(b'\n', &mut self.line).map_err(|e| io(&self.path, e))?;
+        if n > 0 {
+            self.line_no += 1;
+        }
+        Ok(n > 0)
+    }
+
+    fn at(&self) -> Location {
+        Location::Line(self.line_no)
+    }
+
+    fn comment(&mut self, options: &OpenOptions) -> Result<()> {
+        let text = String::from_utf8_lossy(trim(&self.line)).into_owned();
+        let body = text.trim_start_matches('#').trim();
+        if let Some(value) = body.strip_prefix("resolution:") {
+            let r: Resolution = value.trim().parse().map_err(|e: String| Error::Parse {
+                path: self.path.clone(),
+                at: self.at(),
+                field: "resolution".into(),
+                expected: "WIDTHxHEIGHT".into(),
+                found: e,
+            })?;
+            if options.resolution.is_none() {
+                self.info.resolution = Some(r);
+                self.checker.resolution = Some(r);
+            }
+        }
+        Ok(())
+    }
+
+    fn header(&self) -> Result<Columns> {
+        let text = String::from_utf8_lossy(trim(&self.line)).into_owned();
+        let names: Vec<String> = text.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
+        let find = |aliases: &[&str]| names.iter().position(|n| aliases.contains(&n.as_str()));
+        let missing = |field: &str| Error::Parse {
+            path: self.path.clone(),
+            at: self.at(),
+            field: field.into(),
+            expected: "a header naming the columns t_us, x, y and p".into(),
+            found: text.clone(),
+        };
+        Ok(Columns {
+            t: find(&["t_us", "t", "timestamp", "ts"]).ok_or_else(|| missing("t_us"))?,
+            x: find(&["x"]).ok_or_else(|| missing("x"))?,
+            y: find(&["y"]).ok_or_else(|| missing("y"))?,
+            p: find(&["p", "polarity", "on", "pol"]).ok_or_else(|| missing("p"))?,
+            count: names.len(),
+        })
+    }
+
+    /// Parses the data line in `self.line` and appends its event.
+    fn parse_line(&mut self) -> Result<()> {
+        let columns = self.columns.unwrap_or(DEFAULT_COLUMNS);
+        let line = trim(&self.line);
+        let mut fields: [&[u8]; 8] = [&[]; 8];
+        let mut n = 0;
+        for f in line.split(|&b| b == b',') {
+            if n < fields.len() {
+                fields[n] = trim(f);
+            }
+            n += 1;
+        }
+        if n != columns.count {
+            return Err(Error::Parse {
+                path: self.path.clone(),
+                at: self.at(),
+                field: "line".into(),
+                expected: format!("{} comma-separated fields", columns.count),
+                found: String::from_utf8_lossy(line).into_owned(),
+            });
+        }
+        let get = |name: &str, i: usize| -> Result<i64> {
+            parse_int(fields[i]).ok_or_else(|| Error::Parse {
+                path: self.path.clone(),
+                at: Location::Line(self.line_no),
+                field: name.into(),
+                expected: if name == "t_us" { "an integer number of microseconds".into() } else { "an integer".into() },
+                found: String::from_utf8_lossy(fields[i]).into_owned(),
+            })
+        };
+        let t_us = get("t_us", columns.t)?;
+        let x = get("x", columns.x)?;
+        let y = get("y", columns.y)?;
+        let polarity = match fields[columns.p] {
+            b"1" | b"true" | b"True" | b"+1" => Polarity::On,
+            b"0" | b"-1" | b"false" | b"False" => Polarity::Off,
+            other => {
+                return Err(Error::Parse {
+                    path: self.path.clone(),
+                    at: self.at(),
+                    field: "p".into(),
+                    expected: "1 (ON) or 0 / -1 (OFF)".into(),
+                    found: String::from_utf8_lossy(other).into_owned(),
+                });
+            }
+        };
+        let line_no = self.line_no;
+        self.checker.check(t_us, x, y, || Location::Line(line_no))?;
+        self.events.push(Event { t_us, x: x as u16, y: y as u16, polarity });
+        Ok(())
+    }
+}
+
+impl<R: BufRead> EventSource for Decoder<R> {
+    fn info(&self) -> &StreamInfo {
+        &self.info
+    }
+
+    fn next_chunk(&mut self) -> Result<Option<&[Event]>> {
+        self.events.clear();
+        if let Some(line) = self.pending.take() {
+            self.line = line;
+            self.parse_line()?;
+        }
+        while self.events.len() < CHUNK_EVENTS && self.read_line()? {
+            let text = trim(&self.line);
+            if text.is_empty() || text[0] == b'#' {
+                continue;
+            }
+            self.parse_line()?;
+        }
+        Ok(if self.events.is_empty() { None } else { Some(&self.events) })
+    }
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+fn trim(b: &[u8]) -> &[u8] {
+    let start = b.iter().position(|c| !c.is_ascii_whitespace()).unwrap_or(b.len());
+    let end = b.iter().rposition(|c| !c.is_ascii_whitespace()).map_or(start, |e| e + 1);
+    &b[start..end.max(start)]
+}
+
+/// A decimal integer with an optional sign; `None` for anything else (floats, NaN, text,
+/// overflow).
+fn parse_int(b: &[u8]) -> Option<i64> {
+    let (neg, digits) = match b.first()? {
+        b'-' => (true, &b[1..]),
+        b'+' => (false, &b[1..]),
+        _ => (false, b),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &c in digits {
+        if !c.is_ascii_digit() {
+            return None;
+        }
+        v = v.checked_mul(10)?.checked_add((c - b'0') as i64)?;
+    }
+    Some(if neg { -v } else { v })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_int;
+
+    #[test]
+    fn integers_parse_and_everything_else_is_rejected() {
+        assert_eq!(parse_int(b"123"), Some(123));
+        assert_eq!(parse_int(b"-7"), Some(-7));
+        for bad in [&b""[..], b"-", b"1.5", b"NaN", b"1e3", b"abc", b"99999999999999999999"] {
+            assert_eq!(parse_int(bad), None, "{:?}", String::from_utf8_lossy(bad));
+        }
+    }
+}

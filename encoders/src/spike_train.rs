@@ -1,0 +1,220 @@
+//! Events as input spikes for a spiking network: per time step of `dt_us`, the list of input
+//! neurons that received events, in a compressed sparse form.
+//!
+//! Input neuron index is `(polarity * height + row) * width + col` over the pooled grid, the same
+//! layout as one bin of a [`crate::heatmap::Heatmap`], so the dense and the sparse views agree.
+
+use crate::error::{Error, Result};
+use crate::event::{Event, Resolution};
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpikeTrainConfig {
+    /// Simulation time step.
+    pub dt_us: i64,
+    /// Spatial pooling factor along x and y.
+    pub pool: u16,
+    pub sensor: Resolution,
+    /// Keep only these pooled columns (half-open).
+    pub mask_cols: Option<Range<u16>>,
+    /// Clamp counts to 1: an input spikes at most once per step.
+    pub binary: bool,
+}
+
+impl Default for SpikeTrainConfig {
+    fn default() -> Self {
+        Self { dt_us: 1_000, pool: 4, sensor: Resolution::DVXPLORER, mask_cols: None, binary: false }
+    }
+}
+
+impl SpikeTrainConfig {
+    pub fn new(sensor: Resolution) -> Self {
+        Self { sensor, ..Self::default() }
+    }
+
+    pub fn output(&self) -> Resolution {
+        let p = self.pool.max(1);
+        Resolution::new(self.sensor.width.div_ceil(p), self.sensor.height.div_ceil(p))
+    }
+
+    /// Number of input neurons: two polarities over the pooled grid.
+    pub fn n_inputs(&self) -> usize {
+        2 * self.output().pixels()
+    }
+}
+
+/// Input spikes, step by step: the inputs of step `k` are `inputs[offsets[k]..offsets[k + 1]]`,
+/// sorted and distinct, with the number of events each received in `counts`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpikeTrain {
+    pub t_start_us: i64,
+    pub dt_us: i64,
+    pub n_inputs: usize,
+    pub offsets: Vec<u32>,
+    pub inputs: Vec<u32>,
+    pub counts: Vec<u16>,
+}
+
+impl SpikeTrain {
+    pub fn n_steps(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// The active inputs of step `k` and their counts.
+    pub fn step(&self, k: usize) -> (&[u32], &[u16]) {
+        let r = self.offsets[k] as usize..self.offsets[k + 1] as usize;
+        (&self.inputs[r.clone()], &self.counts[r])
+    }
+
+    /// Sum of all counts.
+    pub fn total(&self) -> u64 {
+        self.counts.iter().map(|&c| c as u64).sum()
+    }
+
+    /// The dense `[step][input]` matrix, for time-stepped networks.
+    pub fn to_dense(&self) -> Vec<f32> {
+        let mut d = vec![0f32; self.n_steps() * self.n_inputs];
+        for k in 0..self.n_steps() {
+            let (inputs, counts) = self.step(k);
+            for (&i, &c) in inputs.iter().zip(counts) {
+                d[k * self.n_inputs + i as usize] = c as f32;
+            }
+        }
+        d
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct SpikeTrainEncoder {
+    config: SpikeTrainConfig,
+    width: u32,
+    plane: u32,
+    col_of_x: Vec<u32>,
+    row_of_y: Vec<u32>,
+}
+
+const SKIP: u32 = u32::MAX;
+
+impl SpikeTrainEncoder {
+    pub fn new(config: SpikeTrainConfig) -> Result<Self> {
+        if config.dt_us <= 0 {
+            return Err(Error::Config(format!("dt_us must be positive, got {}", config.dt_us)));
+        }
+        if config.pool == 0 {
+            return Err(Error::Config("pool must be at least 1".into()));
+        }
+        let out = config.output();
+        if let Some(m) = &config.mask_cols
+            && (m.start >= m.end || m.end > out.width)
+        {
+            return Err(Error::Config(format!("mask_cols {}..{} must be a non-empty range inside 0..{}", m.start, m.end, out.width)));
+        }
+        let p = config.pool as u32;
+        let col_of_x = (0..config.sensor.width as u32)
+            .map(|x| match &config.mask_cols {
+                Some(m) if !(m.start as u32..m.end as u32).contains(&(x / p)) => SKIP,
+                _ => x / p,
+            })
+            .collect();
+        let row_of_y = (0..config.sensor.height as u32).map(|y| (y / p) * out.width as u32).collect();
+        Ok(Self { width: out.width as u32, plane: out.pixels() as u32, config, col_of_x, row_of_y })
+    }
+
+    pub fn config(&self) -> &SpikeTrainConfig {
+        &self.config
+    }
+
+    /// The input index of an event, or `None` if it falls outside the sensor or the mask.
+    #[inline]
+    pub fn input_of(&self, e: &Event) -> Option<u32> {
+        let col = *self.col_of_x.get(e.x as usize)?;
+        let row = *self.row_of_y.get(e.y as usize)?;
+        (col != SKIP).then(|| e.polarity.index() as u32 * self.plane + row + col)
+    }
+
+    /// The spike train of `steps` steps from `t_start_us`, from events in time order (events out
+    /// of order are placed correctly too).
+    pub fn encode(&self, events: &[Event], t_start_us: i64, steps: usize) -> SpikeTrain {
+        let dt = self.config.dt_us;
+        let t_end = t_start_us + dt * steps as i64;
+        let mut per_step: Vec<Vec<u32>> = vec![Vec::new(); steps];
+        for e in events {
+            if e.t_us < t_start_us || e.t_us >= t_end {
+                continue;
+            }
+            if let Some(i) = self.input_of(e) {
+                per_step[((e.t_us - t_start_us) / dt) as usize].push(i);
+            }
+        }
+        let mut train = SpikeTrain {
+            t_start_us,
+            dt_us: dt,
+            n_inputs: self.config.n_inputs(),
+            offsets: Vec::with_capacity(steps + 1),
+            inputs: Vec::new(),
+            counts: Vec::new(),
+        };
+        train.offsets.push(0);
+        for mut step in per_step {
+            step.sort_unstable();
+            let mut k = 0;
+            while k < step.len() {
+                let mut j = k;
+                while j < step.len() && step[j] == step[k] {
+                    j += 1;
+                }
+                let n = (j - k).min(u16::MAX as usize) as u16;
+                train.inputs.push(step[k]);
+                train.counts.push(if self.config.binary { 1 } else { n });
+                k = j;
+            }
+            train.offsets.push(train.inputs.len() as u32);
+        }
+        train
+    }
+
+    /// The width of the pooled grid.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::event::Polarity;
+    use crate::heatmap::{HeatmapConfig, HeatmapEncoder};
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The dense view of the spike train equals the heat map with the same bins.
+        #[test]
+        fn agrees_with_heatmap(raw in prop::collection::vec((0i64..50_000, 0u16..40, 0u16..30, any::<bool>()), 0..300),
+                               pool in 1u16..5) {
+            let mut raw = raw;
+            raw.sort_by_key(|e| e.0);
+            let events: Vec<Event> = raw.into_iter().map(|(t, x, y, on)| Event::new(t, x, y, Polarity::from_on(on))).collect();
+            let sensor = Resolution::new(40, 30);
+            let st = SpikeTrainEncoder::new(SpikeTrainConfig { dt_us: 2_500, pool, sensor, mask_cols: None, binary: false }).unwrap();
+            let hm = HeatmapEncoder::new(HeatmapConfig::new(sensor).with_pool(pool).with_bin_us(2_500)).unwrap();
+            let train = st.encode(&events, 0, 20);
+            prop_assert_eq!(train.total(), events.len() as u64);
+            prop_assert_eq!(train.to_dense(), hm.encode(&events, 0, 20).counts);
+            for k in 0..train.n_steps() {
+                let (inputs, _) = train.step(k);
+                prop_assert!(inputs.windows(2).all(|w| w[0] < w[1]));
+            }
+        }
+    }
+
+    #[test]
+    fn binary_clamps_counts() {
+        let sensor = Resolution::new(8, 8);
+        let cfg = SpikeTrainConfig { dt_us: 1000, pool: 1, sensor, mask_cols: None, binary: true };
+        let e = Event::new(10, 3, 2, Polarity::Off);
+        let train = SpikeTrainEncoder::new(cfg).unwrap().encode(&[e, e, e], 0, 2);
+        assert_eq!(train.step(0), (&[2 * 8 + 3][..], &[1][..]));
+        assert_eq!(train.step(1).0.len(), 0);
+    }
+}

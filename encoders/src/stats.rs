@@ -1,0 +1,54 @@
+//! Summary statistics of a stream, accumulated chunk by chunk.
+
+use crate::event::Event;
+use serde::Serialize;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct StreamStats {
+    pub events: u64,
+    pub on: u64,
+    pub off: u64,
+    pub t_first_us: Option<i64>,
+    pub t_last_us: Option<i64>,
+    pub max_x: Option<u16>,
+    pub max_y: Option<u16>,
+}
+
+impl StreamStats {
+    pub fn add(&mut self, events: &[Event]) {
+        let (Some(first), Some(last)) = (events.first(), events.last()) else { return };
+        self.t_first_us.get_or_insert(first.t_us);
+        self.t_last_us = Some(last.t_us);
+        let mut on = 0u64;
+        let (mut mx, mut my) = (self.max_x.unwrap_or(0), self.max_y.unwrap_or(0));
+        for e in events {
+            on += e.polarity.is_on() as u64;
+            mx = mx.max(e.x);
+            my = my.max(e.y);
+        }
+        self.max_x = Some(mx);
+        self.max_y = Some(my);
+        self.events += events.len() as u64;
+        self.on += on;
+        self.off += events.len() as u64 - on;
+    }
+
+    /// Time from the first to the last event, in seconds.
+    pub fn duration_s(&self) -> f64 {
+        match (self.t_first_us, self.t_last_us) {
+            (Some(a), Some(b)) => (b - a) as f64 * 1e-6,
+            _ => 0.0,
+        }
+    }
+
+    /// Events per second over the duration (0 for fewer than two distinct times).
+    pub fn rate_hz(&self) -> f64 {
+        let d = self.duration_s();
+        if d > 0.0 { self.events as f64 / d } else { 0.0 }
+    }
+
+    /// ON events per OFF event (`None` without OFF events).
+    pub fn on_off_ratio(&self) -> Option<f64> {
+        (self.off > 0).then(|| self.on as f64 / self.off as f64)
+    }
+}
