@@ -1,1 +1,48 @@
-fn main() {}
+//! `braille`: read Braille from event-based touch. Subcommands inspect, convert and encode event
+//! streams; `demo` shows what works on built-in defaults.
+
+mod convert;
+mod demo;
+mod info;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "braille",
+    version,
+    about = "Neuromorphic Braille reading: event streams from a tactile event camera (Evetac) in, characters and words out",
+    long_about = "Neuromorphic Braille reading.\n\nEvent files are AEDAT 4.0 (iniVation DV, LZ4/ZSTD), CSV (t_us,x,y,p) or NumPy .npy (Tonic's fields x, y, t, p); the format is chosen by magic bytes, then by extension."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Summarise an event file: events, duration, rate, ON/OFF ratio, resolution, time range.
+    Info(info::Args),
+    /// Convert an event file between AEDAT4, CSV and NumPy (.npy), streaming with bounded memory.
+    Convert(convert::Args),
+    /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
+    /// AEDAT4, read back, and binned into heat maps.
+    Demo(demo::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::Convert(a) => convert::run(a),
+        Command::Demo(a) => demo::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -80,9 +80,8 @@ impl std::fmt::Display for Resolution {
 impl std::str::FromStr for Resolution {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let (w, h) = s
-            .split_once(['x', 'X'])
-            .ok_or_else(|| format!("expected WIDTHxHEIGHT such as 640x480, got {s:?}"))?;
+        let (w, h) =
+            s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT such as 640x480, got {s:?}"))?;
         let parse = |v: &str| {
             v.trim()
                 .parse::<u16>()

@@ -33,7 +33,11 @@ pub fn encode(config: &SigmaDeltaConfig, frames: &[f32], channels: usize, period
         return Err(Error::Config(format!("{} samples do not form frames of {channels} channels", frames.len())));
     }
     if let Some(i) = frames.iter().position(|v| !v.is_finite()) {
-        return Err(Error::Config(format!("sample {i} (frame {}, channel {}) is not finite", i / channels, i % channels)));
+        return Err(Error::Config(format!(
+            "sample {i} (frame {}, channel {}) is not finite",
+            i / channels,
+            i % channels
+        )));
     }
     let th = config.threshold as f64;
     let mut reference: Vec<f64> = frames.iter().take(channels).map(|&v| v as f64).collect();

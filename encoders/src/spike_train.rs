@@ -108,7 +108,10 @@ impl SpikeTrainEncoder {
         if let Some(m) = &config.mask_cols
             && (m.start >= m.end || m.end > out.width)
         {
-            return Err(Error::Config(format!("mask_cols {}..{} must be a non-empty range inside 0..{}", m.start, m.end, out.width)));
+            return Err(Error::Config(format!(
+                "mask_cols {}..{} must be a non-empty range inside 0..{}",
+                m.start, m.end, out.width
+            )));
         }
         let p = config.pool as u32;
         let col_of_x = (0..config.sensor.width as u32)

@@ -24,7 +24,12 @@ fn random_events(n: usize, seed: u64, res: Resolution) -> Vec<Event> {
         .map(|_| {
             t += (next() % 50) as i64;
             let r = next();
-            Event::new(t, (r % res.width as u64) as u16, ((r >> 16) % res.height as u64) as u16, Polarity::from_on(r >> 40 & 1 == 1))
+            Event::new(
+                t,
+                (r % res.width as u64) as u16,
+                ((r >> 16) % res.height as u64) as u16,
+                Polarity::from_on(r >> 40 & 1 == 1),
+            )
         })
         .collect()
 }
@@ -33,7 +38,12 @@ fn write_with(path: &Path, events: &[Event], res: Resolution, compression: Compr
     let file = AtomicFile::create(path, true).unwrap();
     let mut sink: Box<dyn encoders::EventSink> = match Format::from_path(path).unwrap() {
         Format::Aedat4 => Box::new(
-            aedat4::Encoder::new(file, Some(res), EncoderOptions { compression, packet_events: 1000, source: "test".into() }).unwrap(),
+            aedat4::Encoder::new(
+                file,
+                Some(res),
+                EncoderOptions { compression, packet_events: 1000, source: "test".into() },
+            )
+            .unwrap(),
         ),
         Format::Csv => Box::new(formats::csv::Encoder::new(file, Some(res)).unwrap()),
         Format::Npy => Box::new(formats::npy::Encoder::new(file).unwrap()),
@@ -64,9 +74,12 @@ fn the_decoder_lists_every_stream_and_reads_one() {
     let kinds: Vec<&str> = d.streams().iter().map(|s| s.type_identifier.as_str()).collect();
     assert_eq!(kinds, ["EVTS", "FRME", "IMUS", "TRIG"]);
     assert_eq!(d.compression(), Compression::Lz4);
-    let err = aedat4::Decoder::open(&fixture("davis346_dv.aedat4"), &OpenOptions { stream_id: Some(1), ..Default::default() })
-        .err()
-        .unwrap();
+    let err = aedat4::Decoder::open(
+        &fixture("davis346_dv.aedat4"),
+        &OpenOptions { stream_id: Some(1), ..Default::default() },
+    )
+    .err()
+    .unwrap();
     assert!(err.to_string().contains("no event (EVTS) stream with id 1"), "{err}");
 }
 
@@ -214,10 +227,11 @@ fn bad_aedat4_input_names_the_place() {
     let (_, m) = error_of("back.aedat4", &raw, &OpenOptions::default());
     assert!(m.contains("goes backwards") && m.contains(&format!("event 1 of the packet at byte {header_end}")), "{m}");
 
-    let (_, m) = error_of("range.aedat4", &valid_aedat(Compression::None, &events), &OpenOptions {
-        resolution: Some(Resolution::new(5, 5)),
-        ..Default::default()
-    });
+    let (_, m) = error_of(
+        "range.aedat4",
+        &valid_aedat(Compression::None, &events),
+        &OpenOptions { resolution: Some(Resolution::new(5, 5)), ..Default::default() },
+    );
     assert!(m.contains("(5, 2) outside the declared resolution 5x5") && m.contains("event 1 of the packet"), "{m}");
 }
 
@@ -277,7 +291,13 @@ fn bad_npy_input_names_the_place() {
 
 #[test]
 fn aedat_writer_rejects_what_it_cannot_store() {
-    let mut enc = aedat4::Encoder::to_writer(Vec::new(), Path::new("w.aedat4"), Some(Resolution::new(10, 10)), EncoderOptions::default()).unwrap();
+    let mut enc = aedat4::Encoder::to_writer(
+        Vec::new(),
+        Path::new("w.aedat4"),
+        Some(Resolution::new(10, 10)),
+        EncoderOptions::default(),
+    )
+    .unwrap();
     let err = enc.write(&[Event::new(0, 10, 0, Polarity::On)]).unwrap_err();
     assert!(err.to_string().contains("w.aedat4") && err.to_string().contains("outside"), "{err}");
     let err = enc.write(&[Event::new(5, 1, 0, Polarity::On), Event::new(4, 1, 0, Polarity::On)]).unwrap_err();

@@ -129,9 +129,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Box<dyn EventSource>> 
         let mut f = std::fs::File::open(path).map_err(|e| io(path, e))?;
         read_up_to(&mut f, &mut head).map_err(|e| io(path, e))?
     };
-    let format = Format::sniff(&head[..n])
-        .or_else(|| Format::from_path(path))
-        .unwrap_or(Format::Csv);
+    let format = Format::sniff(&head[..n]).or_else(|| Format::from_path(path)).unwrap_or(Format::Csv);
     Ok(match format {
         Format::Aedat4 => Box::new(aedat4::Decoder::open(path, options)?),
         Format::Csv => Box::new(csv::Decoder::open(path, options)?),

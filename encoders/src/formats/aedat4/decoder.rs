@@ -111,7 +111,10 @@ impl<R: Read> Decoder<R> {
 
         let chosen = match options.stream_id {
             Some(id) => streams.iter().find(|s| s.id == id && s.type_identifier == "EVTS").ok_or_else(|| {
-                Error::Unsupported { path: path.into(), what: format!("no event (EVTS) stream with id {id}; {}", list(&streams)) }
+                Error::Unsupported {
+                    path: path.into(),
+                    what: format!("no event (EVTS) stream with id {id}; {}", list(&streams)),
+                }
             })?,
             None => streams.iter().find(|s| s.type_identifier == "EVTS").ok_or_else(|| Error::Unsupported {
                 path: path.into(),
@@ -208,7 +211,8 @@ impl<R: Read> Decoder<R> {
     }
 
     fn decode_packet(&mut self, packet_offset: u64) -> Result<()> {
-        let corrupt = |what: String| Error::Corrupt { path: self.path.clone(), at: Location::Byte(packet_offset), what };
+        let corrupt =
+            |what: String| Error::Corrupt { path: self.path.clone(), at: Location::Byte(packet_offset), what };
         let limit = MAX_PACKET_BYTES;
         let buf: &[u8] = match self.compression {
             Compression::None => &self.raw,
@@ -258,8 +262,7 @@ impl<R: Read> Decoder<R> {
             let t_us = i64::from_le_bytes([e[0], e[1], e[2], e[3], e[4], e[5], e[6], e[7]]);
             let x = i16::from_le_bytes([e[8], e[9]]);
             let y = i16::from_le_bytes([e[10], e[11]]);
-            self.checker
-                .check(t_us, x as i64, y as i64, || Location::PacketEvent { packet_offset, index })?;
+            self.checker.check(t_us, x as i64, y as i64, || Location::PacketEvent { packet_offset, index })?;
             self.events.push(Event { t_us, x: x as u16, y: y as u16, polarity: Polarity::from_on(e[12] != 0) });
         }
         Ok(())
@@ -314,7 +317,9 @@ fn parse_description(xml: &str) -> Result<Vec<StreamDescription>, String> {
         let size = |key| info.and_then(|i| attr(i, key)).map(|v| v.parse::<u16>());
         let resolution = match (size("sizeX"), size("sizeY")) {
             (Some(Ok(w)), Some(Ok(h))) => Some(Resolution::new(w, h)),
-            (Some(Err(_)), _) | (_, Some(Err(_))) => return Err(format!("stream {id} has a non-numeric sizeX or sizeY")),
+            (Some(Err(_)), _) | (_, Some(Err(_))) => {
+                return Err(format!("stream {id} has a non-numeric sizeX or sizeY"));
+            }
             _ => None,
         };
         let source = info.and_then(|i| attr(i, "source"));

@@ -48,7 +48,12 @@ impl Encoder<AtomicFile> {
 
 impl<W: Write> Encoder<W> {
     /// Starts an AEDAT4 stream on any writer; `name` names it in errors.
-    pub fn to_writer(writer: W, name: &std::path::Path, resolution: Option<Resolution>, options: EncoderOptions) -> Result<Self> {
+    pub fn to_writer(
+        writer: W,
+        name: &std::path::Path,
+        resolution: Option<Resolution>,
+        options: EncoderOptions,
+    ) -> Result<Self> {
         if options.packet_events == 0 {
             return Err(Error::Config("packet_events must be at least 1".into()));
         }
@@ -89,7 +94,8 @@ impl<W: Write> Encoder<W> {
             Compression::Lz4 | Compression::Lz4High => {
                 self.packed.clear();
                 let mut enc = lz4_flex::frame::FrameEncoder::new(&mut self.packed);
-                enc.write_all(&self.flat).and_then(|_| enc.finish().map(|_| ()).map_err(std::io::Error::other))
+                enc.write_all(&self.flat)
+                    .and_then(|_| enc.finish().map(|_| ()).map_err(std::io::Error::other))
                     .map_err(|e| Error::Io { path: self.name.clone(), source: e })?;
                 &self.packed
             }

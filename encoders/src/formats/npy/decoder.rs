@@ -112,17 +112,24 @@ impl<R: Read> Decoder<R> {
             1 => 2,
             2 | 3 => 4,
             v => {
-                return Err(Error::Unsupported { path: path.into(), what: format!("NumPy format version {v} (supported: 1, 2, 3)") });
+                return Err(Error::Unsupported {
+                    path: path.into(),
+                    what: format!("NumPy format version {v} (supported: 1, 2, 3)"),
+                });
             }
         };
         let mut len = [0u8; 4];
-        reader
-            .read_exact(&mut len[..len_bytes])
-            .map_err(|e| io_at(path, Location::Byte(8), "the header length", e))?;
+        reader.read_exact(&mut len[..len_bytes]).map_err(|e| io_at(path, Location::Byte(8), "the header length", e))?;
         let header_len = u32::from_le_bytes(len) as u64;
         const MAX_HEADER: u64 = 1 << 20;
         if header_len > MAX_HEADER {
-            return Err(Error::TooLarge { path: path.into(), at: Location::Byte(8), what: "the header", size: header_len, limit: MAX_HEADER });
+            return Err(Error::TooLarge {
+                path: path.into(),
+                at: Location::Byte(8),
+                what: "the header",
+                size: header_len,
+                limit: MAX_HEADER,
+            });
         }
         let start = 8 + len_bytes as u64;
         let mut header = Vec::new();
@@ -161,7 +168,10 @@ fn parse_header(h: &str) -> Result<([Field; 4], usize, u64), String> {
     let descr_start = h.find("'descr':").ok_or("header has no 'descr'")? + 8;
     let rest = h[descr_start..].trim_start();
     if !rest.starts_with('[') {
-        return Err(format!("'descr' is not a structured dtype (a list of fields): {}", rest.split(',').next().unwrap_or("")));
+        return Err(format!(
+            "'descr' is not a structured dtype (a list of fields): {}",
+            rest.split(',').next().unwrap_or("")
+        ));
     }
     // The list ends at the bracket that closes it.
     let mut depth = 0;
@@ -224,7 +234,8 @@ fn parse_header(h: &str) -> Result<([Field; 4], usize, u64), String> {
     let names = ["x", "y", "t", "p"];
     let mut fields = [Field { offset: 0, kind: Kind::Bool }; 4];
     for i in 0..4 {
-        fields[i] = found[i].ok_or_else(|| format!("no field `{}` in the dtype (fields x, y, t, p are needed)", names[i]))?;
+        fields[i] =
+            found[i].ok_or_else(|| format!("no field `{}` in the dtype (fields x, y, t, p are needed)", names[i]))?;
     }
     let shape_start = h.find("'shape':").ok_or("header has no 'shape'")? + 8;
     let shape = h[shape_start..].trim_start();

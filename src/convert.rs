@@ -1,0 +1,67 @@
+use anyhow::{Context, Result};
+use encoders::formats::aedat4::{self, Compression, EncoderOptions};
+use encoders::formats::{self, AtomicFile, EventSink, OpenOptions};
+use encoders::{Format, Resolution};
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum CompressionArg {
+    None,
+    Lz4,
+    Zstd,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input event file (.aedat4, .csv, .npy).
+    input: PathBuf,
+    /// Output event file; its extension (.aedat4, .csv, .npy) chooses the format.
+    output: PathBuf,
+    /// Replace the output if it exists.
+    #[arg(long)]
+    force: bool,
+    /// Resolution (WIDTHxHEIGHT) for inputs that declare none; AEDAT4 output needs one
+    /// [default: the input's, else 640x480].
+    #[arg(long)]
+    resolution: Option<Resolution>,
+    /// AEDAT4 input: read this stream id instead of the first event stream.
+    #[arg(long)]
+    stream: Option<u32>,
+    /// AEDAT4 output: packet compression.
+    #[arg(long, value_enum, default_value = "lz4")]
+    compression: CompressionArg,
+    /// AEDAT4 output: events per packet.
+    #[arg(long, default_value_t = 8192)]
+    packet_events: usize,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let options = OpenOptions { resolution: args.resolution, stream_id: args.stream };
+    let mut source = formats::open(&args.input, &options)?;
+    let resolution = source.info().resolution;
+    let format = Format::for_output(&args.output)?;
+    let mut sink: Box<dyn EventSink> = match format {
+        Format::Aedat4 => {
+            let compression = match args.compression {
+                CompressionArg::None => Compression::None,
+                CompressionArg::Lz4 => Compression::Lz4,
+                CompressionArg::Zstd => Compression::Zstd,
+            };
+            let file = AtomicFile::create(&args.output, args.force)?;
+            let opts =
+                EncoderOptions { compression, packet_events: args.packet_events, source: "braille convert".into() };
+            Box::new(aedat4::Encoder::new(file, resolution, opts)?)
+        }
+        _ => formats::create(&args.output, resolution, args.force)?,
+    };
+    let n = formats::copy(source.as_mut(), sink.as_mut()).with_context(|| {
+        if format == Format::Aedat4 && resolution.is_none() {
+            format!("{} declares no resolution; pass --resolution WIDTHxHEIGHT", args.input.display())
+        } else {
+            format!("converting {} to {}", args.input.display(), args.output.display())
+        }
+    })?;
+    sink.finish()?;
+    eprintln!("wrote {n} events to {} ({format})", args.output.display());
+    Ok(())
+}

@@ -1,0 +1,113 @@
+//! The `braille` command as a user meets it: help, info, convert, demo and clear errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn braille(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_braille")).args(args).output().expect("run braille")
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
+}
+
+fn text(o: &Output) -> (String, String) {
+    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn every_command_explains_itself() {
+    for cmd in [&["--help"][..], &["info", "--help"], &["convert", "--help"], &["demo", "--help"]] {
+        let o = braille(cmd);
+        let (out, _) = text(&o);
+        assert!(o.status.success() && out.contains("Usage:"), "{cmd:?}: {out}");
+    }
+}
+
+#[test]
+fn info_reports_a_dv_recording() {
+    let f = fixture("davis346_dv.aedat4");
+    let o = braille(&["info", f.to_str().unwrap(), "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["events"], 3576);
+    assert_eq!(v["on"], 1900);
+    assert_eq!(v["resolution"], "346x260");
+    assert_eq!(v["format"], "aedat4");
+    assert_eq!(v["t_first_us"], 1589163147368868i64);
+    assert_eq!(v["t_last_us"], 1589163147458757i64);
+    let expected_rate = 3576.0 / ((1589163147458757i64 - 1589163147368868) as f64 * 1e-6);
+    assert!((v["event_rate_hz"].as_f64().unwrap() - expected_rate).abs() < 1e-6 * expected_rate);
+    let plain = braille(&["info", f.to_str().unwrap()]);
+    assert!(text(&plain).0.contains("3576 (1900 ON, 1676 OFF)"));
+}
+
+#[test]
+fn convert_chains_through_every_format_without_loss() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = fixture("davis346_dv.aedat4");
+    let steps = ["a.csv", "b.npy", "c.aedat4", "d.csv"];
+    let mut prev = src.clone();
+    for (i, name) in steps.iter().enumerate() {
+        let next = dir.path().join(name);
+        let mut args = vec!["convert", prev.to_str().unwrap(), next.to_str().unwrap()];
+        if i == 2 {
+            args.extend(["--resolution", "346x260", "--compression", "zstd"]);
+        }
+        let o = braille(&args);
+        assert!(o.status.success(), "{name}: {}", text(&o).1);
+        prev = next;
+    }
+    let (_, a) = encoders::formats::read_all(&dir.path().join("a.csv"), &Default::default()).unwrap();
+    let (_, d) = encoders::formats::read_all(&dir.path().join("d.csv"), &Default::default()).unwrap();
+    assert_eq!(a.len(), 3576);
+    assert_eq!(a, d);
+}
+
+#[test]
+fn convert_does_not_overwrite_without_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.csv");
+    std::fs::write(&out, "precious").unwrap();
+    let src = fixture("davis346_dv.aedat4");
+    let o = braille(&["convert", src.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("--force"), "{}", text(&o).1);
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "precious");
+    let o = braille(&["convert", src.to_str().unwrap(), out.to_str().unwrap(), "--force"]);
+    assert!(o.status.success());
+}
+
+#[test]
+fn bad_input_fails_with_the_file_and_the_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[u8], &str); 4] = [
+        ("empty.aedat4", b"", "empty file"),
+        ("magic.aedat4", b"#!AER-DAT3.1\r\n....", "byte 0"),
+        ("bad.csv", b"t_us,x,y,p\n1,2,3,1\n2,2,x,1\n", "line 3"),
+        ("back.csv", b"5,1,1,1\n4,1,1,1\n", "line 2"),
+    ];
+    for (name, bytes, needle) in cases {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let o = braille(&["info", p.to_str().unwrap()]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}");
+        assert!(err.contains(p.to_str().unwrap()) && err.contains(needle), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+    }
+    let o = braille(&["info", dir.path().join("missing.csv").to_str().unwrap()]);
+    assert!(!o.status.success() && text(&o).1.contains("missing.csv"));
+}
+
+#[test]
+fn demo_runs_on_its_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = braille(&["demo", "--out", dir.path().to_str().unwrap()]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("1350 samples, 27 classes, 12 taxels"), "{out}");
+    assert!(out.contains("read it back identical"), "{out}");
+    assert!(dir.path().join("icub_text.aedat4").exists());
+}
