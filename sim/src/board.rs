@@ -1,0 +1,299 @@
+//! Braille boards: the paper's four (SAB, UN, RAB, EV) or any text, as dots with positions and
+//! heights, including manufacturing tolerances drawn from the board's own seed.
+
+use crate::braille::{Cell, cell_of};
+use crate::error::{Error, Result};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// Which board to print.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BoardKind {
+    /// Standard alphabet board: A-I, J-R, S-Z in three rows, letters spread evenly.
+    Sab,
+    /// "UNIVERSITY" / "OF" / "DARMSTADT", letters spread evenly.
+    Un,
+    /// The 26 letters in a fixed random order over three rows (9, 9, 8), spread evenly.
+    Rab,
+    /// Everyday vocabulary: "RIGHT LEFT EXIT OPEN" / "PUSH PULL STOP HELP WATER", as text.
+    Ev,
+    /// Any text; `/` starts a new row. Letters and spaces only.
+    Text(String),
+}
+
+impl BoardKind {
+    pub fn name(&self) -> String {
+        match self {
+            BoardKind::Sab => "SAB".into(),
+            BoardKind::Un => "UN".into(),
+            BoardKind::Rab => "RAB".into(),
+            BoardKind::Ev => "EV".into(),
+            BoardKind::Text(t) => format!("text:{t}"),
+        }
+    }
+
+    /// Row texts and whether the letters are spread evenly (single-character boards) or set at
+    /// the standard cell spacing (word boards).
+    pub fn rows(&self) -> (Vec<String>, bool) {
+        match self {
+            BoardKind::Sab => (vec!["ABCDEFGHI".into(), "JKLMNOPQR".into(), "STUVWXYZ".into()], true),
+            BoardKind::Un => (vec!["UNIVERSITY".into(), "OF".into(), "DARMSTADT".into()], true),
+            BoardKind::Rab => {
+                // A fixed permutation: the same on every run and machine.
+                let mut letters: Vec<char> = ('A'..='Z').collect();
+                let mut rng = ChaCha8Rng::seed_from_u64(0x5241_4221);
+                for i in (1..letters.len()).rev() {
+                    letters.swap(i, rng.random_range(0..=i));
+                }
+                let s: String = letters.into_iter().collect();
+                (vec![s[..9].into(), s[9..18].into(), s[18..].into()], true)
+            }
+            BoardKind::Ev => (vec!["RIGHT LEFT EXIT OPEN".into(), "PUSH PULL STOP HELP WATER".into()], false),
+            BoardKind::Text(t) => (t.split('/').map(|r| r.trim().to_uppercase()).collect(), false),
+        }
+    }
+}
+
+impl std::str::FromStr for BoardKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if let Some(text) = s.strip_prefix("text:") {
+            if let Some(bad) = text.chars().find(|&c| c != '/' && cell_of(c).is_none()) {
+                return Err(format!("text boards take letters, spaces and / (new row); {bad:?} is not one"));
+            }
+            if text.trim().is_empty() {
+                return Err("text: needs some letters".into());
+            }
+            return Ok(BoardKind::Text(text.to_string()));
+        }
+        match s.to_ascii_uppercase().as_str() {
+            "SAB" => Ok(BoardKind::Sab),
+            "UN" => Ok(BoardKind::Un),
+            "RAB" => Ok(BoardKind::Rab),
+            "EV" => Ok(BoardKind::Ev),
+            _ => Err(format!("unknown board {s:?}: expected SAB, UN, RAB, EV or text:\"ANY WORDS\"")),
+        }
+    }
+}
+
+/// The printed geometry. Defaults follow the seed paper (hemispherical dots of 0.5 mm, 2.5 mm dot
+/// spacing) and Marburg Medium (6.0 mm cells, 10 mm lines).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoardGeometry {
+    /// Radius of the sphere each dot is a cap of.
+    pub dot_radius_mm: f64,
+    /// Height of a dot above the board (equal to the radius for a hemisphere).
+    pub dot_height_mm: f64,
+    /// Distance between dots in a cell, along and across the row.
+    pub dot_spacing_mm: f64,
+    /// Distance between cells of a word board (left column to left column).
+    pub cell_spacing_mm: f64,
+    /// Distance between rows (centre to centre).
+    pub line_spacing_mm: f64,
+    /// Board length before the first and after the last cell of a spread row.
+    pub margin_mm: f64,
+    /// Length of the row the sensor slides over.
+    pub row_length_mm: f64,
+    /// Standard deviation of each dot's position error (assumed: +-0.05 mm tolerance as 2 sigma).
+    pub position_sigma_mm: f64,
+    /// Standard deviation of each dot's height error (assumed, as above).
+    pub height_sigma_mm: f64,
+}
+
+impl Default for BoardGeometry {
+    fn default() -> Self {
+        Self {
+            dot_radius_mm: 0.5,
+            dot_height_mm: 0.5,
+            dot_spacing_mm: 2.5,
+            cell_spacing_mm: 6.0,
+            line_spacing_mm: 10.0,
+            margin_mm: 20.0,
+            row_length_mm: 195.0,
+            position_sigma_mm: 0.025,
+            height_sigma_mm: 0.025,
+        }
+    }
+}
+
+impl BoardGeometry {
+    /// Radius of a dot's base on the board.
+    pub fn dot_base_radius_mm(&self) -> f64 {
+        let (r, h) = (self.dot_radius_mm, self.dot_height_mm);
+        (2.0 * r * h - h * h).max(0.0).sqrt()
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let positive = [
+            ("dot_radius_mm", self.dot_radius_mm),
+            ("dot_height_mm", self.dot_height_mm),
+            ("dot_spacing_mm", self.dot_spacing_mm),
+            ("cell_spacing_mm", self.cell_spacing_mm),
+            ("line_spacing_mm", self.line_spacing_mm),
+            ("row_length_mm", self.row_length_mm),
+        ];
+        for (name, v) in positive {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(Error::Config(format!("{name} must be positive, got {v}")));
+            }
+        }
+        if self.dot_height_mm > self.dot_radius_mm {
+            return Err(Error::Config("dot_height_mm cannot exceed dot_radius_mm (a cap of a sphere)".into()));
+        }
+        if self.margin_mm < 0.0 || self.position_sigma_mm < 0.0 || self.height_sigma_mm < 0.0 {
+            return Err(Error::Config("margin and tolerances must not be negative".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One printed dot.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Dot {
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub height_mm: f64,
+    /// Index into [`Board::characters`].
+    pub character: usize,
+}
+
+/// One printed character (spaces included, as empty cells).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Character {
+    pub letter: char,
+    pub row: usize,
+    /// Index of the word in its row (spaces belong to no word: `None`).
+    pub word: Option<usize>,
+    /// Nominal position of the cell's left dot column and of the row's centre line.
+    pub x_mm: f64,
+    pub y_mm: f64,
+    /// Raised dots as (column, row) pairs.
+    pub dots: Vec<(u8, u8)>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Board {
+    pub kind: BoardKind,
+    pub geometry: BoardGeometry,
+    pub seed: u64,
+    pub rows: Vec<String>,
+    pub characters: Vec<Character>,
+    pub dots: Vec<Dot>,
+}
+
+/// A stable 64-bit hash (FNV-1a), for seeds derived from names.
+pub fn stable_hash(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
+}
+
+impl Board {
+    /// Prints a board. Its tolerances come from `seed`; by default use [`Board::default_seed`],
+    /// so that one board is the same physical object in every scan.
+    pub fn new(kind: BoardKind, geometry: BoardGeometry, seed: u64) -> Result<Board> {
+        geometry.validate()?;
+        let (rows, spread) = kind.rows();
+        let usable = geometry.row_length_mm - 2.0 * geometry.margin_mm;
+        let mut characters = Vec::new();
+        for (r, text) in rows.iter().enumerate() {
+            let n = text.chars().count();
+            if n == 0 {
+                continue;
+            }
+            let pitch = if spread && n > 1 { usable / (n - 1) as f64 } else { geometry.cell_spacing_mm };
+            let width = pitch * (n - 1) as f64 + geometry.dot_spacing_mm;
+            if width > usable + geometry.dot_spacing_mm + 1e-9 {
+                return Err(Error::Config(format!(
+                    "row {r} ({text:?}) needs {width:.1} mm but the row has {usable:.1} mm between its margins"
+                )));
+            }
+            let mut word = None;
+            let mut words = 0;
+            for (i, c) in text.chars().enumerate() {
+                let cell = cell_of(c).ok_or_else(|| Error::Config(format!("no Braille cell for {c:?}")))?;
+                if c == ' ' {
+                    word = None;
+                } else if word.is_none() {
+                    word = Some(words);
+                    words += 1;
+                }
+                characters.push(Character {
+                    letter: c,
+                    row: r,
+                    word,
+                    x_mm: geometry.margin_mm + pitch * i as f64,
+                    y_mm: r as f64 * geometry.line_spacing_mm,
+                    dots: cell.dots().collect(),
+                });
+            }
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let pos = Normal::new(0.0, geometry.position_sigma_mm).map_err(|e| Error::Config(e.to_string()))?;
+        let height = Normal::new(0.0, geometry.height_sigma_mm).map_err(|e| Error::Config(e.to_string()))?;
+        let mut dots = Vec::new();
+        for (i, ch) in characters.iter().enumerate() {
+            for &(col, row) in &ch.dots {
+                dots.push(Dot {
+                    x_mm: ch.x_mm + col as f64 * geometry.dot_spacing_mm + pos.sample(&mut rng),
+                    y_mm: ch.y_mm + (row as f64 - 1.0) * geometry.dot_spacing_mm + pos.sample(&mut rng),
+                    height_mm: (geometry.dot_height_mm + height.sample(&mut rng)).max(0.05),
+                    character: i,
+                });
+            }
+        }
+        Ok(Board { kind, geometry, seed, rows, characters, dots })
+    }
+
+    /// The seed a board gets from its name.
+    pub fn default_seed(kind: &BoardKind) -> u64 {
+        stable_hash(&kind.name())
+    }
+
+    pub fn cell(&self, character: usize) -> Cell {
+        cell_of(self.characters[character].letter).unwrap_or(Cell::EMPTY)
+    }
+
+    /// Centre line of row `r`.
+    pub fn row_y_mm(&self, r: usize) -> f64 {
+        r as f64 * self.geometry.line_spacing_mm
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_papers_boards() {
+        let g = BoardGeometry::default();
+        let sab = Board::new(BoardKind::Sab, g.clone(), 1).unwrap();
+        assert_eq!(sab.rows, ["ABCDEFGHI", "JKLMNOPQR", "STUVWXYZ"]);
+        let rab = Board::new(BoardKind::Rab, g.clone(), 1).unwrap();
+        let mut all: Vec<char> = rab.rows.concat().chars().collect();
+        assert_ne!(rab.rows.concat(), "ABCDEFGHIJKLMNOPQRSTUVWXYZ");
+        all.sort();
+        assert_eq!(all.into_iter().collect::<String>(), "ABCDEFGHIJKLMNOPQRSTUVWXYZ");
+        let ev = Board::new(BoardKind::Ev, g.clone(), 1).unwrap();
+        assert_eq!(ev.characters.iter().filter(|c| c.row == 1).filter_map(|c| c.word).max(), Some(4));
+        let dots: usize = sab.characters.iter().map(|c| c.dots.len()).sum();
+        assert_eq!(dots, sab.dots.len());
+    }
+
+    #[test]
+    fn tolerances_come_from_the_board_seed() {
+        let g = BoardGeometry::default();
+        let a = Board::new(BoardKind::Sab, g.clone(), 7).unwrap();
+        assert_eq!(a, Board::new(BoardKind::Sab, g.clone(), 7).unwrap());
+        assert_ne!(a.dots, Board::new(BoardKind::Sab, g, 8).unwrap().dots);
+    }
+
+    #[test]
+    fn parsing_names_the_choices() {
+        assert_eq!("ev".parse::<BoardKind>().unwrap(), BoardKind::Ev);
+        assert!("XYZ".parse::<BoardKind>().unwrap_err().contains("SAB, UN, RAB, EV"));
+        assert!("text:HI 2".parse::<BoardKind>().is_err());
+        let too_long = BoardKind::Text("A".repeat(40));
+        assert!(Board::new(too_long, BoardGeometry::default(), 1).is_err());
+    }
+}
