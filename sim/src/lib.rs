@@ -21,6 +21,7 @@
 
 pub mod board;
 pub mod braille;
+pub mod checks;
 pub mod error;
 pub mod scan;
 pub mod sensor;

@@ -110,19 +110,26 @@ impl CameraConfig {
 ///
 /// Contact: a dot pressed `d` into the gel touches it over a radius that follows the geometry of
 /// the dot's cap, `sqrt(2 R d - d^2)`, up to `reference_depth_mm`; beyond it the gel conforms
-/// further with load, Hertz-like, radius proportional to F^(1/3) with F proportional to depth.
-/// (Geometry alone saturates once the depth exceeds the dot height, which the measured depth
-/// trend does not.) The gel surface follows a paraboloid of that radius and of height
-/// `min(d, dot height)`, smoothed by the gel (`gel_blur_mm`); it is shaded by a grazing light
-/// (Phong, Gomes et al.), and the image is blurred by the optics.
+/// further with load, Hertz-like, radius growing as depth^`conformity_exponent`. (Geometry alone
+/// saturates once the depth exceeds the dot height, which the measured depth trend does not.)
+/// The gel surface follows a paraboloid of that radius whose height is the penetration up to the
+/// reference depth and then grows with the radius (see [`crate::stamp::indentation_mm`]),
+/// smoothed by the gel (`gel_blur_mm`); it is shaded by a grazing light (Phong, as Gomes et al.),
+/// and the image is blurred by the optics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GelConfig {
     pub reference_depth_mm: f64,
-    /// Exponent of the contact radius growth with depth beyond the reference (Hertz: 1/3).
+    /// Exponent of the contact radius's growth with depth beyond the reference. Hertz contact with
+    /// a load proportional to depth gives 1/3; 0.28 fits the seed paper's measured events per dot
+    /// against depth (`cargo run --release -p sim --example calibrate`), the one parameter
+    /// calibrated, and against physics only.
     pub conformity_exponent: f64,
     /// Gaussian smoothing of the surface by the gel and its coating (assumed).
     pub gel_blur_mm: f64,
-    /// Elevation and azimuth of the LED light (azimuth 0: light from +x, the scan axis).
+    /// LEDs lighting the gel from its side (assumed: Evetac's one LED strip, along the side parallel
+    /// to the scan, azimuth 90 degrees; 0 is light from +x, the scan axis), their elevation above
+    /// the gel plane (assumed: grazing, 30 degrees), spread evenly in azimuth when more than one.
+    pub light_count: usize,
     pub light_elevation_deg: f64,
     pub light_azimuth_deg: f64,
     pub ambient: f64,
@@ -139,8 +146,9 @@ impl Default for GelConfig {
             reference_depth_mm: 0.2,
             conformity_exponent: 0.28,
             gel_blur_mm: 0.03,
+            light_count: 1,
             light_elevation_deg: 30.0,
-            light_azimuth_deg: 0.0,
+            light_azimuth_deg: 90.0,
             ambient: 0.25,
             diffuse: 0.75,
             specular: 0.15,
@@ -155,6 +163,7 @@ impl GelConfig {
         let ok = self.reference_depth_mm > 0.0
             && self.conformity_exponent >= 0.0
             && self.gel_blur_mm >= 0.0
+            && self.light_count >= 1
             && (0.0..=90.0).contains(&self.light_elevation_deg)
             && self.ambient > 0.0
             && self.diffuse >= 0.0

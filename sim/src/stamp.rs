@@ -108,18 +108,24 @@ impl Stamp {
             }
         }
         blur(&mut u, n, gel.gel_blur_mm / pitch_mm, 0.0);
-        // Phong shading relative to the flat gel.
-        let (el, az) = (gel.light_elevation_deg.to_radians(), gel.light_azimuth_deg.to_radians());
-        let l = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
-        let hv = {
-            let v = [l[0], l[1], l[2] + 1.0];
-            let m = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            [v[0] / m, v[1] / m, v[2] / m]
-        };
+        // Phong shading relative to the flat gel, summed over the lights around the gel.
+        let el = gel.light_elevation_deg.to_radians();
+        let lights: Vec<([f64; 3], [f64; 3])> = (0..gel.light_count)
+            .map(|k| {
+                let az = gel.light_azimuth_deg.to_radians() + std::f64::consts::TAU * k as f64 / gel.light_count as f64;
+                let l = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
+                let v = [l[0], l[1], l[2] + 1.0];
+                let m = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                (l, [v[0] / m, v[1] / m, v[2] / m])
+            })
+            .collect();
+        let share = 1.0 / gel.light_count as f64;
         let shade = |nx: f64, ny: f64, nz: f64| {
-            let d = (nx * l[0] + ny * l[1] + nz * l[2]).max(0.0);
-            let s = (nx * hv[0] + ny * hv[1] + nz * hv[2]).max(0.0).powf(gel.shininess);
-            gel.ambient + gel.diffuse * d + gel.specular * s
+            lights.iter().fold(gel.ambient, |acc, (l, hv)| {
+                let d = (nx * l[0] + ny * l[1] + nz * l[2]).max(0.0);
+                let s = (nx * hv[0] + ny * hv[1] + nz * hv[2]).max(0.0).powf(gel.shininess);
+                acc + share * (gel.diffuse * d + gel.specular * s)
+            })
         };
         let flat = shade(0.0, 0.0, 1.0);
         let mut intensity = vec![1.0f64; n * n];
@@ -180,8 +186,11 @@ mod tests {
         let g = GelConfig::default();
         // hemisphere of 0.5 mm at 0.2 mm: sqrt(2 * 0.5 * 0.2 - 0.04) = 0.4 mm
         assert!((contact_radius_mm(&g, 0.5, 0.5, 0.2) - 0.4).abs() < 1e-12);
-        // beyond the reference depth: 0.4 * (d / 0.2)^(1/3)
-        assert!((contact_radius_mm(&g, 0.5, 0.5, 1.5) - 0.4 * 7.5f64.powf(1.0 / 3.0)).abs() < 1e-12);
+        // beyond the reference depth: 0.4 * (d / 0.2)^exponent
+        assert!((contact_radius_mm(&g, 0.5, 0.5, 1.5) - 0.4 * 7.5f64.powf(g.conformity_exponent)).abs() < 1e-12);
+        // the indentation grows with the radius and never beyond the dot's height
+        assert!(indentation_mm(&g, 0.5, 0.5, 1.5) > indentation_mm(&g, 0.5, 0.5, 0.6));
+        assert!(indentation_mm(&g, 0.5, 0.5, 50.0) <= 0.5);
         assert_eq!(contact_radius_mm(&g, 0.5, 0.5, 0.0), 0.0);
     }
 
@@ -190,7 +199,9 @@ mod tests {
         let g = GelConfig::default();
         let s = Stamp::new(&g, 0.5, 0.5, 0.6, 18.6 / 640.0, 1.0);
         assert_eq!(s.at(s.half as f64 + 5.0, 0.0), 0.0);
-        let peak = (0..s.half).map(|i| s.at(i as f64, 0.0).abs()).fold(0.0f32, f32::max);
+        let peak = s.values.iter().map(|v| v.abs()).fold(0.0f32, f32::max);
         assert!(peak > 0.3, "peak contrast {peak}");
+        let corner = s.values[0];
+        assert_eq!(corner, 0.0);
     }
 }
