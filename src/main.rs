@@ -4,6 +4,9 @@
 mod convert;
 mod demo;
 mod info;
+mod plot;
+mod sim_check;
+mod simulate;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,6 +29,12 @@ enum Command {
     Info(info::Args),
     /// Convert an event file between AEDAT4, CSV and NumPy (.npy), streaming with bounded memory.
     Convert(convert::Args),
+    /// Simulate scans of Braille boards with the virtual Evetac: event files and ground truth.
+    Simulate(simulate::Args),
+    /// Measure the simulator's physics checks (depth, speed, polarity, geometry, noise, readout).
+    SimCheck(sim_check::Args),
+    /// Plot an event file as a heat map and an event raster (PNG).
+    Plot(plot::Args),
     /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
     /// AEDAT4, read back, and binned into heat maps.
     Demo(demo::Args),
@@ -37,6 +46,9 @@ fn main() -> ExitCode {
         Command::Info(a) => info::run(a),
         Command::Convert(a) => convert::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::SimCheck(a) => sim_check::run(a),
+        Command::Plot(a) => plot::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

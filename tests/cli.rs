@@ -111,3 +111,102 @@ fn demo_runs_on_its_defaults() {
     assert!(out.contains("read it back identical"), "{out}");
     assert!(dir.path().join("icub_text.aedat4").exists());
 }
+
+#[test]
+fn simulate_writes_events_and_truth_and_is_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str| {
+        let out = dir.path().join(name);
+        let o = braille(&[
+            "simulate",
+            "--board",
+            "text:HI",
+            "--speed",
+            "32",
+            "--depth",
+            "0.6",
+            "--resolution",
+            "160x120",
+            "--seed",
+            "5",
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        let (stdout, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        (out, v)
+    };
+    let (a, v) = run("a.aedat4");
+    assert_eq!(v["data"], "simulated (virtual Evetac)");
+    assert!(v["events"].as_u64().unwrap() > 1000, "{v}");
+    assert!(v["duration_s"].as_f64().unwrap() > 5.0);
+    let ratio = v["on_off_ratio"].as_f64().unwrap();
+    assert!((0.8..1.3).contains(&ratio), "{ratio}");
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("a.truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["row_text"], "HI");
+    assert_eq!(truth["characters"][1]["letter"], "I");
+    assert!(truth["characters"][0]["columns"][0]["t_center_s"].as_f64().is_some());
+    let (b, _) = run("b.aedat4");
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "same seed, same bytes");
+    let info = braille(&["info", a.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&text(&info).0).unwrap();
+    assert_eq!(v["resolution"], "160x120");
+}
+
+#[test]
+fn simulate_runs_trials_into_a_folder_and_names_bad_boards() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scans");
+    let o = braille(&[
+        "simulate",
+        "--board",
+        "text:A/B",
+        "--speed",
+        "32",
+        "--trials",
+        "2",
+        "--resolution",
+        "160x120",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    names.sort();
+    assert_eq!(names.len(), 8, "{names:?}"); // 2 rows x 2 trials x (events + truth)
+    let o = braille(&["simulate", "--board", "XYZ", "--out", "x.aedat4"]);
+    assert!(!o.status.success() && text(&o).1.contains("SAB, UN, RAB, EV"), "{}", text(&o).1);
+}
+
+#[test]
+fn sim_check_reports_the_physics() {
+    let o = braille(&["sim-check", "--json", "--trials", "1"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for key in ["0.6", "1.0", "1.5"] {
+        assert!(v["depth_gain"][key].as_f64().is_some(), "{v}");
+    }
+    assert!(v["speed_spread"].as_f64().unwrap() < 0.15);
+    assert!(v["on_off_ratio"].as_f64().is_some());
+    for speed in ["8", "16", "24", "32"] {
+        assert!(v["column_lag_ms"][speed].as_f64().is_some());
+    }
+}
+
+#[test]
+fn plot_draws_a_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("p.png");
+    let f = fixture("davis346_dv.aedat4");
+    let o = braille(&["plot", f.to_str().unwrap(), "--out", png.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    let o = braille(&["plot", f.to_str().unwrap(), "--out", png.to_str().unwrap()]);
+    assert!(!o.status.success(), "existing output needs --force");
+}

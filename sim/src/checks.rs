@@ -257,7 +257,8 @@ pub fn run(trials: u64) -> Result<CheckReport> {
     // Readout on a noisy scan of a letter board.
     let s = simulate(&single("GH", 6)?, &noisy, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() })?;
     let (min_pixel_gap_us, on_readout_grid) = readout(&s, noisy.camera.readout_grid_us);
-    let again = simulate(&single("GH", 6)?, &noisy, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() })?;
+    let again =
+        simulate(&single("GH", 6)?, &noisy, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() })?;
 
     Ok(CheckReport {
         depth_gain,

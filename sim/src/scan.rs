@@ -241,14 +241,10 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
     let step = pitch / 2.0;
     let dir = scan.direction.sign();
     let mut rng = ChaCha8Rng::seed_from_u64(scan.seed);
-    let misalignment = Normal::new(0.0, scan.misalignment_sigma_mm).map_err(|e| Error::Config(e.to_string()))?.sample(&mut rng);
+    let misalignment =
+        Normal::new(0.0, scan.misalignment_sigma_mm).map_err(|e| Error::Config(e.to_string()))?.sample(&mut rng);
     let phase = rng.random_range(0.0..std::f64::consts::TAU);
-    let motion = Motion {
-        v: scan.speed_mm_s,
-        a: scan.speed_ripple,
-        w: std::f64::consts::TAU * scan.ripple_hz,
-        phase,
-    };
+    let motion = Motion { v: scan.speed_mm_s, a: scan.speed_ripple, w: std::f64::consts::TAU * scan.ripple_hz, phase };
     let lower_s = scan.depth_mm / scan.approach_speed_mm_s;
     let slide_s = motion.time_of(slide);
     let table = TimeTable::new(&motion, slide, pitch / 2.0);
@@ -282,11 +278,14 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
     // Photoreceptor levels.
     let (tau_min, tau_max) = sensor.tau_s.iter().fold((f32::MAX, 0f32), |(a, b), &t| (a.min(t), b.max(t)));
     let level_of = |tau: f32| -> usize {
-        if tau_max <= tau_min { 0 } else { (((tau - tau_min) / (tau_max - tau_min) * LEVELS as f32) as usize).min(LEVELS - 1) }
+        if tau_max <= tau_min {
+            0
+        } else {
+            (((tau - tau_min) / (tau_max - tau_min) * LEVELS as f32) as usize).min(LEVELS - 1)
+        }
     };
-    let level_tau: Vec<f64> = (0..LEVELS)
-        .map(|l| (tau_min + (tau_max - tau_min) * (l as f32 + 0.5) / LEVELS as f32) as f64)
-        .collect();
+    let level_tau: Vec<f64> =
+        (0..LEVELS).map(|l| (tau_min + (tau_max - tau_min) * (l as f32 + 0.5) / LEVELS as f32) as f64).collect();
     let tau_x: Vec<f64> = level_tau.iter().map(|t| t * scan.speed_mm_s).collect();
     let pad = ((6.0 * tau_x.iter().cloned().fold(0.0, f64::max)) / step).ceil() as usize + 2;
 
@@ -474,7 +473,16 @@ impl PixelState {
 
     /// Crossings of the signal going linearly from `a` to `b` over times `t0..t1`.
     #[allow(clippy::too_many_arguments)]
-    fn ramp(&mut self, p: &Pixel, a: f32, b: f32, time: impl Fn(f64) -> f64, grid: i64, refractory: i64, out: &mut Vec<Event>) {
+    fn ramp(
+        &mut self,
+        p: &Pixel,
+        a: f32,
+        b: f32,
+        time: impl Fn(f64) -> f64,
+        grid: i64,
+        refractory: i64,
+        out: &mut Vec<Event>,
+    ) {
         if b > a {
             while b >= self.reference + p.theta_on {
                 self.reference += p.theta_on;

@@ -210,9 +210,8 @@ impl Sensor {
                 tau_s.push((1.0 / (2.0 * std::f64::consts::PI * cutoff)) as f32);
             }
         }
-        let hot_pixels = (0..camera.hot_pixels)
-            .map(|_| (rng.random_range(0..w as u16), rng.random_range(0..h as u16)))
-            .collect();
+        let hot_pixels =
+            (0..camera.hot_pixels).map(|_| (rng.random_range(0..w as u16), rng.random_range(0..h as u16))).collect();
         Ok(Sensor { camera, gel, seed, threshold_on, threshold_off, tau_s, hot_pixels })
     }
 }

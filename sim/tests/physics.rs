@@ -110,14 +110,22 @@ fn check6_static_hold_falls_silent() {
     let tl = s.truth.timeline;
     let (end, lift) = ((tl.slide_end_s * 1e6) as i64, (tl.lift_start_s * 1e6) as i64);
     let late: Vec<i64> = s.events.iter().filter(|e| e.t_us > end + 6_000 && e.t_us < lift).map(|e| e.t_us).collect();
-    assert!(late.is_empty(), "events {:?} ms after the stop", late.iter().map(|t| (t - end) / 1000).collect::<Vec<_>>());
-    assert!(s.events.iter().any(|e| e.t_us >= end && e.t_us <= end + 6_000), "the photoreceptor settles with a few events");
+    assert!(
+        late.is_empty(),
+        "events {:?} ms after the stop",
+        late.iter().map(|t| (t - end) / 1000).collect::<Vec<_>>()
+    );
+    assert!(
+        s.events.iter().any(|e| e.t_us >= end && e.t_us <= end + 6_000),
+        "the photoreceptor settles with a few events"
+    );
 }
 
 #[test]
 fn check7_readout_grid_and_refractory() {
     let sensor = Sensor::new(CameraConfig::default(), GelConfig::default(), 1).unwrap();
-    let s = simulate(&text("GH", 6), &sensor, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() }).unwrap();
+    let s =
+        simulate(&text("GH", 6), &sensor, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() }).unwrap();
     let (gap, on_grid) = checks::readout(&s, 200);
     assert!(on_grid);
     assert!(gap >= sensor.camera.refractory_us, "{gap} us");

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Regenerates the figures and tables the README shows (simulated data, labelled as such).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+b=target/release/braille
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+# A simulated scan of the EV board, as a heat map and an event raster.
+$b simulate --board EV --row 0 --speed 16 --depth 1.0 --seed 0 --out "$tmp/ev.aedat4"
+$b plot "$tmp/ev.aedat4" --out docs/scan_ev_row0.png --force \
+  --title "SIMULATED scan (virtual Evetac): EV board row 0, RIGHT LEFT EXIT OPEN, 16 mm/s, 1.0 mm"
+
+# The simulator's physics checks.
+$b sim-check > docs/sim_check.md
+$b sim-check --json > docs/sim_check.json
+echo "wrote docs/scan_ev_row0.png docs/sim_check.md docs/sim_check.json"
