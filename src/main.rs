@@ -1,6 +1,7 @@
 //! `braille`: read Braille from event-based touch. Subcommands inspect, convert and encode event
 //! streams; `demo` shows what works on built-in defaults.
 
+mod bench;
 mod convert;
 mod demo;
 mod info;
@@ -35,6 +36,8 @@ enum Command {
     SimCheck(sim_check::Args),
     /// Plot an event file as a heat map and an event raster (PNG).
     Plot(plot::Args),
+    /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
+    Bench(bench::Args),
     /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
     /// AEDAT4, read back, and binned into heat maps.
     Demo(demo::Args),
@@ -49,6 +52,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::SimCheck(a) => sim_check::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Bench(a) => bench::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -210,3 +210,16 @@ fn plot_draws_a_png() {
     let o = braille(&["plot", f.to_str().unwrap(), "--out", png.to_str().unwrap()]);
     assert!(!o.status.success(), "existing output needs --force");
 }
+
+#[test]
+fn bench_reports_the_engines_speed() {
+    let o = braille(&["bench", "--json", "--samples", "2", "--repeats", "1"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for key in ["ns_per_synop", "us_per_input_event", "ms_per_sample"] {
+        assert!(v[key].as_f64().is_some_and(|x| x > 0.0), "{key}: {v}");
+    }
+    let events = v["input_events_per_sample"].as_f64().unwrap();
+    assert!((1300.0..1600.0).contains(&events), "1.5% of 4800 pixels x 20 steps: {events}");
+}

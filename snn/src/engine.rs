@@ -1,0 +1,906 @@
+//! The event-driven engine: input events are handed in one at a time, in time order; each
+//! reaches only the synapses it fans out to; membranes decay lazily, caught up only when a neuron
+//! is next touched; spikes are events too. Many streams run at once, each with its own
+//! [`EngineState`].
+//!
+//! Two modes:
+//! - [`Mode::Stepped`] evaluates thresholds at `dt` boundaries and reproduces the time-stepped
+//!   network ([`crate::network::forward_dense`]) spike for spike: inputs of one step are summed
+//!   per input, propagated in ascending order, and each neuron's update is the same floating-point
+//!   expression in the same order as the dense pass.
+//! - [`Mode::Async`] fires a neuron the moment its membrane crosses threshold, with the exact
+//!   exponential decay between events (LIF and IF layers; CubaLIF needs stepped mode).
+
+use crate::error::{Error, Result};
+use crate::network::{Layer, Network, Op, PoolKind};
+use crate::neuron::{NeuronKind, NeuronParams};
+
+/// When thresholds are evaluated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Mode {
+    Stepped,
+    Async,
+}
+
+/// Work done, per stream.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Stats {
+    pub input_events: u64,
+    /// Synaptic operations: one weight added to one target.
+    pub synops: u64,
+    /// Spikes per layer with neurons.
+    pub spikes: Vec<u64>,
+    /// Neuron updates (lazy catch-up steps included).
+    pub neuron_updates: u64,
+}
+
+/// A fixed-size set of indices, iterated in ascending order.
+#[derive(Debug, Clone, Default)]
+struct BitSet {
+    words: Vec<u64>,
+    any: bool,
+}
+
+impl BitSet {
+    fn new(n: usize) -> Self {
+        Self { words: vec![0; n.div_ceil(64)], any: false }
+    }
+    #[inline]
+    fn insert(&mut self, i: usize) {
+        self.words[i >> 6] |= 1 << (i & 63);
+        self.any = true;
+    }
+    /// Calls `f` on every member in ascending order and empties the set.
+    #[inline]
+    fn drain(&mut self, mut f: impl FnMut(usize)) {
+        if !self.any {
+            return;
+        }
+        for (w, word) in self.words.iter_mut().enumerate() {
+            let mut bits = std::mem::take(word);
+            while bits != 0 {
+                let b = bits.trailing_zeros() as usize;
+                f(w * 64 + b);
+                bits &= bits - 1;
+            }
+        }
+        self.any = false;
+    }
+}
+
+/// A linear operation laid out for fan-out.
+#[derive(Debug, Clone)]
+enum Fan {
+    /// Weights `[in][out]`.
+    Dense {
+        n_out: usize,
+        wt: Vec<f32>,
+    },
+    /// Weights `[in_c][ky][kx][out_c]`; accumulators `[pos][out_c]`. The targets of input `i`
+    /// are `targets[offsets[i]..offsets[i + 1]]`: (output position, weight offset).
+    Conv {
+        in_hw: [usize; 2],
+        out_c: usize,
+        out_hw: [usize; 2],
+        kernel: [usize; 2],
+        stride: [usize; 2],
+        padding: [usize; 2],
+        wt: Vec<f32>,
+        offsets: Vec<u32>,
+        targets: Vec<(u32, u32)>,
+    },
+    Pool {
+        weight: f32,
+        in_hw: [usize; 2],
+        out_hw: [usize; 2],
+        kernel: [usize; 2],
+        stride: [usize; 2],
+    },
+}
+
+#[derive(Debug, Clone)]
+struct Compiled {
+    fan: Fan,
+    n_out: usize,
+    neurons: Option<NeuronParams>,
+    bias: Option<Vec<f32>>,
+    /// Recurrent weights `[in][out]`.
+    rec_t: Option<Vec<f32>>,
+    /// Every neuron is evaluated every step (bias, or a resting level above threshold).
+    every_step: bool,
+    /// Async mode: per-microsecond decay factors.
+    decay_table: Vec<f32>,
+    ln_beta_per_us: f64,
+}
+
+/// A compiled network, shared by all streams.
+#[derive(Debug, Clone)]
+pub struct Engine {
+    layers: Vec<Compiled>,
+    n_inputs: usize,
+    dt_us: i64,
+    mode: Mode,
+}
+
+#[derive(Debug, Clone)]
+struct LayerState {
+    v: Vec<f32>,
+    i: Vec<f32>,
+    /// Last step (stepped) or microsecond (async) each neuron was brought up to.
+    last: Vec<i64>,
+    acc: Vec<f32>,
+    rec: Vec<f32>,
+    /// Stepped: accumulator slots touched this step (conv: positions; others: neurons).
+    touched: BitSet,
+    /// Neurons to evaluate next step even without input.
+    carry: BitSet,
+    rec_pending: bool,
+    /// This step's spikes (or, for identity layers, outputs that carry a value in `values`).
+    spikes: Vec<u32>,
+    values: Vec<f32>,
+    /// The previous step's spikes, for the recurrent input.
+    prev: Vec<u32>,
+    /// Scratch: the slots to evaluate this step.
+    order: Vec<u32>,
+    /// Scratch (convolutions): this step's spikes (or values) per output channel.
+    by_channel: Vec<Vec<(u32, f32)>>,
+}
+
+/// One stream's state: membranes, pending inputs, output spikes and counters.
+#[derive(Debug, Clone)]
+pub struct EngineState {
+    t0_us: i64,
+    step: i64,
+    /// Stepped: absolute step of this stream's step 0; neurons last updated before it are fresh
+    /// (at rest), which makes [`Engine::reset`] cost nothing per neuron.
+    base: i64,
+    inputs: Vec<f32>,
+    input_set: BitSet,
+    layers: Vec<LayerState>,
+    started: bool,
+    pub stats: Stats,
+    /// Output spikes: (time in us, or step start for stepped mode; output index).
+    pub output: Vec<(i64, u32)>,
+}
+
+impl EngineState {
+    /// Spike counts of the output layer.
+    pub fn output_counts(&self, n: usize) -> Vec<u32> {
+        let mut c = vec![0; n];
+        for &(_, i) in &self.output {
+            c[i as usize] += 1;
+        }
+        c
+    }
+}
+
+impl Engine {
+    pub fn new(net: &Network, dt_us: i64, mode: Mode) -> Result<Engine> {
+        net.validate()?;
+        if dt_us <= 0 {
+            return Err(Error::Network(format!("dt must be positive, got {dt_us} us")));
+        }
+        let layers = net.layers.iter().map(|l| compile(l, dt_us, mode)).collect::<Result<Vec<_>>>()?;
+        Ok(Engine { layers, n_inputs: net.n_inputs(), dt_us, mode })
+    }
+
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    pub fn n_outputs(&self) -> usize {
+        self.layers.last().map_or(0, |l| l.n_out)
+    }
+
+    /// A fresh stream whose step 0 starts at `t0_us`.
+    pub fn state(&self, t0_us: i64) -> EngineState {
+        let layers = self
+            .layers
+            .iter()
+            .map(|l| {
+                let slots = match &l.fan {
+                    Fan::Conv { out_hw, .. } => out_hw[0] * out_hw[1],
+                    _ => l.n_out,
+                };
+                let stepped = self.mode == Mode::Stepped;
+                let (last_len, channels) = match &l.fan {
+                    Fan::Conv { out_hw, out_c, .. } if stepped => (out_hw[0] * out_hw[1], *out_c),
+                    _ => (l.n_out, 0),
+                };
+                LayerState {
+                    v: vec![0.0; l.n_out],
+                    i: vec![0.0; l.n_out],
+                    last: vec![if stepped { -1 } else { t0_us }; last_len],
+                    by_channel: vec![Vec::new(); channels],
+                    acc: vec![0.0; l.n_out],
+                    rec: vec![0.0; if l.rec_t.is_some() { l.n_out } else { 0 }],
+                    touched: BitSet::new(slots),
+                    carry: BitSet::new(if channels > 0 { slots } else { l.n_out }),
+                    rec_pending: false,
+                    spikes: Vec::new(),
+                    values: Vec::new(),
+                    prev: Vec::new(),
+                    order: Vec::new(),
+                }
+            })
+            .collect();
+        EngineState {
+            t0_us,
+            step: 0,
+            base: 0,
+            inputs: vec![0.0; self.n_inputs],
+            input_set: BitSet::new(self.n_inputs),
+            layers,
+            started: false,
+            stats: Stats { spikes: vec![0; self.layers.len()], ..Stats::default() },
+            output: Vec::new(),
+        }
+    }
+
+    /// Makes `st` a fresh stream starting at `t0_us`, reusing its memory.
+    pub fn reset(&self, st: &mut EngineState, t0_us: i64) {
+        let values = &mut st.inputs;
+        st.input_set.drain(|i| values[i] = 0.0);
+        for (c, s) in self.layers.iter().zip(st.layers.iter_mut()) {
+            s.touched.drain(|_| {});
+            s.carry.drain(|_| {});
+            s.acc.iter_mut().for_each(|a| *a = 0.0);
+            s.rec_pending = false;
+            s.prev.clear();
+            s.spikes.clear();
+            s.values.clear();
+            if self.mode == Mode::Async {
+                s.v.iter_mut().for_each(|v| *v = 0.0);
+                s.i.iter_mut().for_each(|v| *v = 0.0);
+                s.last.iter_mut().for_each(|l| *l = t0_us);
+            }
+            let _ = c;
+        }
+        st.base += st.step + 2;
+        st.t0_us = t0_us;
+        st.step = 0;
+        st.started = false;
+        st.output.clear();
+        st.stats = Stats { spikes: vec![0; self.layers.len()], ..Stats::default() };
+    }
+
+    /// Hands in one input event. Events must come in time order.
+    #[inline]
+    pub fn push(&self, st: &mut EngineState, t_us: i64, input: u32, value: f32) -> Result<()> {
+        let i = input as usize;
+        if i >= self.n_inputs {
+            return Err(Error::Input(format!("input {input} outside 0..{}", self.n_inputs)));
+        }
+        if t_us < st.t0_us {
+            return Err(Error::Input(format!("event at {t_us} us before the stream's start {} us", st.t0_us)));
+        }
+        st.stats.input_events += 1;
+        match self.mode {
+            Mode::Stepped => {
+                let step = (t_us - st.t0_us) / self.dt_us;
+                if step < st.step {
+                    return Err(Error::Input(format!("event at {t_us} us goes back to step {step} (now {})", st.step)));
+                }
+                if step > st.step || !st.started {
+                    self.advance_to(st, step);
+                }
+                st.inputs[i] += value;
+                st.input_set.insert(i);
+                Ok(())
+            }
+            Mode::Async => {
+                if st.started && t_us < st.step {
+                    return Err(Error::Input(format!("event at {t_us} us goes backwards (last {} us)", st.step)));
+                }
+                st.started = true;
+                st.step = t_us;
+                self.async_event(st, 0, i, value, t_us);
+                Ok(())
+            }
+        }
+    }
+
+    /// Completes every step up to (not including) the one holding `t_end_us`.
+    pub fn finish(&self, st: &mut EngineState, t_end_us: i64) {
+        if self.mode == Mode::Stepped {
+            let end = (t_end_us - st.t0_us + self.dt_us - 1) / self.dt_us;
+            self.advance_to(st, end.max(st.step + 1));
+        }
+    }
+
+    /// Runs steps from the current one until `step` (exclusive), then makes `step` current.
+    fn advance_to(&self, st: &mut EngineState, step: i64) {
+        if !st.started {
+            st.started = true;
+            st.step = step;
+            return;
+        }
+        while st.step < step {
+            self.run_step(st);
+            st.step += 1;
+            // Steps with nothing to do are skipped: nothing decays that is not caught up lazily.
+            if !self.needs_step(st) && st.step < step {
+                st.step = step;
+            }
+        }
+    }
+
+    fn needs_step(&self, st: &EngineState) -> bool {
+        st.input_set.any
+            || self.layers.iter().zip(&st.layers).any(|(c, s)| c.every_step || s.carry.any || s.rec_pending)
+    }
+
+    /// One time step through every layer.
+    fn run_step(&self, st: &mut EngineState) {
+        let t = st.base + st.step;
+        let base = st.base;
+        let mut inputs = std::mem::take(&mut st.input_set);
+        let (values, layers, stats) = (&mut st.inputs, &mut st.layers, &mut st.stats);
+        // Inputs, in ascending order, into layer 0.
+        {
+            let (c0, s0) = (&self.layers[0], &mut layers[0]);
+            inputs.drain(|i| {
+                let x = std::mem::take(&mut values[i]);
+                stats.synops += fan_in(c0, s0, i, x);
+            });
+        }
+        st.input_set = inputs;
+        for k in 0..self.layers.len() {
+            let (done, rest) = layers.split_at_mut(k + 1);
+            let s = &mut done[k];
+            let c = &self.layers[k];
+            s.spikes.clear();
+            s.values.clear();
+            evaluate(c, s, t, base, stats);
+            if c.neurons.is_some() {
+                stats.spikes[k] += s.spikes.len() as u64;
+            }
+            if let Some(next) = rest.first_mut() {
+                let cn = &self.layers[k + 1];
+                if c.neurons.is_some() {
+                    for &j in &s.spikes {
+                        stats.synops += fan_in(cn, next, j as usize, 1.0);
+                    }
+                } else {
+                    // Identity layer: its values pass on.
+                    for (&j, &x) in s.spikes.iter().zip(&s.values) {
+                        stats.synops += fan_in(cn, next, j as usize, x);
+                    }
+                }
+            }
+        }
+        if let Some(last) = st.layers.last()
+            && self.layers.last().is_some_and(|c| c.neurons.is_some())
+        {
+            let t_us = st.t0_us + st.step * self.dt_us;
+            st.output.extend(last.spikes.iter().map(|&j| (t_us, j)));
+        }
+    }
+
+    /// Async: an event of value `x` at input `i` of layer `k` at time `t_us`, followed depth-first.
+    fn async_event(&self, st: &mut EngineState, k: usize, i: usize, x: f32, t_us: i64) {
+        let c = &self.layers[k];
+        let s = &mut st.layers[k];
+        let mut fired: Vec<(usize, f32)> = Vec::new();
+        let mut synops = 0u64;
+        let mut updates = 0u64;
+        fan_out(&c.fan, i, |o, w| {
+            synops += 1;
+            match &c.neurons {
+                None => fired.push((o, x * w)),
+                Some(p) => {
+                    let dt = t_us - s.last[o];
+                    if dt > 0 {
+                        s.v[o] = decay(c, p, s.v[o], dt);
+                        s.last[o] = t_us;
+                        updates += 1;
+                    }
+                    s.v[o] += x * w;
+                    if s.v[o] > p.v_th {
+                        s.v[o] = match p.reset {
+                            crate::neuron::Reset::Zero => p.v_reset,
+                            crate::neuron::Reset::Subtract => s.v[o] - p.v_th,
+                        };
+                        fired.push((o, 1.0));
+                    }
+                }
+            }
+        });
+        st.stats.synops += synops;
+        st.stats.neuron_updates += updates;
+        if c.neurons.is_some() {
+            st.stats.spikes[k] += fired.len() as u64;
+        }
+        if k + 1 == self.layers.len() {
+            if c.neurons.is_some() {
+                st.output.extend(fired.iter().map(|&(o, _)| (t_us, o as u32)));
+            }
+            return;
+        }
+        for (o, value) in fired {
+            self.async_event(st, k + 1, o, value, t_us);
+        }
+    }
+}
+
+/// Exact decay of a LIF membrane over `dt_us` towards its resting level.
+#[inline]
+fn decay(c: &Compiled, p: &NeuronParams, v: f32, dt_us: i64) -> f32 {
+    let f = match c.decay_table.get(dt_us as usize) {
+        Some(&f) => f,
+        None => (c.ln_beta_per_us * dt_us as f64).exp() as f32,
+    };
+    p.v_leak + (v - p.v_leak) * f
+}
+
+fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
+    let n_out = l.op.n_out();
+    let fan = match &l.op {
+        Op::Dense { n_in, n_out, weight, .. } => {
+            let mut wt = vec![0.0; n_in * n_out];
+            for o in 0..*n_out {
+                for i in 0..*n_in {
+                    wt[i * n_out + o] = weight[o * n_in + i];
+                }
+            }
+            Fan::Dense { n_out: *n_out, wt }
+        }
+        Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, .. } => {
+            let [ic, h, w] = *in_shape;
+            let (oc, kh, kw) = (*out_channels, kernel[0], kernel[1]);
+            let mut wt = vec![0.0; ic * kh * kw * oc];
+            for o in 0..oc {
+                for c in 0..ic {
+                    for y in 0..kh {
+                        for x in 0..kw {
+                            wt[((c * kh + y) * kw + x) * oc + o] = weight[((o * ic + c) * kh + y) * kw + x];
+                        }
+                    }
+                }
+            }
+            let s = l.op.out_shape();
+            let out_hw = [s[1], s[2]];
+            let mut offsets = Vec::with_capacity(ic * h * w + 1);
+            let mut targets = Vec::new();
+            offsets.push(0);
+            for c in 0..ic {
+                for y in 0..h {
+                    for x in 0..w {
+                        conv_positions(y, x, *kernel, *stride, *padding, out_hw, |ky, kx, pos| {
+                            targets.push((pos as u32, (((c * kh + ky) * kw + kx) * oc) as u32));
+                        });
+                        offsets.push(targets.len() as u32);
+                    }
+                }
+            }
+            Fan::Conv {
+                in_hw: [h, w],
+                out_c: oc,
+                out_hw,
+                kernel: *kernel,
+                stride: *stride,
+                padding: *padding,
+                wt,
+                offsets,
+                targets,
+            }
+        }
+        Op::Pool { kind, in_shape, kernel, stride } => {
+            let s = l.op.out_shape();
+            let weight = match kind {
+                PoolKind::Sum => 1.0,
+                PoolKind::Avg => 1.0 / (kernel[0] * kernel[1]) as f32,
+            };
+            Fan::Pool {
+                weight,
+                in_hw: [in_shape[1], in_shape[2]],
+                out_hw: [s[1], s[2]],
+                kernel: *kernel,
+                stride: *stride,
+            }
+        }
+    };
+    let rec_t = l.recurrent.as_ref().map(|w| {
+        let mut t = vec![0.0; n_out * n_out];
+        for o in 0..n_out {
+            for i in 0..n_out {
+                t[i * n_out + o] = w[o * n_out + i];
+            }
+        }
+        t
+    });
+    let p = l.neurons;
+    let every_step = l.op.bias().is_some() || p.is_some_and(|p| p.v_leak > p.v_th);
+    let (mut decay_table, mut ln_beta_per_us) = (Vec::new(), 0.0);
+    if mode == Mode::Async
+        && let Some(p) = p
+    {
+        if p.kind == NeuronKind::CubaLif || l.recurrent.is_some() || l.op.bias().is_some() {
+            return Err(Error::Network(
+                "async mode runs LIF and IF layers without bias or recurrence; use stepped mode".into(),
+            ));
+        }
+        ln_beta_per_us = if p.beta > 0.0 { (p.beta as f64).ln() / dt_us as f64 } else { f64::NEG_INFINITY };
+        let len = if ln_beta_per_us < 0.0 { ((30.0 / -ln_beta_per_us) as usize).min(1 << 20) } else { 1 << 10 };
+        decay_table = (0..len).map(|d| (ln_beta_per_us * d as f64).exp() as f32).collect();
+    }
+    Ok(Compiled {
+        fan,
+        n_out,
+        neurons: p,
+        bias: l.op.bias().map(<[f32]>::to_vec),
+        rec_t,
+        every_step,
+        decay_table,
+        ln_beta_per_us,
+    })
+}
+
+/// Calls `f(out, w)` for every target of input `i` (async mode, canonical output indices).
+#[inline]
+fn fan_out(fan: &Fan, i: usize, mut f: impl FnMut(usize, f32)) {
+    match fan {
+        Fan::Dense { n_out, wt } => {
+            for (o, &w) in wt[i * n_out..(i + 1) * n_out].iter().enumerate() {
+                f(o, w);
+            }
+        }
+        Fan::Conv { in_hw, out_c, out_hw, kernel, stride, padding, wt, .. } => {
+            let plane = in_hw[0] * in_hw[1];
+            let (c, y, x) = (i / plane, (i % plane) / in_hw[1], i % in_hw[1]);
+            let opl = out_hw[0] * out_hw[1];
+            conv_positions(y, x, *kernel, *stride, *padding, *out_hw, |ky, kx, pos| {
+                let base = ((c * kernel[0] + ky) * kernel[1] + kx) * out_c;
+                for (o, &w) in wt[base..base + out_c].iter().enumerate() {
+                    f(o * opl + pos, w);
+                }
+            });
+        }
+        Fan::Pool { weight, in_hw, out_hw, kernel, stride } => {
+            pool_targets(i, *in_hw, *out_hw, *kernel, *stride, |o| f(o, *weight));
+        }
+    }
+}
+
+/// Output positions `(ky, kx, oy * ow + ox)` that input pixel `(y, x)` reaches.
+#[inline]
+fn conv_positions(
+    y: usize,
+    x: usize,
+    k: [usize; 2],
+    s: [usize; 2],
+    p: [usize; 2],
+    out: [usize; 2],
+    mut f: impl FnMut(usize, usize, usize),
+) {
+    let (ty, tx) = (y + p[0], x + p[1]);
+    for ky in 0..k[0] {
+        if ty < ky || (ty - ky) % s[0] != 0 {
+            continue;
+        }
+        let oy = (ty - ky) / s[0];
+        if oy >= out[0] {
+            continue;
+        }
+        for kx in 0..k[1] {
+            if tx < kx || (tx - kx) % s[1] != 0 {
+                continue;
+            }
+            let ox = (tx - kx) / s[1];
+            if ox < out[1] {
+                f(ky, kx, oy * out[1] + ox);
+            }
+        }
+    }
+}
+
+#[inline]
+fn pool_targets(
+    i: usize,
+    in_hw: [usize; 2],
+    out_hw: [usize; 2],
+    k: [usize; 2],
+    s: [usize; 2],
+    mut f: impl FnMut(usize),
+) {
+    let plane = in_hw[0] * in_hw[1];
+    let (c, y, x) = (i / plane, (i % plane) / in_hw[1], i % in_hw[1]);
+    for oy in 0..out_hw[0] {
+        if y < oy * s[0] || y >= oy * s[0] + k[0] {
+            continue;
+        }
+        for ox in 0..out_hw[1] {
+            if x >= ox * s[1] && x < ox * s[1] + k[1] {
+                f((c * out_hw[0] + oy) * out_hw[1] + ox);
+            }
+        }
+    }
+}
+
+/// Stepped: adds input `i` with value `x` into the layer's accumulators; returns synops.
+#[inline]
+fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
+    match &c.fan {
+        Fan::Dense { n_out, wt } => {
+            for (a, &w) in s.acc.iter_mut().zip(&wt[i * n_out..(i + 1) * n_out]) {
+                *a += x * w;
+            }
+            s.touched.insert(0);
+            *n_out as u64
+        }
+        Fan::Conv { out_c, wt, offsets, targets, .. } => {
+            let oc = *out_c;
+            let list = &targets[offsets[i] as usize..offsets[i + 1] as usize];
+            for &(pos, w) in list {
+                let (pos, w) = (pos as usize, w as usize);
+                for (a, &w) in s.acc[pos * oc..(pos + 1) * oc].iter_mut().zip(&wt[w..w + oc]) {
+                    *a += x * w;
+                }
+                s.touched.insert(pos);
+            }
+            (list.len() * oc) as u64
+        }
+        Fan::Pool { weight, in_hw, out_hw, kernel, stride } => {
+            let mut n = 0;
+            let (acc, touched) = (&mut s.acc, &mut s.touched);
+            pool_targets(i, *in_hw, *out_hw, *kernel, *stride, |o| {
+                acc[o] += x * weight;
+                touched.insert(o);
+                n += 1;
+            });
+            n
+        }
+    }
+}
+
+/// Stepped: updates the neurons that need it at step `t` (in ascending order) and collects the
+/// spikes (or, for identity layers, the outputs that carry a value) in `s.spikes`.
+///
+/// Updating a neuron with zero input is exactly what the dense pass does to it, so the set
+/// evaluated may be a superset of the neurons touched: whole positions of a convolution, every
+/// neuron of a dense layer that received anything.
+fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Stats) {
+    let n = c.n_out;
+    let all = c.every_step || s.rec_pending;
+    // Recurrent input from the previous step's spikes, summed on its own.
+    if s.rec_pending
+        && let Some(rt) = &c.rec_t
+    {
+        s.rec.iter_mut().for_each(|r| *r = 0.0);
+        for &j in &s.prev {
+            for (r, &w) in s.rec.iter_mut().zip(&rt[j as usize * n..(j as usize + 1) * n]) {
+                *r += 1.0 * w;
+            }
+        }
+    }
+    let rec = if s.rec_pending && c.rec_t.is_some() { Some(std::mem::take(&mut s.rec)) } else { None };
+    let mut order = std::mem::take(&mut s.order);
+    order.clear();
+    match &c.fan {
+        Fan::Conv { out_c, out_hw, .. } => {
+            // State is laid out [position][channel] and a position is always updated whole, so
+            // one `last` per position serves all its channels.
+            let plane = out_hw[0] * out_hw[1];
+            let oc = *out_c;
+            if all {
+                s.touched.drain(|_| {});
+                s.carry.drain(|_| {});
+                order.extend(0..plane as u32);
+            } else {
+                let touched = &mut s.touched;
+                s.carry.drain(|p| touched.insert(p));
+                touched.drain(|p| order.push(p as u32));
+            }
+            let mut by_channel = std::mem::take(&mut s.by_channel);
+            for &pos in &order {
+                update_position(c, s, pos as usize, oc, t, base, &mut by_channel, stats);
+            }
+            // Canonical order: channel by channel, positions ascending.
+            for (ch, list) in by_channel.iter_mut().enumerate() {
+                for &(pos, x) in list.iter() {
+                    s.spikes.push((ch * plane) as u32 + pos);
+                    if c.neurons.is_none() {
+                        s.values.push(x);
+                    }
+                }
+                list.clear();
+            }
+            s.by_channel = by_channel;
+        }
+        Fan::Dense { .. } | Fan::Pool { .. } => {
+            let dense = matches!(c.fan, Fan::Dense { .. });
+            if all || (dense && (s.touched.any || s.carry.any)) {
+                s.touched.drain(|_| {});
+                s.carry.drain(|_| {});
+                order.extend(0..n as u32);
+            } else {
+                let touched = &mut s.touched;
+                s.carry.drain(|o| touched.insert(o));
+                touched.drain(|o| order.push(o as u32));
+            }
+            for &o in &order {
+                update(c, s, o as usize, o as usize, t, base, rec.as_deref(), stats);
+            }
+        }
+    }
+    s.order = order;
+    if let Some(r) = rec {
+        s.rec = r;
+    }
+    // Spikes of a convolution come channel by channel, already ascending.
+    s.rec_pending = c.rec_t.is_some() && !s.spikes.is_empty();
+    if s.rec_pending {
+        s.prev.clear();
+        let spikes = std::mem::take(&mut s.spikes);
+        s.prev.extend_from_slice(&spikes);
+        s.spikes = spikes;
+    }
+}
+
+/// A convolution's position `pos` at step `t`: all its channels, state at `pos * oc + ch`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn update_position(
+    c: &Compiled,
+    s: &mut LayerState,
+    pos: usize,
+    oc: usize,
+    t: i64,
+    base: i64,
+    out: &mut [Vec<(u32, f32)>],
+    stats: &mut Stats,
+) {
+    let start = pos * oc;
+    let (acc, v, i) = (&mut s.acc[start..start + oc], &mut s.v[start..start + oc], &mut s.i[start..start + oc]);
+    let Some(p) = &c.neurons else {
+        for ch in 0..oc {
+            let mut u = std::mem::take(&mut acc[ch]);
+            if let Some(b) = &c.bias {
+                u += b[ch];
+            }
+            if u != 0.0 {
+                out[ch].push((pos as u32, u));
+            }
+        }
+        return;
+    };
+    let last = s.last[pos];
+    let behind = if last < base {
+        // fresh since the last reset: at rest
+        v.iter_mut().for_each(|x| *x = 0.0);
+        i.iter_mut().for_each(|x| *x = 0.0);
+        0
+    } else {
+        t - last - 1
+    };
+    stats.neuron_updates += ((behind.max(0) + 1) as usize * oc) as u64;
+    s.last[pos] = t;
+    let carry = if p.kind != NeuronKind::CubaLif && c.bias.is_none() && oc <= 64 {
+        lif_position(p, v, acc, behind, pos as u32, out)
+    } else {
+        for _ in 0..behind.max(0) {
+            for ch in 0..oc {
+                p.step(&mut i[ch], &mut v[ch], 0.0);
+            }
+        }
+        let cuba = p.kind == NeuronKind::CubaLif;
+        let mut carry = false;
+        for ch in 0..oc {
+            let mut u = std::mem::take(&mut acc[ch]);
+            if let Some(b) = &c.bias {
+                u += b[ch];
+            }
+            if p.step(&mut i[ch], &mut v[ch], u) {
+                out[ch].push((pos as u32, 1.0));
+            }
+            let drive = if cuba { p.alpha * i[ch] } else { 0.0 };
+            carry |= p.beta * v[ch] + p.leak_term() + drive > p.v_th || (cuba && i[ch] != 0.0);
+        }
+        carry
+    };
+    if carry {
+        s.carry.insert(pos);
+    }
+}
+
+/// LIF and IF channels of one position, without branches in the arithmetic so that it
+/// vectorises: the same floating-point expressions as [`NeuronParams::step`]. Returns whether the
+/// position must be looked at next step even without input.
+#[inline(always)]
+fn lif_position(
+    p: &NeuronParams,
+    v: &mut [f32],
+    acc: &mut [f32],
+    behind: i64,
+    pos: u32,
+    out: &mut [Vec<(u32, f32)>],
+) -> bool {
+    let (beta, leak, th, v_reset) = (p.beta, p.leak_term(), p.v_th, p.v_reset);
+    for _ in 0..behind.max(0) {
+        for x in v.iter_mut() {
+            *x = beta * *x + leak + 0.0;
+        }
+    }
+    let mut fired = 0u64;
+    let mut carry = false;
+    for (ch, (x, a)) in v.iter_mut().zip(acc.iter_mut()).enumerate() {
+        let u = std::mem::take(a);
+        let vn = beta * *x + leak + u;
+        let spike = vn > th;
+        let after = match p.reset {
+            crate::neuron::Reset::Zero => v_reset,
+            crate::neuron::Reset::Subtract => vn - th,
+        };
+        *x = if spike { after } else { vn };
+        fired |= (spike as u64) << ch;
+        carry |= beta * *x + leak + 0.0 > th;
+    }
+    while fired != 0 {
+        let ch = fired.trailing_zeros() as usize;
+        out[ch].push((pos, 1.0));
+        fired &= fired - 1;
+    }
+    carry
+}
+
+/// One neuron's update at step `t`: neuron `o` (canonical), accumulator slot `k`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn update(
+    c: &Compiled,
+    s: &mut LayerState,
+    o: usize,
+    k: usize,
+    t: i64,
+    base: i64,
+    rec: Option<&[f32]>,
+    stats: &mut Stats,
+) {
+    let mut u = std::mem::take(&mut s.acc[k]);
+    if let Some(b) = &c.bias {
+        u += b[bias_index(&c.fan, o)];
+    }
+    let Some(p) = &c.neurons else {
+        if u != 0.0 {
+            s.spikes.push(o as u32);
+            s.values.push(u);
+        }
+        return;
+    };
+    if let Some(r) = rec {
+        u += r[o];
+    }
+    // Catch up the steps without input: the same update with zero input, which cannot fire
+    // (a neuron that could is carried to the next step).
+    let behind = if s.last[o] < base {
+        s.v[o] = 0.0;
+        s.i[o] = 0.0;
+        0
+    } else {
+        t - s.last[o] - 1
+    };
+    if behind > 0 {
+        for _ in 0..behind {
+            p.step(&mut s.i[o], &mut s.v[o], 0.0);
+        }
+        stats.neuron_updates += behind as u64;
+    }
+    stats.neuron_updates += 1;
+    s.last[o] = t;
+    if p.step(&mut s.i[o], &mut s.v[o], u) {
+        s.spikes.push(o as u32);
+    }
+    // Could this neuron fire next step without input? Then look at it again.
+    let cuba = p.kind == NeuronKind::CubaLif;
+    let drive = if cuba { p.alpha * s.i[o] } else { 0.0 };
+    if p.beta * s.v[o] + p.leak_term() + drive > p.v_th || (cuba && s.i[o] != 0.0) {
+        s.carry.insert(o);
+    }
+}
+
+fn bias_index(fan: &Fan, o: usize) -> usize {
+    match fan {
+        Fan::Conv { out_hw, .. } => o / (out_hw[0] * out_hw[1]),
+        _ => o,
+    }
+}

@@ -1,0 +1,201 @@
+//! The event-driven engine against the time-stepped reference, and its dynamics.
+
+use snn::engine::{Engine, EngineState, Mode};
+use snn::network::{Layer, Network, Op, PoolKind, Record, forward_dense, peers_conv, random_input};
+use snn::neuron::{Discretisation, LifConfig, NeuronParams, Reset};
+
+/// Runs `steps x n` dense input through the engine in stepped mode and returns per-layer spikes
+/// per step, as the reference records them.
+fn run_stepped(net: &Network, input: &[f32], steps: usize, dt_us: i64) -> (Vec<Vec<Vec<u32>>>, EngineState) {
+    let engine = Engine::new(net, dt_us, Mode::Stepped).unwrap();
+    let n = net.n_inputs();
+    let mut st = engine.state(0);
+    for t in 0..steps {
+        for i in 0..n {
+            let x = input[t * n + i];
+            if x != 0.0 {
+                engine.push(&mut st, t as i64 * dt_us + 3, i as u32, x).unwrap();
+            }
+        }
+    }
+    engine.finish(&mut st, steps as i64 * dt_us);
+    // Only the output layer is recorded by the engine; rebuild per-step lists from it.
+    let mut out = vec![Vec::new(); steps];
+    for &(t_us, i) in &st.output {
+        out[(t_us / dt_us) as usize].push(i);
+    }
+    (vec![out], st)
+}
+
+fn assert_same_output(net: &Network, input: &[f32], steps: usize) -> (Record, EngineState) {
+    let reference = forward_dense(net, input, steps).unwrap();
+    let (engine, st) = run_stepped(net, input, steps, 1_000);
+    let last = reference.spikes.len() - 1;
+    assert_eq!(engine[0], reference.spikes[last], "output spikes differ");
+    for (k, spikes) in reference.spikes.iter().enumerate() {
+        let total: usize = spikes.iter().map(Vec::len).sum();
+        assert_eq!(st.stats.spikes[k], total as u64, "layer {k} spike count");
+    }
+    (reference, st)
+}
+
+#[test]
+fn stepped_equals_dense_on_the_peer_conv_network() {
+    let net = peers_conv(1, 5.0);
+    for seed in 0..3 {
+        let input = random_input(seed, 20, net.n_inputs(), 0.015);
+        let (reference, st) = assert_same_output(&net, &input, 20);
+        let hidden: usize = reference.spikes[0].iter().map(Vec::len).sum();
+        assert!(hidden > 100, "the test needs activity: {hidden} spikes in layer 0");
+        assert!(reference.output_counts(26).iter().sum::<u32>() > 0, "and output spikes");
+        assert!(st.stats.synops > 0);
+    }
+}
+
+fn layer(op: Op, p: Option<NeuronParams>) -> Layer {
+    Layer { op, neurons: p, recurrent: None }
+}
+
+fn dense_w(n_in: usize, n_out: usize, seed: u64, scale: f32) -> Vec<f32> {
+    random_input(seed, 1, n_in * n_out, 0.5)
+        .iter()
+        .enumerate()
+        .map(|(k, &b)| scale * (b - 0.4) * ((k % 7) as f32 / 7.0 + 0.3))
+        .collect()
+}
+
+#[test]
+fn stepped_equals_dense_with_pooling_recurrence_cuba_if_subtract_and_bias() {
+    let conv = Op::Conv2d {
+        in_shape: [2, 12, 12],
+        out_channels: 4,
+        kernel: [3, 3],
+        stride: [1, 1],
+        padding: [1, 1],
+        weight: dense_w(2 * 9, 4, 3, 1.5),
+        bias: None,
+    };
+    let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [4, 12, 12], kernel: [2, 2], stride: [2, 2] };
+    let dense = Op::Dense { n_in: 4 * 6 * 6, n_out: 20, weight: dense_w(144, 20, 4, 0.6), bias: None };
+    let mut recurrent = Layer {
+        op: dense,
+        neurons: Some(NeuronParams::cuba_lif(0.6, 0.85).with_reset(Reset::Subtract)),
+        recurrent: Some(dense_w(20, 20, 5, 0.8)),
+    };
+    recurrent.neurons.as_mut().unwrap().v_th = 0.8;
+    let out =
+        Op::Dense { n_in: 20, n_out: 5, weight: dense_w(20, 5, 6, 1.2), bias: Some(vec![0.05, -0.02, 0.1, 0.0, 0.03]) };
+    let net = Network::new(
+        vec![2, 12, 12],
+        vec![
+            layer(conv, Some(NeuronParams::lif(0.8).with_reset(Reset::Subtract))),
+            layer(pool, None),
+            recurrent,
+            layer(out, Some(NeuronParams::integrate_and_fire())),
+        ],
+    )
+    .unwrap();
+    for seed in 0..5 {
+        let input = random_input(100 + seed, 40, net.n_inputs(), 0.08);
+        let (reference, _) = assert_same_output(&net, &input, 40);
+        let rec: usize = reference.spikes[2].iter().map(Vec::len).sum();
+        assert!(rec > 0, "the recurrent layer must be active");
+    }
+}
+
+#[test]
+fn async_lif_decays_exactly_between_events() {
+    let dense = Op::Dense { n_in: 1, n_out: 1, weight: vec![0.6], bias: None };
+    let net = Network::new(vec![1], vec![layer(dense, Some(NeuronParams::lif(0.9)))]).unwrap();
+    let engine = Engine::new(&net, 1_000, Mode::Async).unwrap();
+    let mut st = engine.state(0);
+    engine.push(&mut st, 0, 0, 1.0).unwrap();
+    // after 1.5 steps: 0.6 * 0.9^1.5 + 0.6 = 1.1123 > 1: fires at once, at 1500 us
+    engine.push(&mut st, 1_500, 0, 1.0).unwrap();
+    assert_eq!(st.output, vec![(1_500, 0)]);
+    let mut st = engine.state(0);
+    engine.push(&mut st, 0, 0, 1.0).unwrap();
+    // after 6 steps: 0.6 * 0.9^6 + 0.6 = 0.919: silent
+    engine.push(&mut st, 6_000, 0, 1.0).unwrap();
+    assert!(st.output.is_empty());
+}
+
+#[test]
+fn halving_dt_with_matched_time_constants_keeps_the_dynamics() {
+    // The same LIF in continuous time (tau 10 ms), run at dt = 1 ms and 0.5 ms on the same input
+    // events (on the 1 ms grid): the membrane decays by the same factor per millisecond, so the
+    // spikes come at the same times.
+    let make = |dt_us: f64| {
+        let p = LifConfig::lif(10_000.0).discretise(dt_us, Discretisation::Exact);
+        let dense = Op::Dense { n_in: 8, n_out: 4, weight: dense_w(8, 4, 9, 1.0), bias: None };
+        Network::new(vec![8], vec![layer(dense, Some(p))]).unwrap()
+    };
+    let input = random_input(7, 200, 8, 0.2);
+    let times = |dt_us: i64| {
+        let net = make(dt_us as f64);
+        let engine = Engine::new(&net, dt_us, Mode::Stepped).unwrap();
+        let mut st = engine.state(0);
+        for t in 0..200 {
+            for i in 0..8 {
+                if input[t * 8 + i] != 0.0 {
+                    engine.push(&mut st, t as i64 * 1_000, i as u32, 1.0).unwrap();
+                }
+            }
+        }
+        engine.finish(&mut st, 200_000);
+        st.output
+    };
+    let (a, b) = (times(1_000), times(500));
+    assert!(a.len() > 10, "{}", a.len());
+    assert_eq!(a, b);
+}
+
+#[test]
+fn streams_do_not_share_state_and_bad_events_are_refused() {
+    let net = peers_conv(2, 5.0);
+    let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
+    let input = random_input(1, 20, net.n_inputs(), 0.015);
+    let run = |st: &mut EngineState| {
+        for t in 0..20 {
+            for i in 0..net.n_inputs() {
+                if input[t * net.n_inputs() + i] != 0.0 {
+                    engine.push(st, t as i64 * 1_000, i as u32, 1.0).unwrap();
+                }
+            }
+        }
+        engine.finish(st, 20_000);
+    };
+    let (mut a, mut b) = (engine.state(0), engine.state(0));
+    run(&mut a);
+    run(&mut b);
+    assert_eq!(a.output, b.output);
+    assert!(engine.push(&mut a, 5_000, 0, 1.0).is_err(), "time went backwards");
+    assert!(engine.push(&mut b, 30_000, 99_999, 1.0).is_err(), "no such input");
+}
+
+#[test]
+fn a_reset_stream_behaves_like_a_fresh_one() {
+    let net = peers_conv(3, 7.5);
+    let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
+    let feed = |st: &mut EngineState, seed: u64| {
+        let input = random_input(seed, 20, net.n_inputs(), 0.0075);
+        for t in 0..20 {
+            for i in 0..net.n_inputs() {
+                if input[t * net.n_inputs() + i] != 0.0 {
+                    engine.push(st, t as i64 * 1_000, i as u32, 1.0).unwrap();
+                }
+            }
+        }
+        engine.finish(st, 20_000);
+    };
+    let mut reused = engine.state(0);
+    feed(&mut reused, 1);
+    engine.reset(&mut reused, 0);
+    feed(&mut reused, 2);
+    let mut fresh = engine.state(0);
+    feed(&mut fresh, 2);
+    assert_eq!(reused.output, fresh.output);
+    assert_eq!(reused.stats, fresh.stats);
+    let reference = forward_dense(&net, &random_input(2, 20, net.n_inputs(), 0.0075), 20).unwrap();
+    assert_eq!(fresh.output_counts(26), reference.output_counts(26));
+}
