@@ -682,15 +682,7 @@ fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Sta
             // one `last` per position serves all its channels.
             let plane = out_hw[0] * out_hw[1];
             let oc = *out_c;
-            if all {
-                s.touched.drain(|_| {});
-                s.carry.drain(|_| {});
-                order.extend(0..plane as u32);
-            } else {
-                let touched = &mut s.touched;
-                s.carry.drain(|p| touched.insert(p));
-                touched.drain(|p| order.push(p as u32));
-            }
+            schedule(s, all, plane, &mut order);
             let mut by_channel = std::mem::take(&mut s.by_channel);
             for &pos in &order {
                 update_position(c, s, pos as usize, oc, t, base, &mut by_channel, stats);
@@ -709,15 +701,8 @@ fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Sta
         }
         Fan::Dense { .. } | Fan::Pool { .. } => {
             let dense = matches!(c.fan, Fan::Dense { .. });
-            if all || (dense && (s.touched.any || s.carry.any)) {
-                s.touched.drain(|_| {});
-                s.carry.drain(|_| {});
-                order.extend(0..n as u32);
-            } else {
-                let touched = &mut s.touched;
-                s.carry.drain(|o| touched.insert(o));
-                touched.drain(|o| order.push(o as u32));
-            }
+            let everything = all || (dense && (s.touched.any || s.carry.any));
+            schedule(s, everything, n, &mut order);
             for &o in &order {
                 update(c, s, o as usize, o as usize, t, base, rec.as_deref(), stats);
             }
@@ -734,6 +719,19 @@ fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Sta
         let spikes = std::mem::take(&mut s.spikes);
         s.prev.extend_from_slice(&spikes);
         s.spikes = spikes;
+    }
+}
+
+/// The slots to update this step, ascending: all `count` of them, or those touched or carried.
+fn schedule(s: &mut LayerState, everything: bool, count: usize, order: &mut Vec<u32>) {
+    if everything {
+        s.touched.drain(|_| {});
+        s.carry.drain(|_| {});
+        order.extend(0..count as u32);
+    } else {
+        let touched = &mut s.touched;
+        s.carry.drain(|p| touched.insert(p));
+        touched.drain(|p| order.push(p as u32));
     }
 }
 
