@@ -15,4 +15,6 @@ $b plot "$tmp/ev.aedat4" --out docs/scan_ev_row0.png --force \
 # The simulator's physics checks.
 $b sim-check > docs/sim_check.md
 $b sim-check --json > docs/sim_check.json
-echo "wrote docs/scan_ev_row0.png docs/sim_check.md docs/sim_check.json"
+# The labeling pipeline against the simulator's ground truth.
+$b label-check > docs/label_check.md
+echo "wrote docs/scan_ev_row0.png docs/sim_check.md docs/sim_check.json docs/label_check.md"

@@ -5,6 +5,7 @@ mod bench;
 mod convert;
 mod demo;
 mod info;
+mod label_check;
 mod plot;
 mod sim_check;
 mod simulate;
@@ -34,6 +35,8 @@ enum Command {
     Simulate(simulate::Args),
     /// Measure the simulator's physics checks (depth, speed, polarity, geometry, noise, readout).
     SimCheck(sim_check::Args),
+    /// Measure the paper's labeling pipeline against the simulator's ground truth.
+    LabelCheck(label_check::Args),
     /// Plot an event file as a heat map and an event raster (PNG).
     Plot(plot::Args),
     /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         Command::SimCheck(a) => sim_check::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::LabelCheck(a) => label_check::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
