@@ -254,6 +254,8 @@ fn bad_csv_input_names_the_line() {
             assert!(m.contains(n), "{name}: {m:?} lacks {n:?}");
         }
     }
+    let (_, m) = error_of("wide.csv", b"a,b,c,d,e,f,g,h,i,t_us,x,y,p\n", &o);
+    assert!(m.contains("at most 8 columns"), "{m}");
     let (_, m) = error_of("neg.csv", b"5,-1,1,1\n", &o);
     assert!(m.contains("(-1, 1) outside"), "{m}");
 }

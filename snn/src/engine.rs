@@ -300,6 +300,27 @@ impl Engine {
         }
     }
 
+    /// Runs a whole spike train (its steps must be this engine's `dt`) through `st`, from the
+    /// train's start, and completes its last step.
+    pub fn run_train(&self, st: &mut EngineState, train: &encoders::spike_train::SpikeTrain) -> Result<()> {
+        if train.dt_us != self.dt_us || train.n_inputs != self.n_inputs {
+            return Err(Error::Input(format!(
+                "a spike train of {} inputs at dt {} us does not fit a network of {} inputs at dt {} us",
+                train.n_inputs, train.dt_us, self.n_inputs, self.dt_us
+            )));
+        }
+        self.reset(st, train.t_start_us);
+        for k in 0..train.n_steps() {
+            let t = train.t_start_us + k as i64 * self.dt_us;
+            let (inputs, counts) = train.step(k);
+            for (&i, &c) in inputs.iter().zip(counts) {
+                self.push(st, t, i, c as f32)?;
+            }
+        }
+        self.finish(st, train.t_start_us + train.n_steps() as i64 * self.dt_us);
+        Ok(())
+    }
+
     /// Completes every step up to (not including) the one holding `t_end_us`.
     pub fn finish(&self, st: &mut EngineState, t_end_us: i64) {
         if self.mode == Mode::Stepped {

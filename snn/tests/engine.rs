@@ -199,3 +199,40 @@ fn a_reset_stream_behaves_like_a_fresh_one() {
     let reference = forward_dense(&net, &random_input(2, 20, net.n_inputs(), 0.0075), 20).unwrap();
     assert_eq!(fresh.output_counts(26), reference.output_counts(26));
 }
+
+#[test]
+fn spike_trains_from_the_encoder_run_as_the_dense_reference_does() {
+    use encoders::spike_train::{SpikeTrainConfig, SpikeTrainEncoder};
+    use encoders::{Event, Polarity, Resolution};
+    // Events of a 40x30 sensor pooled by 2 into 2x15x20 inputs, 1 ms steps.
+    let sensor = Resolution::new(40, 30);
+    let enc = SpikeTrainEncoder::new(SpikeTrainConfig { dt_us: 1_000, pool: 2, sensor, mask_cols: None, binary: false }).unwrap();
+    let events: Vec<Event> = (0..3_000u32)
+        .map(|k| Event::new(k as i64 * 7, (k * 13 % 40) as u16, (k * 7 % 30) as u16, Polarity::from_on(k % 3 == 0)))
+        .collect();
+    let train = enc.encode(&events, 0, 21);
+    let conv = Op::Conv2d {
+        in_shape: [2, 15, 20],
+        out_channels: 4,
+        kernel: [3, 3],
+        stride: [2, 2],
+        padding: [1, 1],
+        weight: dense_w(2 * 9, 4, 8, 0.9),
+        bias: None,
+    };
+    let dense = Op::Dense { n_in: 4 * 8 * 10, n_out: 6, weight: dense_w(320, 6, 9, 0.5), bias: None };
+    let net = Network::new(
+        vec![2, 15, 20],
+        vec![layer(conv, Some(NeuronParams::lif(0.85))), layer(dense, Some(NeuronParams::lif(0.9)))],
+    )
+    .unwrap();
+    let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
+    let mut st = engine.state(0);
+    engine.run_train(&mut st, &train).unwrap();
+    let reference = forward_dense(&net, &train.to_dense(), train.n_steps()).unwrap();
+    assert_eq!(st.output_counts(6), reference.output_counts(6));
+    assert!(reference.output_counts(6).iter().sum::<u32>() > 0);
+    let wrong = enc.encode(&events, 0, 3);
+    let small = Engine::new(&net, 500, Mode::Stepped).unwrap();
+    assert!(small.run_train(&mut small.state(0), &wrong).is_err());
+}

@@ -15,6 +15,9 @@ struct Columns {
     count: usize,
 }
 
+/// Columns a line may have.
+const MAX_COLUMNS: usize = 8;
+
 const DEFAULT_COLUMNS: Columns = Columns { t: 0, x: 1, y: 2, p: 3, count: 4 };
 
 /// Streams events from a CSV file, a chunk at a time.
@@ -120,20 +123,30 @@ impl<R: BufRead> Decoder<R> {
             expected: "a header naming the columns t_us, x, y and p".into(),
             found: text.clone(),
         };
-        Ok(Columns {
+        let columns = Columns {
             t: find(&["t_us", "t", "timestamp", "ts"]).ok_or_else(|| missing("t_us"))?,
             x: find(&["x"]).ok_or_else(|| missing("x"))?,
             y: find(&["y"]).ok_or_else(|| missing("y"))?,
             p: find(&["p", "polarity", "on", "pol"]).ok_or_else(|| missing("p"))?,
             count: names.len(),
-        })
+        };
+        if columns.count > MAX_COLUMNS {
+            return Err(Error::Parse {
+                path: self.path.clone(),
+                at: self.at(),
+                field: "header".into(),
+                expected: format!("at most {MAX_COLUMNS} columns"),
+                found: text.clone(),
+            });
+        }
+        Ok(columns)
     }
 
     /// Parses the data line in `self.line` and appends its event.
     fn parse_line(&mut self) -> Result<()> {
         let columns = self.columns.unwrap_or(DEFAULT_COLUMNS);
         let line = trim(&self.line);
-        let mut fields: [&[u8]; 8] = [&[]; 8];
+        let mut fields: [&[u8]; MAX_COLUMNS] = [&[]; MAX_COLUMNS];
         let mut n = 0;
         for f in line.split(|&b| b == b',') {
             if n < fields.len() {
