@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Runs every fuzz target for SECONDS (default 300) with memory limits, from the committed seeds.
+# Needs the nightly toolchain and cargo-fuzz (`cargo install cargo-fuzz`).
+set -euo pipefail
+cd "$(dirname "$0")"
+seconds=${1:-300}
+for target in aedat4_decode csv_decode npy_decode; do
+  mkdir -p "corpus/$target"
+  cargo +nightly fuzz run "$target" "corpus/$target" -- \
+    -max_total_time="$seconds" -rss_limit_mb=1024 -malloc_limit_mb=512 -timeout=10 2>&1 |
+    grep -E "^#[0-9]+ +DONE|^Done [0-9]+ runs|ERROR|panicked|deadly signal|SUMMARY" || true
+done
