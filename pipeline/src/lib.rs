@@ -1,8 +1,12 @@
 //! Words out: from an event stream to labelled character windows (the paper's labeling
-//! pipeline, [`labeling`]). Segmentation, the classifiers behind one interface, the temporal word
-//! filter and spelling come next.
+//! pipeline, [`labeling`]), from per-frame detections to words (the temporal filter,
+//! [`words`]), spelling correction ([`spelling`]) and the paper's word metrics ([`metrics`]).
+//! The segmentation network and the classifiers behind one interface come next.
 
 pub mod error;
 pub mod labeling;
+pub mod metrics;
+pub mod spelling;
+pub mod words;
 
 pub use error::{Error, Result};
