@@ -5,6 +5,7 @@
 
 pub mod error;
 pub mod labeling;
+pub mod lexicon;
 pub mod metrics;
 pub mod spelling;
 pub mod words;
