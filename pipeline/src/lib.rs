@@ -3,6 +3,7 @@
 //! [`words`]), spelling correction ([`spelling`]) and the paper's word metrics ([`metrics`]).
 //! The segmentation network and the classifiers behind one interface come next.
 
+pub mod augment;
 pub mod error;
 pub mod labeling;
 pub mod lexicon;
