@@ -159,3 +159,21 @@ fn truth_times_match_the_motion() {
     assert!((t - enter - tr.fov_width_mm / 2.0 / 16.0).abs() < 1e-9);
     assert_eq!(tr.characters.iter().map(|c| c.letter).collect::<String>(), "AB");
 }
+
+#[test]
+fn trials_in_parallel_equal_trials_one_by_one() {
+    use rayon::prelude::*;
+    let sensor = Sensor::new(
+        CameraConfig { resolution: encoders::Resolution::new(160, 120), ..CameraConfig::default() },
+        GelConfig::default(),
+        2,
+    )
+    .unwrap();
+    let board = text("AB", 7);
+    let scan = |seed: u64| {
+        simulate(&board, &sensor, &ScanConfig { speed_mm_s: 32.0, seed, ..ScanConfig::default() }).unwrap().events
+    };
+    let sequential: Vec<_> = (0..6).map(scan).collect();
+    let parallel: Vec<_> = (0..6u64).into_par_iter().map(scan).collect();
+    assert_eq!(sequential, parallel);
+}

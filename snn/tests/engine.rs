@@ -238,3 +238,27 @@ fn spike_trains_from_the_encoder_run_as_the_dense_reference_does() {
     let small = Engine::new(&net, 500, Mode::Stepped).unwrap();
     assert!(small.run_train(&mut small.state(0), &wrong).is_err());
 }
+
+#[test]
+fn many_streams_in_parallel_give_what_they_give_one_by_one() {
+    use rayon::prelude::*;
+    let net = peers_conv(4, 7.5);
+    let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
+    let n = net.n_inputs();
+    let run = |seed: u64| {
+        let input = random_input(seed, 20, n, 0.0075);
+        let mut st = engine.state(0);
+        for t in 0..20 {
+            for i in 0..n {
+                if input[t * n + i] != 0.0 {
+                    engine.push(&mut st, t as i64 * 1_000, i as u32, 1.0).unwrap();
+                }
+            }
+        }
+        engine.finish(&mut st, 20_000);
+        (st.output, st.stats)
+    };
+    let sequential: Vec<_> = (0..8).map(run).collect();
+    let parallel: Vec<_> = (0..8u64).into_par_iter().map(run).collect();
+    assert_eq!(sequential, parallel);
+}
