@@ -4,21 +4,25 @@ use snn::engine::{Engine, EngineState, Mode};
 use snn::network::{Layer, Network, Op, PoolKind, Record, forward_dense, peers_conv, random_input};
 use snn::neuron::{Discretisation, LifConfig, NeuronParams, Reset};
 
-/// Runs `steps x n` dense input through the engine in stepped mode and returns per-layer spikes
-/// per step, as the reference records them.
-fn run_stepped(net: &Network, input: &[f32], steps: usize, dt_us: i64) -> (Vec<Vec<Vec<u32>>>, EngineState) {
-    let engine = Engine::new(net, dt_us, Mode::Stepped).unwrap();
-    let n = net.n_inputs();
-    let mut st = engine.state(0);
+/// Hands `steps x n` dense input (1 ms steps) to a stream, input by input, and completes it.
+fn feed(engine: &Engine, st: &mut EngineState, input: &[f32], n: usize, steps: usize) {
     for t in 0..steps {
         for i in 0..n {
             let x = input[t * n + i];
             if x != 0.0 {
-                engine.push(&mut st, t as i64 * dt_us + 3, i as u32, x).unwrap();
+                engine.push(st, t as i64 * 1_000 + 3, i as u32, x).unwrap();
             }
         }
     }
-    engine.finish(&mut st, steps as i64 * dt_us);
+    engine.finish(st, steps as i64 * 1_000);
+}
+
+/// Runs `steps x n` dense input through the engine in stepped mode and returns per-layer spikes
+/// per step, as the reference records them.
+fn run_stepped(net: &Network, input: &[f32], steps: usize, dt_us: i64) -> (Vec<Vec<Vec<u32>>>, EngineState) {
+    let engine = Engine::new(net, dt_us, Mode::Stepped).unwrap();
+    let mut st = engine.state(0);
+    feed(&engine, &mut st, input, net.n_inputs(), steps);
     // Only the output layer is recorded by the engine; rebuild per-step lists from it.
     let mut out = vec![Vec::new(); steps];
     for &(t_us, i) in &st.output {
@@ -155,16 +159,7 @@ fn streams_do_not_share_state_and_bad_events_are_refused() {
     let net = peers_conv(2, 5.0);
     let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
     let input = random_input(1, 20, net.n_inputs(), 0.015);
-    let run = |st: &mut EngineState| {
-        for t in 0..20 {
-            for i in 0..net.n_inputs() {
-                if input[t * net.n_inputs() + i] != 0.0 {
-                    engine.push(st, t as i64 * 1_000, i as u32, 1.0).unwrap();
-                }
-            }
-        }
-        engine.finish(st, 20_000);
-    };
+    let run = |st: &mut EngineState| feed(&engine, st, &input, net.n_inputs(), 20);
     let (mut a, mut b) = (engine.state(0), engine.state(0));
     run(&mut a);
     run(&mut b);
@@ -177,23 +172,15 @@ fn streams_do_not_share_state_and_bad_events_are_refused() {
 fn a_reset_stream_behaves_like_a_fresh_one() {
     let net = peers_conv(3, 7.5);
     let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
-    let feed = |st: &mut EngineState, seed: u64| {
-        let input = random_input(seed, 20, net.n_inputs(), 0.0075);
-        for t in 0..20 {
-            for i in 0..net.n_inputs() {
-                if input[t * net.n_inputs() + i] != 0.0 {
-                    engine.push(st, t as i64 * 1_000, i as u32, 1.0).unwrap();
-                }
-            }
-        }
-        engine.finish(st, 20_000);
+    let run = |st: &mut EngineState, seed: u64| {
+        feed(&engine, st, &random_input(seed, 20, net.n_inputs(), 0.0075), net.n_inputs(), 20)
     };
     let mut reused = engine.state(0);
-    feed(&mut reused, 1);
+    run(&mut reused, 1);
     engine.reset(&mut reused, 0);
-    feed(&mut reused, 2);
+    run(&mut reused, 2);
     let mut fresh = engine.state(0);
-    feed(&mut fresh, 2);
+    run(&mut fresh, 2);
     assert_eq!(reused.output, fresh.output);
     assert_eq!(reused.stats, fresh.stats);
     let reference = forward_dense(&net, &random_input(2, 20, net.n_inputs(), 0.0075), 20).unwrap();
@@ -246,16 +233,8 @@ fn many_streams_in_parallel_give_what_they_give_one_by_one() {
     let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
     let n = net.n_inputs();
     let run = |seed: u64| {
-        let input = random_input(seed, 20, n, 0.0075);
         let mut st = engine.state(0);
-        for t in 0..20 {
-            for i in 0..n {
-                if input[t * n + i] != 0.0 {
-                    engine.push(&mut st, t as i64 * 1_000, i as u32, 1.0).unwrap();
-                }
-            }
-        }
-        engine.finish(&mut st, 20_000);
+        feed(&engine, &mut st, &random_input(seed, 20, n, 0.0075), n, 20);
         (st.output, st.stats)
     };
     let sequential: Vec<_> = (0..8).map(run).collect();
