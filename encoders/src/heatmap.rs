@@ -3,6 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::event::{Event, Resolution};
+use crate::pooling::{self, PoolMap};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
@@ -48,28 +49,14 @@ impl HeatmapConfig {
 
     /// The pooled size: each side rounded up, so that every pixel lands in a cell.
     pub fn output(&self) -> Resolution {
-        let p = self.pool.max(1);
-        Resolution::new(self.sensor.width.div_ceil(p), self.sensor.height.div_ceil(p))
+        pooling::pooled(self.sensor, self.pool)
     }
 
     pub fn validate(&self) -> Result<()> {
         if self.bin_us <= 0 {
             return Err(Error::Config(format!("bin_us must be positive, got {}", self.bin_us)));
         }
-        if self.pool == 0 {
-            return Err(Error::Config("pool must be at least 1".into()));
-        }
-        if let Some(m) = &self.mask_cols
-            && (m.start >= m.end || m.end > self.output().width)
-        {
-            return Err(Error::Config(format!(
-                "mask_cols {}..{} must be a non-empty range inside 0..{}",
-                m.start,
-                m.end,
-                self.output().width
-            )));
-        }
-        Ok(())
+        pooling::validate(self.sensor, self.pool, self.mask_cols.as_ref())
     }
 }
 
@@ -120,31 +107,14 @@ impl Heatmap {
 #[derive(Debug, Clone)]
 pub struct HeatmapEncoder {
     config: HeatmapConfig,
-    output: Resolution,
-    /// Pooled column of each sensor column, or `u32::MAX` where masked out.
-    col_of_x: Vec<u32>,
-    /// Offset `row * width` of each sensor row.
-    row_of_y: Vec<u32>,
+    map: PoolMap,
 }
-
-const SKIP: u32 = u32::MAX;
 
 impl HeatmapEncoder {
     pub fn new(config: HeatmapConfig) -> Result<Self> {
         config.validate()?;
-        let output = config.output();
-        let p = config.pool as u32;
-        let col_of_x = (0..config.sensor.width as u32)
-            .map(|x| {
-                let c = x / p;
-                match &config.mask_cols {
-                    Some(m) if !(m.start as u32..m.end as u32).contains(&c) => SKIP,
-                    _ => c,
-                }
-            })
-            .collect();
-        let row_of_y = (0..config.sensor.height as u32).map(|y| (y / p) * output.width as u32).collect();
-        Ok(Self { config, output, col_of_x, row_of_y })
+        let map = PoolMap::new(config.sensor, config.pool, config.mask_cols.as_ref())?;
+        Ok(Self { config, map })
     }
 
     pub fn config(&self) -> &HeatmapConfig {
@@ -152,12 +122,12 @@ impl HeatmapEncoder {
     }
 
     pub fn output(&self) -> Resolution {
-        self.output
+        self.map.output
     }
 
     /// The heat map of `bins` bins starting at `t_start_us`, from events in time order.
     pub fn encode(&self, events: &[Event], t_start_us: i64, bins: usize) -> Heatmap {
-        let mut map = Heatmap::zeros(t_start_us, self.config.bin_us, bins, self.output);
+        let mut map = Heatmap::zeros(t_start_us, self.config.bin_us, bins, self.map.output);
         self.accumulate(events, &mut map);
         map
     }
@@ -169,7 +139,7 @@ impl HeatmapEncoder {
         if map.bins == 0 {
             return;
         }
-        let plane = self.output.width as usize * self.output.height as usize;
+        let plane = self.map.output.pixels();
         let bin_us = map.bin_us;
         let t0 = map.t_start_us;
         let t_end = map.t_end_us();
@@ -189,13 +159,8 @@ impl HeatmapEncoder {
                 lo = t0 + bin as i64 * bin_us;
                 hi = lo + bin_us;
             }
-            let (Some(&col), Some(&row)) = (self.col_of_x.get(e.x as usize), self.row_of_y.get(e.y as usize)) else {
-                continue;
-            };
-            if col == SKIP {
-                continue;
-            }
-            let i = (bin * 2 + e.polarity.index()) * plane + (row + col) as usize;
+            let Some(cell) = self.map.cell(e.x, e.y) else { continue };
+            let i = (bin * 2 + e.polarity.index()) * plane + cell as usize;
             counts[i] += 1.0;
         }
     }

@@ -25,6 +25,7 @@ pub mod error;
 pub mod event;
 pub mod formats;
 pub mod heatmap;
+pub mod pooling;
 pub mod sigma_delta;
 pub mod spike_train;
 pub mod stats;

@@ -6,6 +6,7 @@
 
 use crate::error::{Error, Result};
 use crate::event::{Event, Resolution};
+use crate::pooling::{self, PoolMap};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
@@ -34,8 +35,7 @@ impl SpikeTrainConfig {
     }
 
     pub fn output(&self) -> Resolution {
-        let p = self.pool.max(1);
-        Resolution::new(self.sensor.width.div_ceil(p), self.sensor.height.div_ceil(p))
+        pooling::pooled(self.sensor, self.pool)
     }
 
     /// Number of input neurons: two polarities over the pooled grid.
@@ -88,40 +88,17 @@ impl SpikeTrain {
 #[derive(Debug, Clone)]
 pub struct SpikeTrainEncoder {
     config: SpikeTrainConfig,
-    width: u32,
     plane: u32,
-    col_of_x: Vec<u32>,
-    row_of_y: Vec<u32>,
+    map: PoolMap,
 }
-
-const SKIP: u32 = u32::MAX;
 
 impl SpikeTrainEncoder {
     pub fn new(config: SpikeTrainConfig) -> Result<Self> {
         if config.dt_us <= 0 {
             return Err(Error::Config(format!("dt_us must be positive, got {}", config.dt_us)));
         }
-        if config.pool == 0 {
-            return Err(Error::Config("pool must be at least 1".into()));
-        }
-        let out = config.output();
-        if let Some(m) = &config.mask_cols
-            && (m.start >= m.end || m.end > out.width)
-        {
-            return Err(Error::Config(format!(
-                "mask_cols {}..{} must be a non-empty range inside 0..{}",
-                m.start, m.end, out.width
-            )));
-        }
-        let p = config.pool as u32;
-        let col_of_x = (0..config.sensor.width as u32)
-            .map(|x| match &config.mask_cols {
-                Some(m) if !(m.start as u32..m.end as u32).contains(&(x / p)) => SKIP,
-                _ => x / p,
-            })
-            .collect();
-        let row_of_y = (0..config.sensor.height as u32).map(|y| (y / p) * out.width as u32).collect();
-        Ok(Self { width: out.width as u32, plane: out.pixels() as u32, config, col_of_x, row_of_y })
+        let map = PoolMap::new(config.sensor, config.pool, config.mask_cols.as_ref())?;
+        Ok(Self { plane: map.output.pixels() as u32, config, map })
     }
 
     pub fn config(&self) -> &SpikeTrainConfig {
@@ -131,9 +108,7 @@ impl SpikeTrainEncoder {
     /// The input index of an event, or `None` if it falls outside the sensor or the mask.
     #[inline]
     pub fn input_of(&self, e: &Event) -> Option<u32> {
-        let col = *self.col_of_x.get(e.x as usize)?;
-        let row = *self.row_of_y.get(e.y as usize)?;
-        (col != SKIP).then(|| e.polarity.index() as u32 * self.plane + row + col)
+        self.map.cell(e.x, e.y).map(|cell| e.polarity.index() as u32 * self.plane + cell)
     }
 
     /// The spike train of `steps` steps from `t_start_us`, from events in time order (events out
@@ -175,11 +150,6 @@ impl SpikeTrainEncoder {
             train.offsets.push(train.inputs.len() as u32);
         }
         train
-    }
-
-    /// The width of the pooled grid.
-    pub fn width(&self) -> u32 {
-        self.width
     }
 }
 

@@ -116,12 +116,6 @@ impl LabelerConfig {
     pub fn bin_us(&self, speed_mm_s: f64) -> i64 {
         self.scaled_us(self.bin_ms, speed_mm_s).max(1)
     }
-
-    /// The smoothing kernel at `speed_mm_s`: 7 bins of 10 ms span 70 ms at 8 mm/s; bins scale
-    /// with speed, so the kernel keeps 7 bins.
-    pub fn smoothing(&self) -> usize {
-        self.smoothing_bins
-    }
 }
 
 /// Moving average over `k` bins, centred (the ends average what exists).
@@ -196,7 +190,8 @@ pub fn label(
             raw[((e.t_us - t0) / bin_us) as usize] += 1.0;
         }
     }
-    let profile = moving_average(&raw, cfg.smoothing());
+    // Bins scale with speed, so the 7-bin kernel spans the same distance at every speed.
+    let profile = moving_average(&raw, cfg.smoothing_bins);
     let peak_us: Vec<i64> =
         peaks(&profile, cfg.min_peak_fraction).into_iter().map(|b| t0 + b as i64 * bin_us).collect();
 
