@@ -18,6 +18,94 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// Time a training step instead: batch 32, forward over the 20 steps, BPTT and Adam on burn.
+    #[arg(long)]
+    train: bool,
+    /// Batch size of the training step.
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+}
+
+#[derive(Serialize)]
+struct TrainReport {
+    network: &'static str,
+    batch: usize,
+    steps: usize,
+    ms_per_train_step: f64,
+    ms_per_train_step_min: f64,
+    peak_rss_mb: Option<f64>,
+    peer_pytorch_ms: f64,
+    peer_snntorch_ms: f64,
+    peer_norse_ms: f64,
+}
+
+/// Peak resident memory of this process (Linux), in MB.
+pub fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// A training step of the peer network on burn: forward over 20 steps, BPTT, Adam.
+fn run_train(args: &Args) -> Result<()> {
+    use burn::optim::{AdamConfig, GradientsParams};
+    use burn::tensor::{Device, Int, Tensor, TensorData};
+    use learn::snn::{SnnParams, SnnTwin};
+    use snn::model_file::Readout;
+    use snn::neuron::Surrogate;
+    let net = peers_conv(1, 1.0);
+    let spec = net.spec();
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 25.0 }, Readout::SpikeCount)?;
+    let device = Device::flex().autodiff();
+    let mut params = SnnParams::from_weights(&spec, &net.weights(), &device)?;
+    let mut optim = AdamConfig::new().init();
+    let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
+    let (b, n) = (args.batch.max(1), net.n_inputs());
+    let mut times = Vec::new();
+    for rep in 0..args.repeats.max(1) + 2 {
+        let input: Vec<Tensor<2>> = (0..STEPS)
+            .map(|t| {
+                let x = random_input(rep as u64 * 100 + t as u64, 1, b * n, 0.015);
+                Tensor::<2>::from_data(TensorData::new(x, [b, n]), &device)
+            })
+            .collect();
+        let y: Vec<i64> = (0..b as i64).map(|i| i % 26).collect();
+        let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
+        let start = Instant::now();
+        let out = twin.forward(&params, &input);
+        let loss = loss_fn.forward(out.logits, y);
+        let grads = GradientsParams::from_grads(loss.backward(), &params);
+        params = optim.step(1e-3, params, grads);
+        if rep >= 2 {
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let r = TrainReport {
+        network: "peers conv SNN (as `braille bench`), rate-coded cross-entropy, fast-sigmoid surrogate",
+        batch: b,
+        steps: STEPS,
+        ms_per_train_step: times[times.len() / 2],
+        ms_per_train_step_min: times[0],
+        peak_rss_mb: peak_rss_mb(),
+        peer_pytorch_ms: 59.6,
+        peer_snntorch_ms: 97.1,
+        peer_norse_ms: 78.1,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "training step (batch {}, {} steps, BPTT + Adam on burn flex): {:.1} ms median, {:.1} ms best; peak RSS {:.0} MB; peers: PyTorch 59.6, snnTorch 97.1, Norse 78.1 ms",
+            r.batch,
+            r.steps,
+            r.ms_per_train_step,
+            r.ms_per_train_step_min,
+            r.peak_rss_mb.unwrap_or(f64::NAN)
+        );
+    }
+    Ok(())
 }
 
 /// The weight scale that gives the peers' work per sample (about 330 k synaptic events).
@@ -56,6 +144,9 @@ pub fn sample_events(seed: u64, n_inputs: usize) -> Vec<(i64, u32)> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.train {
+        return run_train(&args);
+    }
     let net = peers_conv(1, PEER_GAIN);
     let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
     let samples: Vec<Vec<(i64, u32)>> =

@@ -4,11 +4,14 @@
 mod bench;
 mod convert;
 mod demo;
+mod eval;
+mod icub_report;
 mod info;
 mod label_check;
 mod plot;
 mod sim_check;
 mod simulate;
+mod train;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -41,6 +44,12 @@ enum Command {
     Plot(plot::Args),
     /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
     Bench(bench::Args),
+    /// Train a classifier (the SNN on a tactile dataset folder) and save it as a model file.
+    Train(train::Args),
+    /// A trained model's accuracy on a dataset folder's split, on the event-driven engine.
+    Eval(eval::Args),
+    /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
+    IcubReport(icub_report::Args),
     /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
     /// AEDAT4, read back, and binned into heat maps.
     Demo(demo::Args),
@@ -57,6 +66,9 @@ fn main() -> ExitCode {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::LabelCheck(a) => label_check::run(a),
+        Command::Train(a) => train::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::IcubReport(a) => icub_report::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

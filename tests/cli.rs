@@ -223,3 +223,36 @@ fn bench_reports_the_engines_speed() {
     let events = v["input_events_per_sample"].as_f64().unwrap();
     assert!((1300.0..1600.0).contains(&events), "1.5% of 4800 pixels x 20 steps: {events}");
 }
+
+#[test]
+fn train_and_eval_an_snn_on_a_dataset_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("snn.safetensors");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
+    let m = model.to_str().unwrap();
+    let args = ["train", "--data", data.to_str().unwrap(), "--epochs", "1", "--hidden", "16", "--quiet", "--out", m];
+    let o = braille(&args);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("test accuracy on the event-driven engine"), "{err}");
+    // no overwrite without --force
+    let o = braille(&args);
+    assert!(!o.status.success() && text(&o).1.contains("--force"));
+    let o = braille(&["eval", "--data", data.to_str().unwrap(), "--split", "test", "--model", m, "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["n"], 1080);
+    let acc = v["accuracy"].as_f64().unwrap();
+    // 27 classes: one epoch of a small network is already well above chance (3.7%)
+    assert!(acc > 0.08 && acc <= 1.0, "accuracy {acc}");
+    // a file that is not a model: the file is named
+    let bogus = dir.path().join("bogus.safetensors");
+    std::fs::write(&bogus, b"not a model").unwrap();
+    let o = braille(&["eval", "--data", data.to_str().unwrap(), "--model", bogus.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(
+        !o.status.success() && err.contains("bogus.safetensors") && err.contains("not a safetensors model file"),
+        "{err}"
+    );
+}

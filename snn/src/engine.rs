@@ -108,6 +108,8 @@ struct Compiled {
     rec_t: Option<Vec<f32>>,
     /// Every neuron is evaluated every step (bias, or a resting level above threshold).
     every_step: bool,
+    /// A leaky-integrator readout: keep each neuron's highest membrane.
+    track_max: bool,
     /// Async mode: per-microsecond decay factors.
     decay_table: Vec<f32>,
     ln_beta_per_us: f64,
@@ -138,6 +140,8 @@ struct LayerState {
     /// This step's spikes (or, for identity layers, outputs that carry a value in `values`).
     spikes: Vec<u32>,
     values: Vec<f32>,
+    /// Leaky-integrator readouts: `max(0, highest membrane so far)` per neuron.
+    v_max: Vec<f32>,
     /// The previous step's spikes, for the recurrent input.
     prev: Vec<u32>,
     /// Scratch: the slots to evaluate this step.
@@ -164,6 +168,13 @@ pub struct EngineState {
 }
 
 impl EngineState {
+    /// A leaky-integrator output layer's readout: per neuron, the highest membrane reached at a
+    /// step boundary (stepped) or after an input (async), and at least 0. Empty when the output
+    /// layer spikes.
+    pub fn output_v_max(&self) -> &[f32] {
+        self.layers.last().map_or(&[], |l| &l.v_max)
+    }
+
     /// Spike counts of the output layer.
     pub fn output_counts(&self, n: usize) -> Vec<u32> {
         let mut c = vec![0; n];
@@ -219,6 +230,7 @@ impl Engine {
                     rec_pending: false,
                     spikes: Vec::new(),
                     values: Vec::new(),
+                    v_max: vec![0.0; if l.track_max { l.n_out } else { 0 }],
                     prev: Vec::new(),
                     order: Vec::new(),
                 }
@@ -249,6 +261,7 @@ impl Engine {
             s.prev.clear();
             s.spikes.clear();
             s.values.clear();
+            s.v_max.iter_mut().for_each(|v| *v = 0.0);
             if self.mode == Mode::Async {
                 s.v.iter_mut().for_each(|v| *v = 0.0);
                 s.i.iter_mut().for_each(|v| *v = 0.0);
@@ -417,7 +430,10 @@ impl Engine {
                         updates += 1;
                     }
                     s.v[o] += x * w;
-                    if s.v[o] > p.v_th {
+                    if let Some(m) = s.v_max.get_mut(o) {
+                        *m = m.max(s.v[o]);
+                    }
+                    if s.v[o] > p.threshold() {
                         s.v[o] = match p.reset {
                             crate::neuron::Reset::Zero => p.v_reset,
                             crate::neuron::Reset::Subtract => s.v[o] - p.v_th,
@@ -531,7 +547,7 @@ fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         t
     });
     let p = l.neurons;
-    let every_step = l.op.bias().is_some() || p.is_some_and(|p| p.v_leak > p.v_th);
+    let every_step = l.op.bias().is_some() || p.is_some_and(|p| p.v_leak > p.threshold());
     let (mut decay_table, mut ln_beta_per_us) = (Vec::new(), 0.0);
     if mode == Mode::Async
         && let Some(p) = p
@@ -552,6 +568,7 @@ fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         bias: l.op.bias().map(<[f32]>::to_vec),
         rec_t,
         every_step,
+        track_max: p.is_some_and(|p| p.kind == NeuronKind::Li),
         decay_table,
         ln_beta_per_us,
     })
@@ -813,7 +830,7 @@ fn update_position(
                 out[ch].push((pos as u32, 1.0));
             }
             let drive = if cuba { p.alpha * i[ch] } else { 0.0 };
-            carry |= p.beta * v[ch] + p.leak_term() + drive > p.v_th || (cuba && i[ch] != 0.0);
+            carry |= p.beta * v[ch] + p.leak_term() + drive > p.threshold() || (cuba && i[ch] != 0.0);
         }
         carry
     };
@@ -834,7 +851,7 @@ fn lif_position(
     pos: u32,
     out: &mut [Vec<(u32, f32)>],
 ) -> bool {
-    let (beta, leak, th, v_reset) = (p.beta, p.leak_term(), p.v_th, p.v_reset);
+    let (beta, leak, th, v_reset) = (p.beta, p.leak_term(), p.threshold(), p.v_reset);
     for _ in 0..behind.max(0) {
         for x in v.iter_mut() {
             *x = beta * *x + leak + 0.0;
@@ -909,10 +926,13 @@ fn update(
     if p.step(&mut s.i[o], &mut s.v[o], u) {
         s.spikes.push(o as u32);
     }
+    if c.track_max {
+        s.v_max[o] = s.v_max[o].max(s.v[o]);
+    }
     // Could this neuron fire next step without input? Then look at it again.
     let cuba = p.kind == NeuronKind::CubaLif;
     let drive = if cuba { p.alpha * s.i[o] } else { 0.0 };
-    if p.beta * s.v[o] + p.leak_term() + drive > p.v_th || (cuba && s.i[o] != 0.0) {
+    if p.beta * s.v[o] + p.leak_term() + drive > p.threshold() || (cuba && s.i[o] != 0.0) {
         s.carry.insert(o);
     }
 }

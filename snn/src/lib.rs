@@ -21,7 +21,9 @@
 
 pub mod engine;
 pub mod error;
+pub mod model_file;
 pub mod network;
 pub mod neuron;
+pub mod spec;
 
 pub use error::{Error, Result};

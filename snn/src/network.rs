@@ -238,6 +238,14 @@ impl Network {
             {
                 return Err(Error::Network(format!("layer {k}: recurrent weights need neurons and {n}x{n} values")));
             }
+            if let Some(p) = &l.neurons
+                && p.kind == crate::neuron::NeuronKind::Li
+                && (k + 1 != self.layers.len() || matches!(l.op, Op::Conv2d { .. }) || l.recurrent.is_some())
+            {
+                return Err(Error::Network(format!(
+                    "layer {k}: leaky integrators (non-spiking) are a readout: the last layer, dense or pooled, not recurrent"
+                )));
+            }
             if let Some(p) = &l.neurons {
                 let finite = [p.alpha, p.beta, p.v_th, p.v_reset, p.v_leak].iter().all(|v| v.is_finite());
                 if !finite || !(0.0..=1.0).contains(&p.beta) || !(0.0..=1.0).contains(&p.alpha) {
@@ -263,6 +271,8 @@ pub struct Record {
     pub spikes: Vec<Vec<Vec<u32>>>,
     /// Per layer, the membrane after the last step.
     pub v: Vec<Vec<f32>>,
+    /// A leaky-integrator output layer's readout: `max(0, highest membrane over the steps)`.
+    pub v_max: Vec<f32>,
 }
 
 impl Record {
@@ -290,7 +300,11 @@ pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Recor
     let mut v: Vec<Vec<f32>> = net.layers.iter().map(|l| vec![0.0; l.op.n_out()]).collect();
     let mut cur: Vec<Vec<f32>> = v.clone();
     let mut prev_spikes: Vec<Vec<f32>> = v.clone();
-    let mut record = Record { spikes: vec![Vec::with_capacity(steps); net.layers.len()], v: Vec::new() };
+    let mut record = Record { spikes: vec![Vec::with_capacity(steps); net.layers.len()], ..Record::default() };
+    let last = net.layers.len() - 1;
+    if net.layers[last].neurons.is_some_and(|p| p.kind == crate::neuron::NeuronKind::Li) {
+        record.v_max = vec![0.0; net.layers[last].op.n_out()];
+    }
     for t in 0..steps {
         let mut x: Vec<f32> = input[t * n_in..(t + 1) * n_in].to_vec();
         for (k, layer) in net.layers.iter().enumerate() {
@@ -326,6 +340,11 @@ pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Recor
                         if p.step(&mut cur[k][j], &mut v[k][j], acc[j]) {
                             out[j] = 1.0;
                             fired.push(j as u32);
+                        }
+                    }
+                    if k == last && !record.v_max.is_empty() {
+                        for (m, &vj) in record.v_max.iter_mut().zip(&v[k]) {
+                            *m = m.max(vj);
                         }
                     }
                     record.spikes[k].push(fired);

@@ -54,6 +54,9 @@ pub enum NeuronKind {
     Lif,
     CubaLif,
     If,
+    /// Leaky integrator: a LIF membrane that never fires (NIR's `LI`), the readout of
+    /// max-membrane classifiers.
+    Li,
 }
 
 /// How continuous time constants become per-step factors.
@@ -161,6 +164,17 @@ impl NeuronParams {
         self
     }
 
+    /// The level above which the membrane fires: `v_th`, or infinity for a leaky integrator.
+    #[inline]
+    pub fn threshold(&self) -> f32 {
+        if self.kind == NeuronKind::Li { f32::INFINITY } else { self.v_th }
+    }
+
+    /// A leaky integrator (never fires) with decay `beta`.
+    pub fn leaky_integrator(beta: f32) -> Self {
+        Self { kind: NeuronKind::Li, ..Self::lif(beta) }
+    }
+
     /// `(1 - beta) * v_leak`, the constant pull towards the resting level per step.
     #[inline]
     pub fn leak_term(&self) -> f32 {
@@ -178,7 +192,7 @@ impl NeuronParams {
             _ => u,
         };
         *v = self.beta * *v + self.leak_term() + drive;
-        let spike = *v > self.v_th;
+        let spike = *v > self.threshold();
         if spike {
             *v = match self.reset {
                 Reset::Zero => self.v_reset,

@@ -241,3 +241,61 @@ fn many_streams_in_parallel_give_what_they_give_one_by_one() {
     let parallel: Vec<_> = (0..8u64).into_par_iter().map(run).collect();
     assert_eq!(sequential, parallel);
 }
+
+#[test]
+fn leaky_integrator_readout_equals_dense_in_both_modes() {
+    // recurrent CubaLIF hidden layer, then a leaky-integrator readout (never fires)
+    let hidden = Layer {
+        op: Op::Dense { n_in: 30, n_out: 16, weight: dense_w(30, 16, 11, 1.4), bias: None },
+        neurons: Some(NeuronParams::cuba_lif(0.7, 0.9).with_reset(Reset::Subtract)),
+        recurrent: Some(dense_w(16, 16, 12, 0.5)),
+    };
+    let readout = layer(
+        Op::Dense { n_in: 16, n_out: 6, weight: dense_w(16, 6, 13, 2.0), bias: None },
+        Some(NeuronParams::leaky_integrator(0.95)),
+    );
+    let net = Network::new(vec![30], vec![hidden, readout]).unwrap();
+    for seed in 0..4 {
+        let input = random_input(200 + seed, 50, 30, 0.1);
+        let reference = forward_dense(&net, &input, 50).unwrap();
+        assert_eq!(reference.v_max.len(), 6);
+        assert!(reference.v_max.iter().any(|&v| v > 0.0), "the readout must rise");
+        assert!(reference.spikes[1].iter().all(Vec::is_empty), "a leaky integrator never fires");
+        let (out, st) = run_stepped(&net, &input, 50, 1_000);
+        assert!(out[0].iter().all(Vec::is_empty));
+        assert_eq!(st.output_v_max(), &reference.v_max[..], "stepped readout differs");
+    }
+    // async mode: a feed-forward LIF layer into the readout; the maximum follows the membrane
+    // after each input, which stepped mode sees at step ends
+    let ff = Network::new(
+        vec![30],
+        vec![
+            layer(
+                Op::Dense { n_in: 30, n_out: 16, weight: dense_w(30, 16, 11, 1.4), bias: None },
+                Some(NeuronParams::lif(0.9)),
+            ),
+            layer(
+                Op::Dense { n_in: 16, n_out: 6, weight: dense_w(16, 6, 13, 2.0), bias: None },
+                Some(NeuronParams::leaky_integrator(0.95)),
+            ),
+        ],
+    )
+    .unwrap();
+    let engine = Engine::new(&ff, 1_000, Mode::Async).unwrap();
+    let mut st = engine.state(0);
+    let input = random_input(300, 50, 30, 0.1);
+    feed(&engine, &mut st, &input, 30, 50);
+    assert!(st.output_v_max().iter().any(|&v| v > 0.0));
+    // a leaky integrator is a readout only: not in the middle of a network
+    let bad = Network::new(
+        vec![4],
+        vec![
+            layer(
+                Op::Dense { n_in: 4, n_out: 4, weight: vec![0.1; 16], bias: None },
+                Some(NeuronParams::leaky_integrator(0.9)),
+            ),
+            layer(Op::Dense { n_in: 4, n_out: 2, weight: vec![0.1; 8], bias: None }, Some(NeuronParams::lif(0.9))),
+        ],
+    );
+    assert!(bad.unwrap_err().to_string().contains("readout"));
+}

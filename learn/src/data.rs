@@ -1,0 +1,162 @@
+//! Labelled spike trains for training and evaluation, and how they were encoded (recorded in
+//! the model file so that evaluation encodes its input the same way).
+
+use encoders::dataset::{Dataset, SampleData, Split};
+use encoders::sigma_delta::{self, SigmaDeltaConfig};
+use encoders::spike_train::{SpikeTrain, SpikeTrainConfig, SpikeTrainEncoder};
+use serde::{Deserialize, Serialize};
+
+/// How a tactile dataset (a folder in the layout of [`encoders::dataset`]) becomes input spikes:
+/// analog frames through the sigma-delta encoder, events as they are; then per step of `dt_us`,
+/// input `polarity * channels + channel` (OFF first), counts of events, `steps` steps from the
+/// sample's start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TactileEncoding {
+    pub channels: usize,
+    /// Analog data only.
+    pub sigma_delta: Option<SigmaDeltaConfig>,
+    /// Sampling period of analog data.
+    pub period_us: i64,
+    pub dt_us: i64,
+    pub steps: usize,
+}
+
+/// Labelled spike trains, all of the same input size and step.
+#[derive(Debug, Clone)]
+pub struct SpikeSet {
+    pub n_inputs: usize,
+    pub steps: usize,
+    pub dt_us: i64,
+    pub classes: Vec<String>,
+    pub trains: Vec<SpikeTrain>,
+    pub labels: Vec<usize>,
+    /// Events that fell after the last step (dropped), in all.
+    pub dropped_events: u64,
+}
+
+impl SpikeSet {
+    pub fn len(&self) -> usize {
+        self.labels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.labels.is_empty()
+    }
+
+    /// The samples at `idx`, in that order.
+    pub fn subset(&self, idx: &[usize]) -> SpikeSet {
+        SpikeSet {
+            trains: idx.iter().map(|&i| self.trains[i].clone()).collect(),
+            labels: idx.iter().map(|&i| self.labels[i]).collect(),
+            ..self.empty_like()
+        }
+    }
+
+    fn empty_like(&self) -> SpikeSet {
+        SpikeSet {
+            n_inputs: self.n_inputs,
+            steps: self.steps,
+            dt_us: self.dt_us,
+            classes: self.classes.clone(),
+            trains: Vec::new(),
+            labels: Vec::new(),
+            dropped_events: 0,
+        }
+    }
+
+    /// A stratified split: about `fraction` of each class (at least one where a class has two or
+    /// more samples) goes to the second set, chosen by `seed`.
+    pub fn stratified_split(&self, fraction: f64, seed: u64) -> (SpikeSet, SpikeSet) {
+        use rand::SeedableRng;
+        use rand::seq::SliceRandom;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (mut keep, mut held) = (Vec::new(), Vec::new());
+        for c in 0..self.classes.len() {
+            let mut idx: Vec<usize> = (0..self.len()).filter(|&i| self.labels[i] == c).collect();
+            idx.shuffle(&mut rng);
+            let n = if idx.len() >= 2 { ((idx.len() as f64 * fraction).round() as usize).max(1) } else { 0 };
+            held.extend_from_slice(&idx[..n]);
+            keep.extend_from_slice(&idx[n..]);
+        }
+        keep.sort_unstable();
+        held.sort_unstable();
+        (self.subset(&keep), self.subset(&held))
+    }
+}
+
+/// The events of `sample` (sigma-delta encoded when analog).
+fn sample_events(
+    data: &Dataset,
+    sample: &encoders::dataset::Sample,
+    enc: &TactileEncoding,
+) -> encoders::Result<Vec<encoders::event::Event>> {
+    match &sample.data {
+        SampleData::Events(ev) => Ok(ev.clone()),
+        SampleData::Analog { frames } => {
+            let sd = enc.sigma_delta.clone().unwrap_or_default();
+            sigma_delta::encode(&sd, frames, data.channels, enc.period_us).map_err(|e| match e {
+                encoders::Error::Config(m) => encoders::Error::Config(format!("sample {}: {m}", sample.id)),
+                other => other,
+            })
+        }
+    }
+}
+
+impl TactileEncoding {
+    /// The encoding for `data` with step `dt_us`, sized to its longest sample.
+    pub fn fit(data: &Dataset, sigma_delta: SigmaDeltaConfig, dt_us: i64) -> encoders::Result<TactileEncoding> {
+        let mut enc = TactileEncoding {
+            channels: data.channels,
+            sigma_delta: (data.kind == encoders::dataset::DatasetKind::Analog).then_some(sigma_delta),
+            period_us: data.period_us,
+            dt_us,
+            steps: 0,
+        };
+        let mut end = 0i64;
+        for s in &data.samples {
+            end = end.max(match &s.data {
+                SampleData::Events(ev) => ev.last().map_or(0, |e| e.t_us + 1),
+                SampleData::Analog { frames } => (frames.len() / data.channels.max(1)) as i64 * data.period_us,
+            });
+        }
+        enc.steps = (end.max(1) as u64).div_ceil(dt_us as u64) as usize;
+        Ok(enc)
+    }
+
+    pub fn n_inputs(&self) -> usize {
+        2 * self.channels
+    }
+
+    /// Encodes the samples of `split` (all samples for `None`).
+    pub fn encode(&self, data: &Dataset, split: Option<Split>) -> encoders::Result<SpikeSet> {
+        if data.channels != self.channels {
+            return Err(encoders::Error::Config(format!(
+                "{}: {} channels, the model was trained on {}",
+                data.dir.display(),
+                data.channels,
+                self.channels
+            )));
+        }
+        let mut cfg = SpikeTrainConfig::new(data.resolution());
+        cfg.dt_us = self.dt_us;
+        cfg.pool = 1;
+        let encoder = SpikeTrainEncoder::new(cfg)?;
+        let mut set = SpikeSet {
+            n_inputs: self.n_inputs(),
+            steps: self.steps,
+            dt_us: self.dt_us,
+            classes: data.classes.clone(),
+            trains: Vec::new(),
+            labels: Vec::new(),
+            dropped_events: 0,
+        };
+        for s in data.samples.iter().filter(|s| split.is_none_or(|sp| s.split == sp)) {
+            let events = sample_events(data, s, self)?;
+            let train = encoder.encode(&events, 0, self.steps);
+            set.dropped_events += events.len() as u64 - train.total();
+            set.trains.push(train);
+            set.labels.push(s.label);
+        }
+        Ok(set)
+    }
+}

@@ -1,0 +1,296 @@
+//! The SNN's time-stepped twin on burn, for backpropagation through time with surrogate
+//! gradients. It runs the same discrete update as [`snn::neuron::NeuronParams::step`] (and so as
+//! the event-driven engine in stepped mode), on dense tensors of a batch:
+//!
+//! ```text
+//! u[t] = op(x[t]) (+ bias) (+ R z[t-1])          the layer's input
+//! i[t] = alpha i[t-1] + u[t]                      CubaLIF only
+//! v'[t] = beta v[t-1] + (1 - beta) v_leak + i[t]  (IF: beta = 1)
+//! z[t] = H(v'[t] - v_th)                          forward: the step; backward: the surrogate
+//! v[t] = v_reset where z[t] (Zero) or v'[t] - v_th z[t] (Subtract); the reset is detached
+//! ```
+//!
+//! A leaky-integrator output layer never fires; its readout is `max(0, max_t v[t])`, what the
+//! engine's [`snn::engine::EngineState::output_v_max`] keeps.
+
+use burn::module::{Module, Param};
+use burn::tensor::module::{avg_pool2d, conv2d};
+use burn::tensor::ops::{AvgPoolOptions, ConvOptions};
+use burn::tensor::{Device, Tensor, TensorData};
+use snn::model_file::Readout;
+use snn::network::{Network, PoolKind};
+use snn::neuron::{NeuronKind, NeuronParams, Reset, Surrogate};
+use snn::spec::{LayerShapes, LayerWeights, NetworkSpec, OpSpec};
+
+/// One layer's trainable tensors. Dense and recurrent weights are kept `[in, out]` (burn's
+/// layout, transposed against the engine's `[out, in]`).
+#[derive(Module, Debug)]
+pub struct LayerParams {
+    pub dense: Option<Param<Tensor<2>>>,
+    pub conv: Option<Param<Tensor<4>>>,
+    pub bias: Option<Param<Tensor<1>>>,
+    pub recurrent: Option<Param<Tensor<2>>>,
+}
+
+#[derive(Module, Debug)]
+pub struct SnnParams {
+    pub layers: Vec<LayerParams>,
+}
+
+fn transpose(w: &[f32], rows: usize, cols: usize) -> Vec<f32> {
+    let mut t = vec![0.0; w.len()];
+    for r in 0..rows {
+        for c in 0..cols {
+            t[c * rows + r] = w[r * cols + c];
+        }
+    }
+    t
+}
+
+fn values<const D: usize>(t: &Tensor<D>) -> Vec<f32> {
+    t.to_data().convert::<f32>().try_into_vec::<f32>().expect("float tensors read back as f32")
+}
+
+impl SnnParams {
+    /// Parameters holding `weights` (engine layouts), on `device`.
+    pub fn from_weights(spec: &NetworkSpec, weights: &[LayerWeights], device: &Device) -> snn::Result<SnnParams> {
+        let shapes = spec.shapes()?;
+        // building checks every length against the spec
+        spec.build(weights.to_vec())?;
+        let layers = shapes
+            .iter()
+            .zip(weights)
+            .zip(&spec.layers)
+            .map(|((s, w), l)| {
+                let p2 = |data: Vec<f32>, shape: [usize; 2]| {
+                    Param::from_tensor(Tensor::<2>::from_data(TensorData::new(data, shape), device))
+                };
+                let (dense, conv) = match l.op {
+                    OpSpec::Dense { .. } => {
+                        let (o, i) = (s.weight[0], s.weight[1]);
+                        (Some(p2(transpose(&w.weight, o, i), [i, o])), None)
+                    }
+                    OpSpec::Conv2d { .. } => {
+                        let shape: [usize; 4] = s.weight.clone().try_into().expect("conv weights are 4-d");
+                        let t = Tensor::<4>::from_data(TensorData::new(w.weight.clone(), shape), device);
+                        (None, Some(Param::from_tensor(t)))
+                    }
+                    OpSpec::Pool { .. } => (None, None),
+                };
+                let bias = w
+                    .bias
+                    .as_ref()
+                    .map(|b| Param::from_tensor(Tensor::<1>::from_data(TensorData::new(b.clone(), [b.len()]), device)));
+                let recurrent = w.recurrent.as_ref().map(|r| {
+                    let n = s.recurrent[0];
+                    p2(transpose(r, n, n), [n, n])
+                });
+                LayerParams { dense, conv, bias, recurrent }
+            })
+            .collect();
+        Ok(SnnParams { layers })
+    }
+
+    /// The weights in engine layouts.
+    pub fn weights(&self, spec: &NetworkSpec) -> snn::Result<Vec<LayerWeights>> {
+        let shapes = spec.shapes()?;
+        Ok(self
+            .layers
+            .iter()
+            .zip(&shapes)
+            .map(|(p, s)| LayerWeights {
+                weight: match (&p.dense, &p.conv) {
+                    (Some(d), _) => transpose(&values(&d.val()), s.weight[1], s.weight[0]),
+                    (_, Some(c)) => values(&c.val()),
+                    _ => Vec::new(),
+                },
+                bias: p.bias.as_ref().map(|b| values(&b.val())),
+                recurrent: p.recurrent.as_ref().map(|r| {
+                    let n = s.recurrent[0];
+                    transpose(&values(&r.val()), n, n)
+                }),
+            })
+            .collect())
+    }
+
+    /// The network the engine runs.
+    pub fn network(&self, spec: &NetworkSpec) -> snn::Result<Network> {
+        spec.build(self.weights(spec)?)
+    }
+}
+
+/// What a forward pass gives.
+pub struct Forward {
+    /// `[batch, classes]`: spike counts or max membranes.
+    pub logits: Tensor<2>,
+    /// Spikes per layer with spiking neurons, summed over batch and time (for monitoring).
+    pub spikes: Vec<Tensor<1>>,
+}
+
+/// The time-stepped network on burn.
+#[derive(Debug, Clone)]
+pub struct SnnTwin {
+    pub spec: NetworkSpec,
+    pub shapes: Vec<LayerShapes>,
+    pub surrogate: Surrogate,
+    pub readout: Readout,
+}
+
+/// The spike: the step forward, `d(x)` backward (`x * d(x).detach()` carries the gradient; its
+/// value cancels exactly).
+fn spike(x: Tensor<2>, surrogate: Surrogate) -> Tensor<2> {
+    let xd = x.clone().detach();
+    let d = match surrogate {
+        Surrogate::FastSigmoid { slope } => (xd.clone().abs() * slope + 1.0).powi_scalar(2).recip(),
+        Surrogate::Arctan { alpha } => {
+            let a = xd.clone() * (std::f32::consts::PI * alpha / 2.0);
+            (a.clone() * a + 1.0).recip() * (alpha / 2.0)
+        }
+        Surrogate::Triangle { width } => (xd.clone().abs() * (-1.0 / width) + 1.0).clamp_min(0.0) / width,
+    };
+    let hard = xd.greater_elem(0.0).float();
+    let soft = x * d;
+    hard + soft.clone() - soft.detach()
+}
+
+impl SnnTwin {
+    pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout) -> snn::Result<SnnTwin> {
+        let shapes = spec.shapes()?;
+        let last = spec.layers.last().and_then(|l| l.neurons).map(|p| p.kind);
+        match (readout, last) {
+            (Readout::MaxMembrane, Some(NeuronKind::Li)) => {}
+            (Readout::SpikeCount, Some(k)) if k != NeuronKind::Li => {}
+            _ => {
+                return Err(snn::Error::Network(format!(
+                    "readout {readout:?} does not fit an output layer of {last:?} neurons"
+                )));
+            }
+        }
+        Ok(SnnTwin { spec, shapes, surrogate, readout })
+    }
+
+    /// Runs `input`: one `[batch, n_inputs]` tensor per step.
+    pub fn forward(&self, params: &SnnParams, input: &[Tensor<2>]) -> Forward {
+        let steps = input.len();
+        let n_layers = self.spec.layers.len();
+        let batch = input.first().map_or(0, |x| x.dims()[0]);
+        let device = input.first().map(|x| x.device()).unwrap_or_default();
+        let zeros = |n: usize| Tensor::<2>::zeros([batch, n], &device);
+        let mut v: Vec<Option<Tensor<2>>> = vec![None; n_layers];
+        let mut cur: Vec<Option<Tensor<2>>> = vec![None; n_layers];
+        let mut prev: Vec<Option<Tensor<2>>> = vec![None; n_layers];
+        let mut counts: Vec<Option<Tensor<2>>> = vec![None; n_layers];
+        let mut out_v: Vec<Tensor<2>> = Vec::new();
+        for x_t in input {
+            let mut x = x_t.clone();
+            for (k, ((l, s), p)) in self.spec.layers.iter().zip(&self.shapes).zip(&params.layers).enumerate() {
+                let mut u = self.op(l.op, s, p, x, batch);
+                let Some(np) = l.neurons else {
+                    x = u;
+                    continue;
+                };
+                if let (Some(r), Some(z)) = (&p.recurrent, &prev[k]) {
+                    u = u + z.clone().matmul(r.val());
+                }
+                let n = u.dims()[1];
+                let drive = match np.kind {
+                    NeuronKind::CubaLif => {
+                        let i = match cur[k].take() {
+                            Some(i) => i * np.alpha + u,
+                            None => u,
+                        };
+                        cur[k] = Some(i.clone());
+                        i
+                    }
+                    _ => u,
+                };
+                let vk = v[k].take().unwrap_or_else(|| zeros(n));
+                // the engine's order: beta v + leak + drive
+                let leak = np.leak_term();
+                let mut vn = vk * np.beta;
+                if leak != 0.0 {
+                    vn = vn + leak;
+                }
+                let vn = vn + drive;
+                if np.kind == NeuronKind::Li {
+                    out_v.push(vn.clone());
+                    v[k] = Some(vn.clone());
+                    x = vn;
+                    continue;
+                }
+                let z = spike(vn.clone() - np.v_th, self.surrogate);
+                let zd = z.clone().detach();
+                v[k] = Some(reset(vn, zd, &np));
+                counts[k] = Some(match counts[k].take() {
+                    Some(c) => c + z.clone(),
+                    None => z.clone(),
+                });
+                if l.recurrent {
+                    prev[k] = Some(z.clone());
+                }
+                x = z;
+            }
+        }
+        let logits = match self.readout {
+            Readout::SpikeCount => counts[n_layers - 1].clone().unwrap_or_else(|| zeros(self.n_outputs())),
+            Readout::MaxMembrane => {
+                if steps == 0 {
+                    zeros(self.n_outputs())
+                } else {
+                    Tensor::stack::<3>(out_v, 0).max_dim(0).squeeze_dim::<2>(0).clamp_min(0.0)
+                }
+            }
+        };
+        let spikes = counts.into_iter().flatten().map(|c| c.sum_dim(0).squeeze_dim::<1>(0)).collect();
+        Forward { logits, spikes }
+    }
+
+    pub fn n_outputs(&self) -> usize {
+        self.shapes.last().map_or(0, |s| s.output.iter().product())
+    }
+
+    fn op(&self, op: OpSpec, s: &LayerShapes, p: &LayerParams, x: Tensor<2>, batch: usize) -> Tensor<2> {
+        let chw = |x: Tensor<2>| x.reshape([batch, s.input[0], s.input[1], s.input[2]]);
+        let n_out: usize = s.output.iter().product();
+        match op {
+            OpSpec::Dense { .. } => {
+                let w = p.dense.as_ref().expect("dense layers have weights").val();
+                let y = x.matmul(w);
+                match &p.bias {
+                    Some(b) => y + b.val().unsqueeze_dim::<2>(0),
+                    None => y,
+                }
+            }
+            OpSpec::Conv2d { stride, padding, .. } => {
+                let w = p.conv.as_ref().expect("conv layers have weights").val();
+                let y =
+                    conv2d(chw(x), w, p.bias.as_ref().map(|b| b.val()), ConvOptions::new(stride, padding, [1, 1], 1));
+                y.reshape([batch, n_out])
+            }
+            OpSpec::Pool { kind, kernel, stride } => {
+                let opts = AvgPoolOptions {
+                    kernel_size: kernel,
+                    stride,
+                    padding: [(0, 0); 2],
+                    count_include_pad: true,
+                    ceil_mode: false,
+                };
+                let y = avg_pool2d(chw(x), opts).reshape([batch, n_out]);
+                match kind {
+                    PoolKind::Avg => y,
+                    PoolKind::Sum => y * (kernel[0] * kernel[1]) as f32,
+                }
+            }
+        }
+    }
+}
+
+fn reset(v: Tensor<2>, z: Tensor<2>, p: &NeuronParams) -> Tensor<2> {
+    match p.reset {
+        Reset::Subtract => v - z * p.v_th,
+        Reset::Zero => {
+            let kept = v * (z.clone().neg() + 1.0);
+            if p.v_reset == 0.0 { kept } else { kept + z * p.v_reset }
+        }
+    }
+}

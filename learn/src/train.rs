@@ -1,0 +1,220 @@
+//! Training the SNN with backpropagation through time: Adam, seeded shuffling, a validation set,
+//! the best checkpoint kept, early stopping.
+
+use crate::data::SpikeSet;
+use crate::snn::{SnnParams, SnnTwin};
+use burn::module::Module;
+use burn::nn::loss::CrossEntropyLossConfig;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use serde::{Deserialize, Serialize};
+use snn::spec::LayerWeights;
+use std::time::Instant;
+
+/// How to train.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainConfig {
+    pub epochs: usize,
+    pub batch_size: usize,
+    /// Adam's learning rate at the start; it follows a cosine down to `lr * lr_final_fraction`.
+    pub lr: f64,
+    pub lr_final_fraction: f64,
+    pub seed: u64,
+    /// Stop when validation accuracy has not improved for this many epochs (0: never).
+    pub patience: usize,
+    #[serde(default)]
+    pub augment: Augment,
+}
+
+/// Training-time augmentation of input spike trains, drawn per sample from the training seed.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Augment {
+    /// Each input event is dropped with this probability.
+    pub drop_events: f64,
+    /// Time is stretched by a factor drawn uniformly in `1 +- stretch` (the finger sliding a
+    /// little faster or slower).
+    pub stretch: f64,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self { epochs: 60, batch_size: 32, lr: 2e-3, lr_final_fraction: 0.05, seed: 1, patience: 0, augment: Augment::default() }
+    }
+}
+
+/// One epoch, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EpochReport {
+    pub epoch: usize,
+    pub lr: f64,
+    pub train_loss: f64,
+    pub train_accuracy: f64,
+    pub val_loss: f64,
+    pub val_accuracy: f64,
+    /// Mean spikes per sample in each spiking layer (validation).
+    pub val_spikes_per_sample: Vec<f64>,
+    pub seconds: f64,
+}
+
+/// Hears about training as it goes (the command line draws progress bars).
+pub trait Observer {
+    fn epoch_begin(&mut self, _epoch: usize, _batches: usize) {}
+    fn batch(&mut self, _loss: f64, _accuracy: f64) {}
+    fn epoch_end(&mut self, _report: &EpochReport) {}
+}
+
+/// An observer that hears nothing.
+pub struct Silent;
+impl Observer for Silent {}
+
+/// What training gives: the weights of the best validation epoch, and the history.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    pub weights: Vec<LayerWeights>,
+    pub best_epoch: usize,
+    pub best_val_accuracy: f64,
+    pub history: Vec<EpochReport>,
+}
+
+/// The batch `idx` of `set` as one `[batch, n_inputs]` tensor per step.
+pub fn batch_input(set: &SpikeSet, idx: &[usize], device: &Device) -> Vec<Tensor<2>> {
+    batch_input_augmented(set, idx, device, None)
+}
+
+fn batch_input_augmented(
+    set: &SpikeSet,
+    idx: &[usize],
+    device: &Device,
+    mut augment: Option<(&Augment, &mut rand_chacha::ChaCha8Rng)>,
+) -> Vec<Tensor<2>> {
+    use rand::Rng;
+    let (b, n) = (idx.len(), set.n_inputs);
+    let mut dense = vec![0f32; set.steps * b * n];
+    for (j, &s) in idx.iter().enumerate() {
+        let train = &set.trains[s];
+        let factor = match &mut augment {
+            Some((a, rng)) if a.stretch > 0.0 => rng.random_range(1.0 - a.stretch..1.0 + a.stretch),
+            _ => 1.0,
+        };
+        for k in 0..train.n_steps().min(set.steps) {
+            let (inputs, counts) = train.step(k);
+            let to = if factor == 1.0 { k } else { (k as f64 * factor).round() as usize };
+            if to >= set.steps {
+                break;
+            }
+            for (&i, &c) in inputs.iter().zip(counts) {
+                let mut c = c as f32;
+                if let Some((a, rng)) = &mut augment
+                    && a.drop_events > 0.0
+                {
+                    c = (0..c as u32).filter(|_| !rng.random_bool(a.drop_events)).count() as f32;
+                }
+                dense[(to * b + j) * n + i as usize] += c;
+            }
+        }
+    }
+    dense.chunks_exact(b * n).map(|c| Tensor::<2>::from_data(TensorData::new(c.to_vec(), [b, n]), device)).collect()
+}
+
+fn targets(set: &SpikeSet, idx: &[usize], device: &Device) -> Tensor<1, Int> {
+    let t: Vec<i64> = idx.iter().map(|&i| set.labels[i] as i64).collect();
+    Tensor::<1, Int>::from_data(TensorData::new(t, [idx.len()]), device)
+}
+
+fn correct(logits: &Tensor<2>, set: &SpikeSet, idx: &[usize]) -> usize {
+    let pred = logits.clone().argmax(1).to_data().convert::<i64>().try_into_vec::<i64>().expect("int predictions");
+    pred.iter().zip(idx).filter(|&(&p, &i)| p as usize == set.labels[i]).count()
+}
+
+/// Validation: loss, accuracy and spikes per sample with the time-stepped network (no autodiff).
+pub fn evaluate(twin: &SnnTwin, params: &SnnParams, set: &SpikeSet, batch_size: usize) -> (f64, f64, Vec<f64>) {
+    let device = Device::flex();
+    let loss_fn = CrossEntropyLossConfig::new().init(&device);
+    let idx: Vec<usize> = (0..set.len()).collect();
+    let (mut loss, mut hits) = (0.0, 0usize);
+    let mut spikes: Vec<f64> = Vec::new();
+    for chunk in idx.chunks(batch_size.max(1)) {
+        let out = twin.forward(params, &batch_input(set, chunk, &device));
+        hits += correct(&out.logits, set, chunk);
+        loss +=
+            loss_fn.forward(out.logits, targets(set, chunk, &device)).into_scalar::<f32>() as f64 * chunk.len() as f64;
+        spikes.resize(out.spikes.len(), 0.0);
+        for (s, t) in spikes.iter_mut().zip(out.spikes) {
+            *s += t.sum().into_scalar::<f32>() as f64;
+        }
+    }
+    let n = set.len().max(1) as f64;
+    (loss / n, hits as f64 / n, spikes.into_iter().map(|s| s / n).collect())
+}
+
+/// Trains from `init` on `train`, keeping the weights that do best on `val`.
+pub fn train(
+    twin: &SnnTwin,
+    init: &[LayerWeights],
+    train: &SpikeSet,
+    val: &SpikeSet,
+    cfg: &TrainConfig,
+    observer: &mut dyn Observer,
+) -> snn::Result<Outcome> {
+    if train.is_empty() || cfg.batch_size == 0 || cfg.epochs == 0 {
+        return Err(snn::Error::Input("training needs samples, a batch size and epochs".into()));
+    }
+    let device = Device::flex().autodiff();
+    device.seed(cfg.seed);
+    let mut params = SnnParams::from_weights(&twin.spec, init, &device)?;
+    let mut optim = AdamConfig::new().init();
+    let loss_fn = CrossEntropyLossConfig::new().init(&device);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
+    let mut best = (init.to_vec(), 0usize, -1.0f64);
+    let mut history = Vec::new();
+    let mut order: Vec<usize> = (0..train.len()).collect();
+    for epoch in 1..=cfg.epochs {
+        let start = Instant::now();
+        let progress = (epoch - 1) as f64 / (cfg.epochs.max(2) - 1) as f64;
+        let lr = cfg.lr
+            * (cfg.lr_final_fraction
+                + (1.0 - cfg.lr_final_fraction) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()));
+        order.shuffle(&mut rng);
+        let batches: Vec<&[usize]> = order.chunks(cfg.batch_size).collect();
+        observer.epoch_begin(epoch, batches.len());
+        let (mut loss_sum, mut hits) = (0.0, 0usize);
+        for idx in batches {
+            let input = batch_input_augmented(train, idx, &device, Some((&cfg.augment, &mut rng)));
+            let out = twin.forward(&params, &input);
+            let h = correct(&out.logits, train, idx);
+            let loss = loss_fn.forward(out.logits, targets(train, idx, &device));
+            let l = loss.clone().into_scalar::<f32>() as f64;
+            let grads = GradientsParams::from_grads(loss.backward(), &params);
+            params = optim.step(lr, params, grads);
+            loss_sum += l * idx.len() as f64;
+            hits += h;
+            observer.batch(l, h as f64 / idx.len() as f64);
+        }
+        let inference = params.valid();
+        let (val_loss, val_accuracy, val_spikes) =
+            if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { evaluate(twin, &inference, val, 64) };
+        let report = EpochReport {
+            epoch,
+            lr,
+            train_loss: loss_sum / train.len() as f64,
+            train_accuracy: hits as f64 / train.len() as f64,
+            val_loss,
+            val_accuracy,
+            val_spikes_per_sample: val_spikes,
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        observer.epoch_end(&report);
+        // Without a validation set the last epoch is kept.
+        let score = if val.is_empty() { epoch as f64 } else { val_accuracy };
+        if score > best.2 {
+            best = (inference.weights(&twin.spec)?, epoch, score);
+        }
+        history.push(report);
+        if cfg.patience > 0 && epoch - best.1 >= cfg.patience {
+            break;
+        }
+    }
+    Ok(Outcome { weights: best.0, best_epoch: best.1, best_val_accuracy: best.2, history })
+}

@@ -1,0 +1,146 @@
+//! The burn twin computes what the engine's time-stepped reference computes, its gradients train,
+//! and the same seed gives the same weights.
+
+use burn::tensor::{Device, Tensor, TensorData};
+use encoders::spike_train::SpikeTrain;
+use learn::data::SpikeSet;
+use learn::snn::{SnnParams, SnnTwin};
+use learn::train::{Silent, TrainConfig, train};
+use snn::model_file::Readout;
+use snn::network::{PoolKind, forward_dense, random_input};
+use snn::neuron::{NeuronParams, Reset, Surrogate};
+use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
+
+fn lif(beta: f32) -> Option<NeuronParams> {
+    Some(NeuronParams::lif(beta).with_reset(Reset::Subtract))
+}
+
+fn spec(readout: Readout) -> NetworkSpec {
+    let out = match readout {
+        Readout::MaxMembrane => Some(NeuronParams::leaky_integrator(0.95)),
+        Readout::SpikeCount => Some(NeuronParams::lif(0.9)),
+    };
+    let mut cuba = NeuronParams::cuba_lif(0.7, 0.9).with_reset(Reset::Subtract);
+    cuba.v_th = 0.8;
+    NetworkSpec {
+        input_shape: vec![2, 6, 6],
+        layers: vec![
+            LayerSpec {
+                op: OpSpec::Conv2d { out_channels: 4, kernel: [3, 3], stride: [1, 1], padding: [1, 1] },
+                neurons: lif(0.8),
+                recurrent: false,
+                bias: true,
+            },
+            LayerSpec {
+                op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [2, 2], stride: [2, 2] },
+                neurons: None,
+                recurrent: false,
+                bias: false,
+            },
+            LayerSpec { op: OpSpec::Dense { n_out: 12 }, neurons: Some(cuba), recurrent: true, bias: false },
+            LayerSpec { op: OpSpec::Dense { n_out: 5 }, neurons: out, recurrent: false, bias: false },
+        ],
+    }
+}
+
+fn steps_of(input: &[f32], steps: usize, n: usize) -> Vec<Tensor<2>> {
+    (0..steps)
+        .map(|t| Tensor::<2>::from_data(TensorData::new(input[t * n..(t + 1) * n].to_vec(), [1, n]), &Device::flex()))
+        .collect()
+}
+
+#[test]
+fn twin_forward_matches_the_time_stepped_reference() {
+    for readout in [Readout::MaxMembrane, Readout::SpikeCount] {
+        let spec = spec(readout);
+        let weights = spec.init(7, 2.5).unwrap();
+        let net = spec.build(weights.clone()).unwrap();
+        let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, readout).unwrap();
+        let params = SnnParams::from_weights(&spec, &weights, &Device::flex()).unwrap();
+        // weights survive the trip into burn's layouts and back
+        assert_eq!(params.weights(&spec).unwrap(), weights);
+        let (steps, n) = (40, net.n_inputs());
+        let mut active = 0;
+        for seed in 0..4 {
+            let input = random_input(seed, steps, n, 0.15);
+            let reference = forward_dense(&net, &input, steps).unwrap();
+            let out = twin.forward(&params, &steps_of(&input, steps, n));
+            let logits = out.logits.to_data().convert::<f32>().try_to_vec::<f32>().unwrap();
+            let want: Vec<f32> = match readout {
+                Readout::MaxMembrane => reference.v_max.clone(),
+                Readout::SpikeCount => reference.output_counts(5).iter().map(|&c| c as f32).collect(),
+            };
+            for (a, b) in logits.iter().zip(&want) {
+                // sums in another order: float tolerance (a spike flipped at the threshold would
+                // show as a large difference)
+                assert!((a - b).abs() <= 1e-4 * (1.0 + b.abs()), "{readout:?}: {logits:?} vs {want:?}");
+            }
+            active += want.iter().filter(|&&v| v > 0.0).count();
+        }
+        assert!(active > 0, "the test needs output activity");
+    }
+}
+
+/// Two classes: class c gets its input spikes on inputs of parity c.
+fn toy_set(n: usize, seed: u64) -> SpikeSet {
+    let (steps, n_in) = (20, 8);
+    let mut trains = Vec::new();
+    let mut labels = Vec::new();
+    for s in 0..n {
+        let label = s % 2;
+        let noise = random_input(seed * 1000 + s as u64, steps, n_in, 0.2);
+        let mut offsets = vec![0u32];
+        let (mut inputs, mut counts) = (Vec::new(), Vec::new());
+        for t in 0..steps {
+            for i in 0..n_in {
+                if noise[t * n_in + i] != 0.0 && i % 2 == label {
+                    inputs.push(i as u32);
+                    counts.push(1);
+                }
+            }
+            offsets.push(inputs.len() as u32);
+        }
+        trains.push(SpikeTrain { t_start_us: 0, dt_us: 1_000, n_inputs: n_in, offsets, inputs, counts });
+        labels.push(label);
+    }
+    SpikeSet {
+        n_inputs: n_in,
+        steps,
+        dt_us: 1_000,
+        classes: vec!["even".into(), "odd".into()],
+        trains,
+        labels,
+        dropped_events: 0,
+    }
+}
+
+#[test]
+fn training_learns_and_repeats_exactly() {
+    let spec = NetworkSpec {
+        input_shape: vec![8],
+        layers: vec![
+            LayerSpec { op: OpSpec::Dense { n_out: 16 }, neurons: lif(0.9), recurrent: true, bias: false },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 2 },
+                neurons: Some(NeuronParams::leaky_integrator(0.9)),
+                recurrent: false,
+                bias: false,
+            },
+        ],
+    };
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
+    let cfg = TrainConfig { epochs: 6, batch_size: 8, lr: 1e-2, seed: 3, ..TrainConfig::default() };
+    let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
+    let init = spec.init(3, 1.0).unwrap();
+    let a = train(&twin, &init, &train_set, &val, &cfg, &mut Silent).unwrap();
+    let first = a.history.first().unwrap();
+    let last = a.history.last().unwrap();
+    assert!(last.train_loss < first.train_loss, "loss must fall: {first:?} -> {last:?}");
+    assert!(a.best_val_accuracy >= 0.9, "a separable task: {}", a.best_val_accuracy);
+    let b = train(&twin, &init, &train_set, &val, &cfg, &mut Silent).unwrap();
+    assert_eq!(a.weights, b.weights, "the same seed gives the same weights");
+    assert_eq!(
+        a.history.iter().map(|h| h.train_loss).collect::<Vec<_>>(),
+        b.history.iter().map(|h| h.train_loss).collect::<Vec<_>>()
+    );
+}

@@ -1,0 +1,309 @@
+//! `braille train`: trains a classifier and saves it as a model file.
+
+use anyhow::{Context, Result, bail};
+use encoders::dataset::{Dataset, Split};
+use encoders::sigma_delta::SigmaDeltaConfig;
+use indicatif::{ProgressBar, ProgressStyle};
+use learn::data::{SpikeSet, TactileEncoding};
+use learn::snn::SnnTwin;
+use learn::train::{EpochReport, Observer, TrainConfig};
+use snn::model_file::{Readout, SnnConfig, SnnModel};
+use snn::neuron::{Discretisation, LifConfig, NeuronKind, Reset, Surrogate};
+use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ArchArg {
+    Snn,
+    Resnet,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NeuronArg {
+    Lif,
+    CubaLif,
+    If,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReadoutArg {
+    MaxMembrane,
+    SpikeCount,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SurrogateArg {
+    FastSigmoid,
+    Arctan,
+    Triangle,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[arg(long, value_enum, default_value = "snn")]
+    arch: ArchArg,
+    /// A dataset folder in the iCub Braille layout (events: samples.csv, events.csv, split.csv;
+    /// analog: raw.csv, split.csv).
+    #[arg(long)]
+    data: PathBuf,
+    /// Sampling period of analog data, in microseconds (the iCub taxels: 40 Hz).
+    #[arg(long, default_value_t = 25_000)]
+    period_us: i64,
+    /// Sigma-delta threshold for analog data, in the signal's units.
+    #[arg(long, default_value_t = 2.0)]
+    sigma_delta: f32,
+    /// Place sigma-delta events at the interpolated crossing time.
+    #[arg(long)]
+    interpolate: bool,
+    /// Simulation step, in microseconds.
+    #[arg(long, default_value_t = 10_000)]
+    dt_us: i64,
+    /// Hidden layer sizes, comma separated.
+    #[arg(long, default_value = "256", value_delimiter = ',')]
+    hidden: Vec<usize>,
+    #[arg(long, value_enum, default_value = "cuba-lif")]
+    neuron: NeuronArg,
+    /// Membrane time constant of hidden neurons, in microseconds.
+    #[arg(long, default_value_t = 500_000.0)]
+    tau_mem_us: f64,
+    /// Synaptic time constant (CubaLIF), in microseconds.
+    #[arg(long, default_value_t = 200_000.0)]
+    tau_syn_us: f64,
+    /// Membrane time constant of the leaky-integrator readout, in microseconds.
+    #[arg(long, default_value_t = 200_000.0)]
+    tau_out_us: f64,
+    /// Biases in the hidden layers (a bias current also gives neurons a sense of time since the
+    /// sample's start; neuromorphic chips often prefer networks without).
+    #[arg(long)]
+    bias: bool,
+    /// Recurrent connections in the hidden layers.
+    #[arg(long)]
+    recurrent: bool,
+    #[arg(long, value_enum, default_value = "max-membrane")]
+    readout: ReadoutArg,
+    #[arg(long, value_enum, default_value = "fast-sigmoid")]
+    surrogate: SurrogateArg,
+    /// Surrogate sharpness: fast-sigmoid slope, arctan alpha or triangle width.
+    #[arg(long, default_value_t = 10.0)]
+    surrogate_scale: f32,
+    /// Weight scale at initialisation (times PyTorch's 1/sqrt(fan_in)).
+    #[arg(long, default_value_t = 1.0)]
+    init_gain: f32,
+    #[arg(long, default_value_t = 60)]
+    epochs: usize,
+    /// Augmentation: probability of dropping each input event in training.
+    #[arg(long, default_value_t = 0.0)]
+    drop_events: f64,
+    /// Augmentation: time stretched by a factor in 1 +- this, per training sample.
+    #[arg(long, default_value_t = 0.0)]
+    stretch: f64,
+    #[arg(long, default_value_t = 32)]
+    batch_size: usize,
+    #[arg(long, default_value_t = 2e-3)]
+    lr: f64,
+    /// Share of the training split held out for validation (best checkpoint, early stopping).
+    #[arg(long, default_value_t = 0.1)]
+    val_fraction: f64,
+    /// Stop after this many epochs without a better validation accuracy (0: never).
+    #[arg(long, default_value_t = 0)]
+    patience: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Model file to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// Replace an existing model file.
+    #[arg(long)]
+    force: bool,
+    /// Write the per-epoch history as JSON here.
+    #[arg(long)]
+    history: Option<PathBuf>,
+    /// No progress bars (a line per epoch still).
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Progress bars: one per epoch, with running loss and accuracy, and a line per finished epoch.
+struct Bars {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+    sum: (f64, f64, usize),
+}
+
+impl Observer for Bars {
+    fn epoch_begin(&mut self, epoch: usize, batches: usize) {
+        self.sum = (0.0, 0.0, 0);
+        if !self.quiet {
+            let bar = ProgressBar::new(batches as u64);
+            bar.set_style(
+                ProgressStyle::with_template("epoch {prefix:>3} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                    .expect("a valid template")
+                    .progress_chars("=> "),
+            );
+            bar.set_prefix(epoch.to_string());
+            self.bar = Some(bar);
+        }
+    }
+
+    fn batch(&mut self, loss: f64, accuracy: f64) {
+        self.sum = (self.sum.0 + loss, self.sum.1 + accuracy, self.sum.2 + 1);
+        if let Some(b) = &self.bar {
+            let n = self.sum.2 as f64;
+            b.set_message(format!("loss {:.3} acc {:.1}%", self.sum.0 / n, 100.0 * self.sum.1 / n));
+            b.inc(1);
+        }
+    }
+
+    fn epoch_end(&mut self, r: &EpochReport) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+        {
+            eprintln!(
+                "epoch {:>3}: lr {:.2e} train loss {:.3} acc {:5.1}% | val loss {:.3} acc {:5.1}% | spikes/sample {:?} | {:.1} s",
+                r.epoch,
+                r.lr,
+                r.train_loss,
+                100.0 * r.train_accuracy,
+                r.val_loss,
+                100.0 * r.val_accuracy,
+                r.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect::<Vec<_>>(),
+                r.seconds
+            );
+        }
+    }
+}
+
+/// The network for `n_inputs` inputs and `n_classes` classes.
+fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<NetworkSpec> {
+    let dt = args.dt_us as f64;
+    let hidden = match args.neuron {
+        NeuronArg::Lif => LifConfig::lif(args.tau_mem_us),
+        NeuronArg::CubaLif => LifConfig::cuba_lif(args.tau_mem_us, args.tau_syn_us),
+        NeuronArg::If => LifConfig::integrate_and_fire(),
+    }
+    .with_reset(Reset::Subtract)
+    .discretise(dt, Discretisation::Exact);
+    if args.hidden.is_empty() || args.hidden.contains(&0) {
+        bail!("--hidden needs positive layer sizes");
+    }
+    let mut layers: Vec<LayerSpec> = args
+        .hidden
+        .iter()
+        .map(|&n| LayerSpec {
+            op: OpSpec::Dense { n_out: n },
+            neurons: Some(hidden),
+            recurrent: args.recurrent,
+            bias: args.bias,
+        })
+        .collect();
+    let out = match args.readout {
+        ReadoutArg::MaxMembrane => {
+            let mut p = LifConfig::lif(args.tau_out_us).discretise(dt, Discretisation::Exact);
+            p.kind = NeuronKind::Li;
+            p
+        }
+        ReadoutArg::SpikeCount => hidden,
+    };
+    layers.push(LayerSpec {
+        op: OpSpec::Dense { n_out: n_classes },
+        neurons: Some(out),
+        recurrent: false,
+        bias: false,
+    });
+    Ok(NetworkSpec { input_shape: vec![n_inputs], layers })
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.arch != ArchArg::Snn {
+        bail!(
+            "--data trains the SNN; the ResNet trains on simulated character windows (`--arch resnet` without --data)"
+        );
+    }
+    if args.out.exists() && !args.force {
+        bail!("{}: exists; pass --force to replace it", args.out.display());
+    }
+    let data = Dataset::load(&args.data, args.period_us)?;
+    let sd = SigmaDeltaConfig { threshold: args.sigma_delta, interpolate: args.interpolate };
+    let encoding = TactileEncoding::fit(&data, sd, args.dt_us)?;
+    let all_train = encoding.encode(&data, Some(Split::Train))?;
+    let test = encoding.encode(&data, Some(Split::Test))?;
+    let (train, val) = if args.val_fraction > 0.0 {
+        all_train.stratified_split(args.val_fraction, args.seed)
+    } else {
+        (all_train.clone(), all_train.subset(&[]))
+    };
+    let events = |s: &SpikeSet| s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64;
+    eprintln!(
+        "{}: {} classes, {} inputs, {} steps of {} us; train {} / validation {} / test {} samples, {:.1} input events per sample",
+        args.data.display(),
+        data.classes.len(),
+        encoding.n_inputs(),
+        encoding.steps,
+        encoding.dt_us,
+        train.len(),
+        val.len(),
+        test.len(),
+        events(&all_train)
+    );
+    let spec = network_spec(&args, encoding.n_inputs(), data.classes.len())?;
+    let surrogate = match args.surrogate {
+        SurrogateArg::FastSigmoid => Surrogate::FastSigmoid { slope: args.surrogate_scale },
+        SurrogateArg::Arctan => Surrogate::Arctan { alpha: args.surrogate_scale },
+        SurrogateArg::Triangle => Surrogate::Triangle { width: args.surrogate_scale },
+    };
+    let readout = match args.readout {
+        ReadoutArg::MaxMembrane => Readout::MaxMembrane,
+        ReadoutArg::SpikeCount => Readout::SpikeCount,
+    };
+    let twin = SnnTwin::new(spec.clone(), surrogate, readout)?;
+    let cfg = TrainConfig {
+        epochs: args.epochs,
+        batch_size: args.batch_size,
+        lr: args.lr,
+        seed: args.seed,
+        patience: args.patience,
+        augment: learn::train::Augment { drop_events: args.drop_events, stretch: args.stretch },
+        ..TrainConfig::default()
+    };
+    let init = spec.init(args.seed, args.init_gain)?;
+    let mut bars = Bars { bar: None, quiet: args.quiet, sum: (0.0, 0.0, 0) };
+    let started = std::time::Instant::now();
+    let outcome = learn::train::train(&twin, &init, &train, &val, &cfg, &mut bars)?;
+    let train_seconds = started.elapsed().as_secs_f64();
+    let network = spec.build(outcome.weights.clone())?;
+    let config = SnnConfig { network: spec, dt_us: args.dt_us, readout };
+    let scored = crate::eval::snn_accuracy(&network, &config, &test)?;
+    eprintln!(
+        "best epoch {} (validation {:.1}%); test accuracy on the event-driven engine: {:.2}% of {}",
+        outcome.best_epoch,
+        100.0 * outcome.best_val_accuracy,
+        100.0 * scored.accuracy,
+        scored.n
+    );
+    let model = SnnModel {
+        config,
+        network,
+        preprocess: serde_json::to_value(&encoding)?,
+        classes: data.classes.clone(),
+        provenance: serde_json::json!({
+            "data": args.data.file_name().map(|n| n.to_string_lossy().into_owned()),
+            "train": cfg,
+            "surrogate": format!("{surrogate:?}"),
+            "init_gain": args.init_gain,
+            "best_epoch": outcome.best_epoch,
+            "val_accuracy": outcome.best_val_accuracy,
+            "test_accuracy": scored.accuracy,
+            "train_seconds": train_seconds,
+        }),
+    };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    model.save(&args.out, args.force)?;
+    if let Some(h) = &args.history {
+        crate::simulate::write_json(h, &outcome.history, args.force)?;
+    }
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
