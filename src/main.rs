@@ -8,6 +8,7 @@ mod eval;
 mod icub_report;
 mod info;
 mod label_check;
+mod nir_cli;
 mod plot;
 mod sim_check;
 mod simulate;
@@ -50,6 +51,10 @@ enum Command {
     Eval(eval::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),
+    /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
+    Export(nir_cli::ExportArgs),
+    /// Import a NIR graph into a model file the engine runs.
+    Import(nir_cli::ImportArgs),
     /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
     /// AEDAT4, read back, and binned into heat maps.
     Demo(demo::Args),
@@ -69,6 +74,8 @@ fn main() -> ExitCode {
         Command::Train(a) => train::run(a),
         Command::Eval(a) => eval::run(a),
         Command::IcubReport(a) => icub_report::run(a),
+        Command::Export(a) => nir_cli::export(a),
+        Command::Import(a) => nir_cli::import(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -195,6 +195,7 @@ fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<Networ
             neurons: Some(hidden),
             recurrent: args.recurrent,
             bias: args.bias,
+            recurrent_bias: false,
         })
         .collect();
     let out = match args.readout {
@@ -210,6 +211,7 @@ fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<Networ
         neurons: Some(out),
         recurrent: false,
         bias: false,
+        recurrent_bias: false,
     });
     Ok(NetworkSpec { input_shape: vec![n_inputs], layers })
 }

@@ -109,6 +109,7 @@ impl SnnParams {
                     let n = s.recurrent[0];
                     transpose(&values(&r.val()), n, n)
                 }),
+                recurrent_bias: None,
             })
             .collect())
     }
@@ -156,6 +157,9 @@ fn spike(x: Tensor<2>, surrogate: Surrogate) -> Tensor<2> {
 impl SnnTwin {
     pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout) -> snn::Result<SnnTwin> {
         let shapes = spec.shapes()?;
+        if let Some(k) = spec.layers.iter().position(|l| l.recurrent_bias) {
+            return Err(snn::Error::Network(format!("layer {k}: recurrent biases are not trained here")));
+        }
         let last = spec.layers.last().and_then(|l| l.neurons).map(|p| p.kind);
         match (readout, last) {
             (Readout::MaxMembrane, Some(NeuronKind::Li)) => {}

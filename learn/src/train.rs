@@ -40,7 +40,15 @@ pub struct Augment {
 
 impl Default for TrainConfig {
     fn default() -> Self {
-        Self { epochs: 60, batch_size: 32, lr: 2e-3, lr_final_fraction: 0.05, seed: 1, patience: 0, augment: Augment::default() }
+        Self {
+            epochs: 60,
+            batch_size: 32,
+            lr: 2e-3,
+            lr_final_fraction: 0.05,
+            seed: 1,
+            patience: 0,
+            augment: Augment::default(),
+        }
     }
 }
 

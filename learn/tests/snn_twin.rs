@@ -30,15 +30,29 @@ fn spec(readout: Readout) -> NetworkSpec {
                 neurons: lif(0.8),
                 recurrent: false,
                 bias: true,
+                recurrent_bias: false,
             },
             LayerSpec {
                 op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [2, 2], stride: [2, 2] },
                 neurons: None,
                 recurrent: false,
                 bias: false,
+                recurrent_bias: false,
             },
-            LayerSpec { op: OpSpec::Dense { n_out: 12 }, neurons: Some(cuba), recurrent: true, bias: false },
-            LayerSpec { op: OpSpec::Dense { n_out: 5 }, neurons: out, recurrent: false, bias: false },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 12 },
+                neurons: Some(cuba),
+                recurrent: true,
+                bias: false,
+                recurrent_bias: false,
+            },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 5 },
+                neurons: out,
+                recurrent: false,
+                bias: false,
+                recurrent_bias: false,
+            },
         ],
     }
 }
@@ -119,12 +133,19 @@ fn training_learns_and_repeats_exactly() {
     let spec = NetworkSpec {
         input_shape: vec![8],
         layers: vec![
-            LayerSpec { op: OpSpec::Dense { n_out: 16 }, neurons: lif(0.9), recurrent: true, bias: false },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 16 },
+                neurons: lif(0.9),
+                recurrent: true,
+                bias: false,
+                recurrent_bias: false,
+            },
             LayerSpec {
                 op: OpSpec::Dense { n_out: 2 },
                 neurons: Some(NeuronParams::leaky_integrator(0.9)),
                 recurrent: false,
                 bias: false,
+                recurrent_bias: false,
             },
         ],
     };

@@ -106,6 +106,8 @@ struct Compiled {
     bias: Option<Vec<f32>>,
     /// Recurrent weights `[in][out]`.
     rec_t: Option<Vec<f32>>,
+    /// Recurrent bias, added from the stream's step 1 on.
+    rec_bias: Option<Vec<f32>>,
     /// Every neuron is evaluated every step (bias, or a resting level above threshold).
     every_step: bool,
     /// A leaky-integrator readout: keep each neuron's highest membrane.
@@ -346,8 +348,9 @@ impl Engine {
     fn advance_to(&self, st: &mut EngineState, step: i64) {
         if !st.started {
             st.started = true;
-            st.step = step;
-            return;
+            // Layers that change without input (bias, resting level above threshold) live from
+            // the stream's step 0; otherwise the empty steps before the first input are skipped.
+            st.step = if self.layers.iter().any(|c| c.every_step) { 0 } else { step };
         }
         while st.step < step {
             self.run_step(st);
@@ -547,7 +550,7 @@ fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         t
     });
     let p = l.neurons;
-    let every_step = l.op.bias().is_some() || p.is_some_and(|p| p.v_leak > p.threshold());
+    let every_step = l.op.bias().is_some() || l.recurrent_bias.is_some() || p.is_some_and(|p| p.v_leak > p.threshold());
     let (mut decay_table, mut ln_beta_per_us) = (Vec::new(), 0.0);
     if mode == Mode::Async
         && let Some(p) = p
@@ -567,6 +570,7 @@ fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         neurons: p,
         bias: l.op.bias().map(<[f32]>::to_vec),
         rec_t,
+        rec_bias: l.recurrent_bias.clone(),
         every_step,
         track_max: p.is_some_and(|p| p.kind == NeuronKind::Li),
         decay_table,
@@ -699,19 +703,27 @@ fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
 /// neuron of a dense layer that received anything.
 fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Stats) {
     let n = c.n_out;
-    let all = c.every_step || s.rec_pending;
+    // A recurrent bias makes the recurrent input present at every step after the first.
+    let rec_bias = c.rec_bias.as_deref().filter(|_| t > base);
+    let rec_on = s.rec_pending || rec_bias.is_some();
+    let all = c.every_step || rec_on;
     // Recurrent input from the previous step's spikes, summed on its own.
-    if s.rec_pending
-        && let Some(rt) = &c.rec_t
-    {
+    if rec_on && let Some(rt) = &c.rec_t {
         s.rec.iter_mut().for_each(|r| *r = 0.0);
-        for &j in &s.prev {
-            for (r, &w) in s.rec.iter_mut().zip(&rt[j as usize * n..(j as usize + 1) * n]) {
-                *r += 1.0 * w;
+        if s.rec_pending {
+            for &j in &s.prev {
+                for (r, &w) in s.rec.iter_mut().zip(&rt[j as usize * n..(j as usize + 1) * n]) {
+                    *r += 1.0 * w;
+                }
+            }
+        }
+        if let Some(b) = rec_bias {
+            for (r, b) in s.rec.iter_mut().zip(b) {
+                *r += b;
             }
         }
     }
-    let rec = if s.rec_pending && c.rec_t.is_some() { Some(std::mem::take(&mut s.rec)) } else { None };
+    let rec = if rec_on && c.rec_t.is_some() { Some(std::mem::take(&mut s.rec)) } else { None };
     let mut order = std::mem::take(&mut s.order);
     order.clear();
     match &c.fan {

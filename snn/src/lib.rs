@@ -9,7 +9,7 @@
 //!
 //! // 2 inputs -> 1 LIF neuron (beta 0.9, threshold 1).
 //! let dense = Op::Dense { n_in: 2, n_out: 1, weight: vec![0.6, 0.6], bias: None };
-//! let net = Network::new(vec![2], vec![Layer { op: dense, neurons: Some(NeuronParams::lif(0.9)), recurrent: None }]).unwrap();
+//! let net = Network::new(vec![2], vec![Layer { op: dense, neurons: Some(NeuronParams::lif(0.9)), recurrent: None, recurrent_bias: None }]).unwrap();
 //! let engine = Engine::new(&net, 1_000, Mode::Stepped).unwrap();
 //! let mut stream = engine.state(0);
 //! engine.push(&mut stream, 100, 0, 1.0).unwrap(); // step 0: 0.6
@@ -24,6 +24,7 @@ pub mod error;
 pub mod model_file;
 pub mod network;
 pub mod neuron;
+pub mod nir;
 pub mod spec;
 
 pub use error::{Error, Result};

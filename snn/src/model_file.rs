@@ -233,6 +233,7 @@ impl SnnModel {
             put("weight", &s.weight, (!s.weight.is_empty()).then_some(w.weight));
             put("bias", &s.bias, w.bias);
             put("recurrent", &s.recurrent, w.recurrent);
+            put("recurrent_bias", &s.recurrent_bias, w.recurrent_bias);
         }
         ModelFile {
             arch: Arch::Snn,
@@ -272,6 +273,7 @@ impl SnnModel {
                 weight: take("weight", &s.weight)?.unwrap_or_default(),
                 bias: take("bias", &s.bias)?,
                 recurrent: take("recurrent", &s.recurrent)?,
+                recurrent_bias: take("recurrent_bias", &s.recurrent_bias)?,
             });
         }
         file.finish(path)?;
@@ -311,11 +313,13 @@ mod tests {
                     op: Op::Dense { n_in: 3, n_out: 4, weight: (0..12).map(|i| i as f32 / 10.0).collect(), bias: None },
                     neurons: Some(NeuronParams::cuba_lif(0.5, 0.9)),
                     recurrent: Some(vec![0.25; 16]),
+                    recurrent_bias: Some(vec![0.5, 0.0, -0.1, 0.2]),
                 },
                 Layer {
                     op: Op::Dense { n_in: 4, n_out: 2, weight: vec![0.5; 8], bias: Some(vec![0.0, 0.1]) },
                     neurons: Some(NeuronParams::leaky_integrator(0.95)),
                     recurrent: None,
+                    recurrent_bias: None,
                 },
             ],
         )

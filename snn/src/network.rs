@@ -195,6 +195,10 @@ pub struct Layer {
     pub neurons: Option<NeuronParams>,
     /// `[n][n]` recurrent weights, from the layer's spikes at `t - 1` to its input at `t`.
     pub recurrent: Option<Vec<f32>>,
+    /// A bias of the recurrent connection (NIR's `Affine` on the recurrent edge): added with the
+    /// recurrent input, so from `t = 1` on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recurrent_bias: Option<Vec<f32>>,
 }
 
 /// A feed-forward chain of layers.
@@ -237,6 +241,13 @@ impl Network {
                 && (r.len() != n * n || l.neurons.is_none())
             {
                 return Err(Error::Network(format!("layer {k}: recurrent weights need neurons and {n}x{n} values")));
+            }
+            if let Some(b) = &l.recurrent_bias
+                && (b.len() != n || l.recurrent.is_none() || b.iter().any(|v| !v.is_finite()))
+            {
+                return Err(Error::Network(format!(
+                    "layer {k}: a recurrent bias needs recurrent weights and {n} finite values"
+                )));
             }
             if let Some(p) = &l.neurons
                 && p.kind == crate::neuron::NeuronKind::Li
@@ -293,6 +304,25 @@ impl Record {
 /// The time-stepped reference: every neuron, every step, dense sums over all inputs (in ascending
 /// input order). `input` holds `steps` rows of `n_inputs` values.
 pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Record> {
+    forward(net, input, steps, None)
+}
+
+/// Every layer's membrane and synaptic current after every step (`[layer][step * n + neuron]`),
+/// for comparing dynamics with other simulators.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    pub v: Vec<Vec<f32>>,
+    pub i: Vec<Vec<f32>>,
+}
+
+/// [`forward_dense`], also recording a [`Trace`].
+pub fn forward_dense_traced(net: &Network, input: &[f32], steps: usize) -> Result<(Record, Trace)> {
+    let mut trace = Trace { v: vec![Vec::new(); net.layers.len()], i: vec![Vec::new(); net.layers.len()] };
+    let r = forward(net, input, steps, Some(&mut trace))?;
+    Ok((r, trace))
+}
+
+fn forward(net: &Network, input: &[f32], steps: usize, mut trace: Option<&mut Trace>) -> Result<Record> {
     let n_in = net.n_inputs();
     if input.len() != steps * n_in {
         return Err(Error::Input(format!("{} input values are not {steps} steps of {n_in}", input.len())));
@@ -314,8 +344,10 @@ pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Recor
                 layer.op.accumulate(i, xi, &mut acc);
             }
             if let Some(b) = layer.op.bias() {
-                for (a, b) in acc.iter_mut().zip(b) {
-                    *a += b;
+                // one bias per output channel (a convolution's covers its whole plane)
+                let plane = n / b.len();
+                for (j, a) in acc.iter_mut().enumerate() {
+                    *a += b[j / plane];
                 }
             }
             // The recurrent input is summed on its own (as NIR sums incoming edges) and is absent
@@ -323,8 +355,15 @@ pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Recor
             if let (Some(w), true) = (&layer.recurrent, t > 0) {
                 let mut rec = vec![0.0f32; n];
                 for (i, &s) in prev_spikes[k].iter().enumerate() {
-                    for (o, r) in rec.iter_mut().enumerate() {
-                        *r += s * w[o * n + i];
+                    if s != 0.0 {
+                        for (o, r) in rec.iter_mut().enumerate() {
+                            *r += s * w[o * n + i];
+                        }
+                    }
+                }
+                if let Some(b) = &layer.recurrent_bias {
+                    for (r, b) in rec.iter_mut().zip(b) {
+                        *r += b;
                     }
                 }
                 for (a, r) in acc.iter_mut().zip(&rec) {
@@ -341,6 +380,10 @@ pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Recor
                             out[j] = 1.0;
                             fired.push(j as u32);
                         }
+                    }
+                    if let Some(tr) = trace.as_deref_mut() {
+                        tr.v[k].extend_from_slice(&v[k]);
+                        tr.i[k].extend_from_slice(&cur[k]);
                     }
                     if k == last && !record.v_max.is_empty() {
                         for (m, &vj) in record.v_max.iter_mut().zip(&v[k]) {
@@ -391,9 +434,9 @@ pub fn peers_conv(seed: u64, gain: f32) -> Network {
     };
     let dense = Op::Dense { n_in: 3744, n_out: 26, weight: uniform(&mut rng, 26 * 3744, 3744, gain), bias: None };
     let layers = vec![
-        Layer { op: conv1, neurons: lif, recurrent: None },
-        Layer { op: conv2, neurons: lif, recurrent: None },
-        Layer { op: dense, neurons: lif, recurrent: None },
+        Layer { op: conv1, neurons: lif, recurrent: None, recurrent_bias: None },
+        Layer { op: conv2, neurons: lif, recurrent: None, recurrent_bias: None },
+        Layer { op: dense, neurons: lif, recurrent: None, recurrent_bias: None },
     ];
     Network { input_shape: vec![2, 60, 80], layers }
 }

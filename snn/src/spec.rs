@@ -36,6 +36,9 @@ pub struct LayerSpec {
     pub neurons: Option<NeuronParams>,
     pub recurrent: bool,
     pub bias: bool,
+    /// A bias on the recurrent connection (imported NIR graphs; not trained here).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub recurrent_bias: bool,
 }
 
 /// The architecture of a [`Network`].
@@ -52,6 +55,7 @@ pub struct LayerShapes {
     pub weight: Vec<usize>,
     pub bias: Vec<usize>,
     pub recurrent: Vec<usize>,
+    pub recurrent_bias: Vec<usize>,
     /// The layer's input shape (`[n]` or `[c, h, w]`).
     pub input: Vec<usize>,
     pub output: Vec<usize>,
@@ -63,6 +67,7 @@ pub struct LayerWeights {
     pub weight: Vec<f32>,
     pub bias: Option<Vec<f32>>,
     pub recurrent: Option<Vec<f32>>,
+    pub recurrent_bias: Option<Vec<f32>>,
 }
 
 impl NetworkSpec {
@@ -116,10 +121,14 @@ impl NetworkSpec {
             if l.recurrent && l.neurons.is_none() {
                 return Err(bad("a recurrent connection needs neurons".into()));
             }
+            if l.recurrent_bias && !l.recurrent {
+                return Err(bad("a recurrent bias needs a recurrent connection".into()));
+            }
             out.push(LayerShapes {
                 weight,
                 bias: if l.bias { vec![output[0]] } else { Vec::new() },
                 recurrent: if l.recurrent { vec![n_out, n_out] } else { Vec::new() },
+                recurrent_bias: if l.recurrent_bias { vec![n_out] } else { Vec::new() },
                 input: std::mem::replace(&mut shape, output.clone()),
                 output,
             });
@@ -149,6 +158,7 @@ impl NetworkSpec {
             check("weight", &s.weight, weight.as_ref())?;
             check("bias", &s.bias, w.bias.as_ref())?;
             check("recurrent", &s.recurrent, w.recurrent.as_ref())?;
+            check("recurrent bias", &s.recurrent_bias, w.recurrent_bias.as_ref())?;
             let in_shape = || [s.input[0], s.input[1], s.input[2]];
             let op = match l.op {
                 OpSpec::Dense { n_out } => Op::Dense {
@@ -168,7 +178,7 @@ impl NetworkSpec {
                 },
                 OpSpec::Pool { kind, kernel, stride } => Op::Pool { kind, in_shape: in_shape(), kernel, stride },
             };
-            layers.push(Layer { op, neurons: l.neurons, recurrent: w.recurrent });
+            layers.push(Layer { op, neurons: l.neurons, recurrent: w.recurrent, recurrent_bias: w.recurrent_bias });
         }
         Network::new(self.input_shape.clone(), layers)
     }
@@ -190,6 +200,7 @@ impl NetworkSpec {
                     weight: if s.weight.is_empty() { Vec::new() } else { draw(&s.weight, fan_in) },
                     bias: (!s.bias.is_empty()).then(|| vec![0.0; s.bias[0]]),
                     recurrent: (!s.recurrent.is_empty()).then(|| draw(&s.recurrent, s.recurrent[0])),
+                    recurrent_bias: (!s.recurrent_bias.is_empty()).then(|| vec![0.0; s.recurrent_bias[0]]),
                 }
             })
             .collect())
@@ -218,6 +229,7 @@ impl Network {
                 neurons: l.neurons,
                 recurrent: l.recurrent.is_some(),
                 bias: l.op.bias().is_some(),
+                recurrent_bias: l.recurrent_bias.is_some(),
             })
             .collect();
         NetworkSpec { input_shape: self.input_shape.clone(), layers }
@@ -234,6 +246,7 @@ impl Network {
                 },
                 bias: l.op.bias().map(<[f32]>::to_vec),
                 recurrent: l.recurrent.clone(),
+                recurrent_bias: l.recurrent_bias.clone(),
             })
             .collect()
     }
@@ -261,18 +274,21 @@ mod tests {
                     neurons: Some(NeuronParams::lif(0.9)),
                     recurrent: false,
                     bias: true,
+                    recurrent_bias: false,
                 },
                 LayerSpec {
                     op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [2, 2], stride: [2, 2] },
                     neurons: None,
                     recurrent: false,
                     bias: false,
+                    recurrent_bias: false,
                 },
                 LayerSpec {
                     op: OpSpec::Dense { n_out: 5 },
                     neurons: Some(NeuronParams::lif(0.9)),
                     recurrent: true,
                     bias: false,
+                    recurrent_bias: false,
                 },
             ],
         };

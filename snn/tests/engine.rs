@@ -57,7 +57,7 @@ fn stepped_equals_dense_on_the_peer_conv_network() {
 }
 
 fn layer(op: Op, p: Option<NeuronParams>) -> Layer {
-    Layer { op, neurons: p, recurrent: None }
+    Layer { op, neurons: p, recurrent: None, recurrent_bias: None }
 }
 
 fn dense_w(n_in: usize, n_out: usize, seed: u64, scale: f32) -> Vec<f32> {
@@ -85,6 +85,7 @@ fn stepped_equals_dense_with_pooling_recurrence_cuba_if_subtract_and_bias() {
         op: dense,
         neurons: Some(NeuronParams::cuba_lif(0.6, 0.85).with_reset(Reset::Subtract)),
         recurrent: Some(dense_w(20, 20, 5, 0.8)),
+        recurrent_bias: Some((0..20).map(|i| (i as f32 - 9.0) * 0.02).collect()),
     };
     recurrent.neurons.as_mut().unwrap().v_th = 0.8;
     let out =
@@ -249,6 +250,7 @@ fn leaky_integrator_readout_equals_dense_in_both_modes() {
         op: Op::Dense { n_in: 30, n_out: 16, weight: dense_w(30, 16, 11, 1.4), bias: None },
         neurons: Some(NeuronParams::cuba_lif(0.7, 0.9).with_reset(Reset::Subtract)),
         recurrent: Some(dense_w(16, 16, 12, 0.5)),
+        recurrent_bias: None,
     };
     let readout = layer(
         Op::Dense { n_in: 16, n_out: 6, weight: dense_w(16, 6, 13, 2.0), bias: None },

@@ -1,0 +1,723 @@
+//! NIR, the Neuromorphic Intermediate Representation (<https://neuroir.org>), in and out: the
+//! HDF5 files that snnTorch, Norse, Sinabs, Lava and the chips' toolchains read and write.
+//!
+//! # Conventions (NIR is continuous-time; the engine runs steps of `dt`)
+//! - Import at step `dt` (seconds) by forward Euler, as snnTorch, Norse and NIR's reference do:
+//!   `beta = 1 - dt / tau_mem`, `alpha = 1 - dt / tau_syn`, computed in f64 and cast to f32. The
+//!   input scales `r * dt / tau_mem` (LIF, LI, CubaLIF) and `w_in * dt / tau_syn` (CubaLIF) are
+//!   folded into the incoming weights and biases (they are exactly 1 in files from snnTorch).
+//!   IF integrates `v += r * u`.
+//! - Export inverts this: `tau = dt / (1 - beta)`, `r = tau / dt` (`w_in = tau_syn / dt`), so any
+//!   Euler importer at the same `dt` recovers the trained `beta` and `alpha`. Parameters are
+//!   written per neuron (full-shape float32), as snnTorch does, so that shapes type-check.
+//! - NIR's neurons reset to `v_reset`. Reset by subtraction cannot be written in NIR; importing
+//!   takes it as an out-of-band option, exporting a subtracting network is refused unless the
+//!   caller accepts that the file resets to `v_reset`.
+//! - One step: every node in graph order, incoming edges summed; a recurrent edge (one that
+//!   closes a cycle) carries the previous step's spikes and is absent, bias included, at `t = 0`.
+//! - Supported nodes: Input, Output, Affine, Linear, Conv2d (no dilation, one group), SumPool2d,
+//!   AvgPool2d (no padding), Flatten (C order), LIF, CubaLIF, IF, LI. Per-neuron parameters must
+//!   be equal across a layer (the engine keeps one set per layer).
+
+use crate::error::{Error, Result};
+use crate::network::{Layer, Network, Op, PoolKind};
+use crate::neuron::{NeuronKind, NeuronParams, Reset};
+use hdf5_pure::{File, FileBuilder};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The NIR version written.
+pub const NIR_VERSION: &str = "1.0.8";
+
+/// A tensor of a NIR node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Array {
+    pub shape: Vec<usize>,
+    pub data: Vec<f64>,
+}
+
+impl Array {
+    fn scalar(v: f64) -> Array {
+        Array { shape: Vec::new(), data: vec![v] }
+    }
+    fn full(shape: &[usize], v: f64) -> Array {
+        Array { shape: shape.to_vec(), data: vec![v; shape.iter().product::<usize>().max(1)] }
+    }
+    fn f32s(&self) -> Vec<f32> {
+        self.data.iter().map(|&v| v as f32).collect()
+    }
+}
+
+/// A node: its NIR type and its parameters by name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    pub kind: String,
+    pub params: BTreeMap<String, Array>,
+}
+
+/// A NIR graph.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Graph {
+    pub version: String,
+    pub nodes: BTreeMap<String, Node>,
+    pub edges: Vec<(String, String)>,
+}
+
+fn nir_err(path: &Path, what: impl Into<String>) -> Error {
+    Error::Model { path: path.to_path_buf(), what: what.into() }
+}
+
+impl Graph {
+    /// Reads a NIR file.
+    pub fn read(path: &Path) -> Result<Graph> {
+        let bytes = std::fs::read(path).map_err(|e| nir_err(path, e.to_string()))?;
+        Graph::parse(path, bytes)
+    }
+
+    /// Reads NIR bytes; `path` names them in errors.
+    pub fn parse(path: &Path, bytes: Vec<u8>) -> Result<Graph> {
+        if !hdf5_pure::is_hdf5_bytes(&bytes) {
+            return Err(nir_err(path, "not a NIR file: no HDF5 signature"));
+        }
+        let f = File::from_bytes(bytes).map_err(|e| nir_err(path, format!("HDF5: {e}")))?;
+        let text = |ds: &str| -> Result<String> {
+            let d = f.dataset(ds).map_err(|e| nir_err(path, format!("`{ds}`: {e}")))?;
+            let v = d.read_string().map_err(|e| nir_err(path, format!("`{ds}`: {e}")))?;
+            v.into_iter().next().ok_or_else(|| nir_err(path, format!("`{ds}` is empty")))
+        };
+        let version = text("version").unwrap_or_default();
+        let kind = text("node/type")?;
+        if kind != "NIRGraph" {
+            return Err(nir_err(path, format!("`node/type` is `{kind}`, not `NIRGraph`")));
+        }
+        let edges_ds = f.dataset("node/edges").map_err(|e| nir_err(path, format!("`node/edges`: {e}")))?;
+        let flat = edges_ds.read_string().map_err(|e| nir_err(path, format!("`node/edges`: {e}")))?;
+        if flat.len() % 2 != 0 {
+            return Err(nir_err(path, "`node/edges` is not a list of pairs"));
+        }
+        let edges = flat.chunks_exact(2).map(|p| (p[0].clone(), p[1].clone())).collect();
+        let nodes_g = f.group("node/nodes").map_err(|e| nir_err(path, format!("`node/nodes`: {e}")))?;
+        let names = nodes_g.groups().map_err(|e| nir_err(path, format!("`node/nodes`: {e}")))?;
+        let mut nodes = BTreeMap::new();
+        for name in names {
+            let at = format!("node/nodes/{name}");
+            let g = f.group(&at).map_err(|e| nir_err(path, format!("`{at}`: {e}")))?;
+            let kind = text(&format!("{at}/type"))?;
+            let mut params = BTreeMap::new();
+            for ds in g.datasets().map_err(|e| nir_err(path, format!("`{at}`: {e}")))? {
+                if ds == "type" {
+                    continue;
+                }
+                let d = g.dataset(&ds).map_err(|e| nir_err(path, format!("`{at}/{ds}`: {e}")))?;
+                let Ok(data) = d.read_f64() else { continue }; // strings and other non-numbers
+                let shape = d.shape().map_err(|e| nir_err(path, format!("`{at}/{ds}`: {e}")))?;
+                params.insert(ds, Array { shape: shape.iter().map(|&s| s as usize).collect(), data });
+            }
+            // NIR 1.0 keeps Input/Output shapes in `shape`; older files also in `*_type/*`.
+            for (group, key) in [("input_type", "input"), ("output_type", "output")] {
+                if !params.contains_key("shape")
+                    && let Ok(d) = f.dataset(&format!("{at}/{group}/{key}"))
+                    && let Ok(data) = d.read_f64()
+                {
+                    params.insert(format!("{group}.{key}"), Array { shape: vec![data.len()], data });
+                }
+            }
+            nodes.insert(name, Node { kind, params });
+        }
+        Ok(Graph { version, nodes, edges })
+    }
+
+    /// Writes the graph (HDF5, the layout `nir.write` produces) atomically; an existing file is
+    /// kept unless `force`.
+    pub fn write(&self, path: &Path, force: bool) -> Result<()> {
+        if path.exists() && !force {
+            return Err(nir_err(path, "exists; pass --force to replace it"));
+        }
+        let mut b = FileBuilder::new();
+        b.create_dataset("version").with_vlen_strings(&[NIR_VERSION]).with_shape(&[]);
+        let mut node = b.create_group("node");
+        node.create_dataset("type").with_vlen_strings(&["NIRGraph"]).with_shape(&[]);
+        let flat: Vec<&str> = self.edges.iter().flat_map(|(a, b)| [a.as_str(), b.as_str()]).collect();
+        node.create_dataset("edges").with_vlen_strings(&flat).with_shape(&[self.edges.len() as u64, 2]);
+        let mut nodes = node.create_group("nodes");
+        for (name, n) in &self.nodes {
+            let mut g = nodes.create_group(name);
+            g.create_dataset("type").with_vlen_strings(&[n.kind.as_str()]).with_shape(&[]);
+            for (k, a) in &n.params {
+                let shape: Vec<u64> = a.shape.iter().map(|&s| s as u64).collect();
+                if is_integer_param(k) {
+                    let v: Vec<i64> = a.data.iter().map(|&x| x as i64).collect();
+                    g.create_dataset(k).with_i64_data(&v).with_shape(&shape);
+                } else {
+                    g.create_dataset(k).with_f32_data(&a.f32s()).with_shape(&shape);
+                }
+            }
+            nodes.add_group(g.finish());
+        }
+        node.add_group(nodes.finish());
+        b.add_group(node.finish());
+        let bytes = b.finish().map_err(|e| nir_err(path, format!("HDF5: {e}")))?;
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let name = path.file_name().ok_or_else(|| nir_err(path, "is not a file path"))?.to_string_lossy();
+        let tmp: PathBuf = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        std::fs::write(&tmp, bytes).map_err(|e| nir_err(path, e.to_string()))?;
+        std::fs::rename(&tmp, path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            nir_err(path, e.to_string())
+        })
+    }
+}
+
+fn is_integer_param(k: &str) -> bool {
+    matches!(
+        k,
+        "shape"
+            | "stride"
+            | "padding"
+            | "dilation"
+            | "groups"
+            | "input_shape"
+            | "kernel_size"
+            | "start_dim"
+            | "end_dim"
+            | "input_type"
+    )
+}
+
+/// How an imported graph resets its neurons (NIR cannot say; its nodes reset to `v_reset`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ImportReset {
+    #[default]
+    ToVReset,
+    Subtract,
+}
+
+/// Options of an import.
+#[derive(Debug, Clone, Copy)]
+pub struct ImportOptions {
+    /// The engine's step, in seconds.
+    pub dt_s: f64,
+    pub reset: ImportReset,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self { dt_s: 1e-4, reset: ImportReset::ToVReset }
+    }
+}
+
+/// A parameter that must be one value across a layer.
+fn uniform(path: &Path, name: &str, node: &Node, key: &str, default: Option<f64>) -> Result<f64> {
+    match node.params.get(key) {
+        None => {
+            default.ok_or_else(|| nir_err(path, format!("node `{name}` ({}): parameter `{key}` is missing", node.kind)))
+        }
+        Some(a) => {
+            let first = *a.data.first().ok_or_else(|| nir_err(path, format!("node `{name}`: `{key}` is empty")))?;
+            if let Some(i) = a.data.iter().position(|&v| v != first) {
+                return Err(nir_err(
+                    path,
+                    format!(
+                        "node `{name}` ({}): `{key}` differs across neurons ({first} and {} at {i}); the engine keeps one value per layer",
+                        node.kind, a.data[i]
+                    ),
+                ));
+            }
+            if !first.is_finite() {
+                return Err(nir_err(path, format!("node `{name}`: `{key}` is {first}")));
+            }
+            Ok(first)
+        }
+    }
+}
+
+fn pair(path: &Path, name: &str, node: &Node, key: &str, default: usize) -> Result<[usize; 2]> {
+    match node.params.get(key) {
+        None => Ok([default; 2]),
+        Some(a) => {
+            let v: Vec<usize> = a.data.iter().map(|&x| x as usize).collect();
+            match v.as_slice() {
+                [x] => Ok([*x, *x]),
+                [y, x] => Ok([*y, *x]),
+                _ => {
+                    Err(nir_err(path, format!("node `{name}`: `{key}` should be a scalar or a pair, got {:?}", a.data)))
+                }
+            }
+        }
+    }
+}
+
+fn is_neuron(kind: &str) -> bool {
+    matches!(kind, "LIF" | "CubaLIF" | "IF" | "LI")
+}
+
+/// The neuron parameters of `node` at step `dt`, and the scale of its input.
+fn neuron(path: &Path, name: &str, node: &Node, opts: &ImportOptions) -> Result<(NeuronParams, f64)> {
+    let dt = opts.dt_s;
+    let get = |k: &str, d: Option<f64>| uniform(path, name, node, k, d);
+    let factor = |tau: f64| -> Result<f64> {
+        if tau <= 0.0 || dt / tau > 1.0 {
+            return Err(nir_err(path, format!("node `{name}`: tau {tau} s is not above the step {dt} s")));
+        }
+        Ok(1.0 - dt / tau)
+    };
+    let reset = match opts.reset {
+        ImportReset::ToVReset => Reset::Zero,
+        ImportReset::Subtract => Reset::Subtract,
+    };
+    let (p, scale) = match node.kind.as_str() {
+        "LIF" => {
+            let tau = get("tau", None)?;
+            let mut p = NeuronParams::lif(factor(tau)? as f32);
+            p.v_th = get("v_threshold", None)? as f32;
+            p.v_reset = get("v_reset", Some(0.0))? as f32;
+            p.v_leak = get("v_leak", Some(0.0))? as f32;
+            (p, get("r", Some(1.0))? * dt / tau)
+        }
+        "CubaLIF" => {
+            let (ts, tm) = (get("tau_syn", None)?, get("tau_mem", None)?);
+            let mut p = NeuronParams::cuba_lif(factor(ts)? as f32, factor(tm)? as f32);
+            p.v_th = get("v_threshold", None)? as f32;
+            p.v_reset = get("v_reset", Some(0.0))? as f32;
+            p.v_leak = get("v_leak", Some(0.0))? as f32;
+            (p, get("r", Some(1.0))? * dt / tm * get("w_in", Some(1.0))? * dt / ts)
+        }
+        "IF" => {
+            let mut p = NeuronParams::integrate_and_fire();
+            p.v_th = get("v_threshold", None)? as f32;
+            p.v_reset = get("v_reset", Some(0.0))? as f32;
+            (p, get("r", Some(1.0))?)
+        }
+        "LI" => {
+            let tau = get("tau", None)?;
+            let mut p = NeuronParams::leaky_integrator(factor(tau)? as f32);
+            p.v_leak = get("v_leak", Some(0.0))? as f32;
+            (p, get("r", Some(1.0))? * dt / tau)
+        }
+        other => return Err(nir_err(path, format!("node `{name}`: `{other}` is not a neuron"))),
+    };
+    Ok((p.with_reset(reset), scale))
+}
+
+/// The linear op of a node, for an input of `shape`.
+fn op(path: &Path, name: &str, node: &Node, shape: &[usize]) -> Result<Op> {
+    let w = || {
+        node.params.get("weight").ok_or_else(|| nir_err(path, format!("node `{name}` ({}): no `weight`", node.kind)))
+    };
+    let n_in: usize = shape.iter().product();
+    let chw = || -> Result<[usize; 3]> {
+        match *shape {
+            [c, h, w] => Ok([c, h, w]),
+            _ => Err(nir_err(path, format!("node `{name}` ({}) needs a [C, H, W] input, gets {shape:?}", node.kind))),
+        }
+    };
+    match node.kind.as_str() {
+        "Affine" | "Linear" => {
+            let w = w()?;
+            if w.shape.len() != 2 || w.shape[1] != n_in {
+                return Err(nir_err(path, format!("node `{name}`: weight {:?} does not take {n_in} inputs", w.shape)));
+            }
+            let bias = if node.kind == "Affine" { node.params.get("bias").map(Array::f32s) } else { None };
+            if bias.as_ref().is_some_and(|b| b.len() != w.shape[0]) {
+                return Err(nir_err(path, format!("node `{name}`: bias length differs from {} outputs", w.shape[0])));
+            }
+            Ok(Op::Dense { n_in, n_out: w.shape[0], weight: w.f32s(), bias })
+        }
+        "Conv2d" => {
+            let w = w()?;
+            let in_shape = chw()?;
+            if w.shape.len() != 4 || w.shape[1] != in_shape[0] {
+                return Err(nir_err(path, format!("node `{name}`: weight {:?} does not fit input {shape:?}", w.shape)));
+            }
+            if pair(path, name, node, "dilation", 1)? != [1, 1]
+                || uniform(path, name, node, "groups", Some(1.0))? != 1.0
+            {
+                return Err(nir_err(path, format!("node `{name}` (Conv2d): dilation and groups are not supported")));
+            }
+            Ok(Op::Conv2d {
+                in_shape,
+                out_channels: w.shape[0],
+                kernel: [w.shape[2], w.shape[3]],
+                stride: pair(path, name, node, "stride", 1)?,
+                padding: pair(path, name, node, "padding", 0)?,
+                weight: w.f32s(),
+                bias: node.params.get("bias").map(Array::f32s),
+            })
+        }
+        "SumPool2d" | "AvgPool2d" => {
+            if pair(path, name, node, "padding", 0)? != [0, 0] {
+                return Err(nir_err(path, format!("node `{name}` ({}): padding is not supported", node.kind)));
+            }
+            let kernel = pair(path, name, node, "kernel_size", 1)?;
+            Ok(Op::Pool {
+                kind: if node.kind == "SumPool2d" { PoolKind::Sum } else { PoolKind::Avg },
+                in_shape: chw()?,
+                kernel,
+                stride: pair(path, name, node, "stride", kernel[0])?,
+            })
+        }
+        other => Err(nir_err(path, format!("node `{name}`: `{other}` is not supported by the engine"))),
+    }
+}
+
+fn scale_op(op: &mut Op, s: f32) {
+    if let Op::Dense { weight, bias, .. } | Op::Conv2d { weight, bias, .. } = op {
+        weight.iter_mut().for_each(|w| *w *= s);
+        if let Some(b) = bias {
+            b.iter_mut().for_each(|v| *v *= s);
+        }
+    }
+}
+
+/// What an import gives: the network, and the names of the nodes behind each layer.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub network: Network,
+    /// Per layer: (op node, neuron node if any).
+    pub layer_nodes: Vec<(String, Option<String>)>,
+}
+
+/// Turns a graph into a network for the engine: a chain from `input` to `output`, each linear node
+/// optionally followed by neurons with an optional recurrent loop.
+pub fn import(path: &Path, g: &Graph, opts: &ImportOptions) -> Result<Imported> {
+    let find = |kind: &str| g.nodes.iter().find(|(_, n)| n.kind == kind).map(|(k, _)| k.clone());
+    let input = find("Input").ok_or_else(|| nir_err(path, "no Input node"))?;
+    for (a, b) in &g.edges {
+        for n in [a, b] {
+            if !g.nodes.contains_key(n) {
+                return Err(nir_err(path, format!("edge ({a}, {b}) names a node `{n}` the graph lacks")));
+            }
+        }
+    }
+    let succ = |n: &str| -> Vec<&String> { g.edges.iter().filter(|(a, _)| a == n).map(|(_, b)| b).collect() };
+    let node = |n: &str| &g.nodes[n];
+    let in_node = node(&input);
+    let mut shape: Vec<usize> = in_node
+        .params
+        .get("shape")
+        .or_else(|| in_node.params.get("input_type.input"))
+        .map(|a| a.data.iter().map(|&v| v as usize).collect())
+        .ok_or_else(|| nir_err(path, format!("Input node `{input}` has no shape")))?;
+    let input_shape = shape.clone();
+    let mut layers: Vec<Layer> = Vec::new();
+    let mut layer_nodes = Vec::new();
+    let mut visited = vec![input.clone()];
+    let next_of = |n: &str, visited: &[String]| -> Result<Option<String>> {
+        let fwd: Vec<&String> = succ(n).into_iter().filter(|s| !visited.contains(s)).collect();
+        match fwd.as_slice() {
+            [] => Ok(None),
+            [one] => Ok(Some((*one).clone())),
+            many => Err(nir_err(
+                path,
+                format!("node `{n}` branches to {many:?}; only chains (with recurrent loops) are supported"),
+            )),
+        }
+    };
+    let mut cur = next_of(&input, &visited)?;
+    while let Some(name) = cur {
+        visited.push(name.clone());
+        let n = node(&name);
+        match n.kind.as_str() {
+            "Output" => break,
+            "Flatten" => {
+                let start = uniform(path, &name, n, "start_dim", Some(0.0))?;
+                let end = uniform(path, &name, n, "end_dim", Some(-1.0))?;
+                if !(start == 0.0 && (end == -1.0 || end as usize + 1 == shape.len())) {
+                    return Err(nir_err(
+                        path,
+                        format!("node `{name}` (Flatten): only a flatten of the whole [C, H, W] tensor is supported"),
+                    ));
+                }
+                shape = vec![shape.iter().product()];
+                cur = next_of(&name, &visited)?;
+            }
+            k if is_neuron(k) => {
+                return Err(nir_err(
+                    path,
+                    format!(
+                        "node `{name}` ({k}) follows no linear node; the engine needs one before each neuron layer"
+                    ),
+                ));
+            }
+            _ => {
+                let mut o = op(path, &name, n, &shape)?;
+                let mut next = next_of(&name, &visited)?;
+                let mut neurons = None;
+                let mut recurrent = None;
+                let mut recurrent_bias = None;
+                let mut neuron_name = None;
+                if let Some(nn) = next.clone().filter(|nn| is_neuron(&node(nn).kind)) {
+                    visited.push(nn.clone());
+                    let (p, scale) = neuron(path, &nn, node(&nn), opts)?;
+                    let s = scale as f32;
+                    if s != 1.0 {
+                        scale_op(&mut o, s);
+                    }
+                    // a loop back into this neuron node through one linear node
+                    for r in succ(&nn) {
+                        if succ(r).iter().any(|b| **b == nn) {
+                            let rn = node(r);
+                            let n_out = o.n_out();
+                            let Op::Dense { weight, bias, .. } = op(path, r, rn, &[n_out])? else {
+                                return Err(nir_err(
+                                    path,
+                                    format!("node `{r}`: a recurrent connection must be Affine or Linear"),
+                                ));
+                            };
+                            recurrent = Some(weight.iter().map(|w| w * s).collect::<Vec<f32>>());
+                            recurrent_bias = bias.map(|b| b.iter().map(|v| v * s).collect());
+                            visited.push(r.clone());
+                        }
+                    }
+                    neurons = Some(p);
+                    neuron_name = Some(nn.clone());
+                    next = next_of(&nn, &visited)?;
+                }
+                shape = o.out_shape();
+                layers.push(Layer { op: o, neurons, recurrent, recurrent_bias });
+                layer_nodes.push((name.clone(), neuron_name));
+                cur = next;
+            }
+        }
+    }
+    if let Some(unused) = g.nodes.keys().find(|k| !visited.contains(k)) {
+        return Err(nir_err(
+            path,
+            format!("node `{unused}` ({}) is not on the chain from `{input}` to the output", g.nodes[unused].kind),
+        ));
+    }
+    let network = Network::new(input_shape, layers).map_err(|e| nir_err(path, e.to_string()))?;
+    Ok(Imported { network, layer_nodes })
+}
+
+/// How reset by subtraction is exported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SubtractExport {
+    /// Refuse: the file would change the dynamics.
+    #[default]
+    Refuse,
+    /// Write it (NIR resets to `v_reset`), accepting changed dynamics.
+    AsReset,
+}
+
+/// The graph of `net` at step `dt_s`.
+pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Graph> {
+    let mut g = Graph { version: NIR_VERSION.to_string(), ..Graph::default() };
+    let p = Path::new("<export>");
+    let arr =
+        |shape: &[usize], data: &[f32]| Array { shape: shape.to_vec(), data: data.iter().map(|&v| v as f64).collect() };
+    let ints = |v: &[usize]| Array { shape: vec![v.len()], data: v.iter().map(|&x| x as f64).collect() };
+    g.nodes.insert(
+        "input".into(),
+        Node { kind: "Input".into(), params: BTreeMap::from([("shape".into(), ints(&net.input_shape))]) },
+    );
+    let mut prev = "input".to_string();
+    let mut shape = net.input_shape.clone();
+    for (k, l) in net.layers.iter().enumerate() {
+        if let (Op::Dense { .. }, true) = (&l.op, shape.len() > 1) {
+            let name = format!("layer{k}.flatten");
+            let params = BTreeMap::from([
+                ("start_dim".into(), Array::scalar(0.0)),
+                ("end_dim".into(), Array::scalar(-1.0)),
+                ("input_type".into(), ints(&shape)),
+            ]);
+            g.nodes.insert(name.clone(), Node { kind: "Flatten".into(), params });
+            g.edges.push((prev, name.clone()));
+            prev = name;
+        }
+        let name = format!("layer{k}.op");
+        let node = match &l.op {
+            Op::Dense { n_in, n_out, weight, bias } => {
+                let mut params = BTreeMap::from([("weight".into(), arr(&[*n_out, *n_in], weight))]);
+                match bias {
+                    Some(b) => {
+                        params.insert("bias".into(), arr(&[*n_out], b));
+                        Node { kind: "Affine".into(), params }
+                    }
+                    None => Node { kind: "Linear".into(), params },
+                }
+            }
+            Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, bias } => {
+                let zero = vec![0.0; *out_channels];
+                let params = BTreeMap::from([
+                    ("weight".into(), arr(&[*out_channels, in_shape[0], kernel[0], kernel[1]], weight)),
+                    ("bias".into(), arr(&[*out_channels], bias.as_deref().unwrap_or(&zero))),
+                    ("stride".into(), ints(stride)),
+                    ("padding".into(), ints(padding)),
+                    ("dilation".into(), ints(&[1, 1])),
+                    ("groups".into(), Array::scalar(1.0)),
+                    ("input_shape".into(), ints(&[in_shape[1], in_shape[2]])),
+                ]);
+                Node { kind: "Conv2d".into(), params }
+            }
+            Op::Pool { kind, kernel, stride, .. } => {
+                let params = BTreeMap::from([
+                    ("kernel_size".into(), ints(kernel)),
+                    ("stride".into(), ints(stride)),
+                    ("padding".into(), ints(&[0, 0])),
+                ]);
+                Node { kind: if *kind == PoolKind::Sum { "SumPool2d" } else { "AvgPool2d" }.into(), params }
+            }
+        };
+        g.nodes.insert(name.clone(), node);
+        g.edges.push((prev, name.clone()));
+        prev = name;
+        shape = l.op.out_shape();
+        if let Some(np) = &l.neurons {
+            if np.reset == Reset::Subtract && np.kind != NeuronKind::Li && subtract == SubtractExport::Refuse {
+                return Err(nir_err(
+                    p,
+                    format!(
+                        "layer {k} resets by subtraction, which NIR cannot encode (its neurons reset to v_reset); export with the reset written as v_reset to accept changed dynamics, or train with reset to zero"
+                    ),
+                ));
+            }
+            let dt = dt_s;
+            let tau_of = |f: f32| -> Result<f64> {
+                if f >= 1.0 || f <= 0.0 {
+                    return Err(nir_err(p, format!("layer {k}: decay {f} has no finite time constant")));
+                }
+                Ok(dt / (1.0 - f as f64))
+            };
+            let full = |v: f64| Array::full(&shape, v);
+            let name = format!("layer{k}.neurons");
+            let params: BTreeMap<String, Array> = match np.kind {
+                NeuronKind::Lif | NeuronKind::Li => {
+                    let tau = tau_of(np.beta)?;
+                    let mut m = BTreeMap::from([
+                        ("tau".into(), full(tau)),
+                        ("r".into(), full(tau / dt)),
+                        ("v_leak".into(), full(np.v_leak as f64)),
+                    ]);
+                    if np.kind == NeuronKind::Lif {
+                        m.insert("v_threshold".into(), full(np.v_th as f64));
+                        m.insert("v_reset".into(), full(np.v_reset as f64));
+                    }
+                    m
+                }
+                NeuronKind::CubaLif => {
+                    let (ts, tm) = (tau_of(np.alpha)?, tau_of(np.beta)?);
+                    BTreeMap::from([
+                        ("tau_syn".into(), full(ts)),
+                        ("tau_mem".into(), full(tm)),
+                        ("r".into(), full(tm / dt)),
+                        ("w_in".into(), full(ts / dt)),
+                        ("v_leak".into(), full(np.v_leak as f64)),
+                        ("v_threshold".into(), full(np.v_th as f64)),
+                        ("v_reset".into(), full(np.v_reset as f64)),
+                    ])
+                }
+                NeuronKind::If => BTreeMap::from([
+                    ("r".into(), full(1.0)),
+                    ("v_threshold".into(), full(np.v_th as f64)),
+                    ("v_reset".into(), full(np.v_reset as f64)),
+                ]),
+            };
+            let kind = match np.kind {
+                NeuronKind::Lif => "LIF",
+                NeuronKind::CubaLif => "CubaLIF",
+                NeuronKind::If => "IF",
+                NeuronKind::Li => "LI",
+            };
+            g.nodes.insert(name.clone(), Node { kind: kind.into(), params });
+            g.edges.push((prev, name.clone()));
+            if let Some(w) = &l.recurrent {
+                let n = l.op.n_out();
+                let rname = format!("layer{k}.w_rec");
+                let mut params = BTreeMap::from([("weight".into(), arr(&[n, n], w))]);
+                let kind = match &l.recurrent_bias {
+                    Some(b) => {
+                        params.insert("bias".into(), arr(&[n], b));
+                        "Affine"
+                    }
+                    None => "Linear",
+                };
+                g.nodes.insert(rname.clone(), Node { kind: kind.into(), params });
+                g.edges.push((name.clone(), rname.clone()));
+                g.edges.push((rname, name.clone()));
+            }
+            prev = name;
+        }
+    }
+    g.nodes.insert(
+        "output".into(),
+        Node { kind: "Output".into(), params: BTreeMap::from([("shape".into(), ints(&shape))]) },
+    );
+    g.edges.push((prev, "output".into()));
+    Ok(g)
+}
+
+/// Chip target profiles: what each toolchain accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Target {
+    Generic,
+    Loihi2,
+    Speck,
+    Xylo,
+    Spinnaker2,
+}
+
+/// Checks a network against a target's rules; the error names the layer (and its NIR node) and
+/// the rule.
+pub fn check_target(net: &Network, target: Target) -> Result<()> {
+    let p = Path::new("<target>");
+    let fail = |k: usize, node: &str, rule: &str| {
+        Err(nir_err(p, format!("layer {k} (node `layer{k}.{node}`): {target:?}: {rule}")))
+    };
+    for (k, l) in net.layers.iter().enumerate() {
+        let kind = l.neurons.map(|n| n.kind);
+        match target {
+            Target::Generic => {}
+            Target::Speck => {
+                if let Some(n) = l.neurons
+                    && n.kind != NeuronKind::If
+                {
+                    return fail(k, "neurons", "Speck runs IF neurons only (no leak): convert LIF/CubaLIF to IF");
+                }
+                if matches!(l.op, Op::Dense { .. }) && l.neurons.is_none() {
+                    return fail(k, "op", "a dense layer must feed neurons");
+                }
+                if let Op::Pool { kind: PoolKind::Avg, .. } = l.op {
+                    return fail(k, "op", "Speck pools by summing (SumPool2d), not averaging");
+                }
+                if l.recurrent.is_some() {
+                    return fail(k, "w_rec", "Speck has no recurrent connections");
+                }
+                if l.op.bias().is_some() {
+                    return fail(k, "op", "Speck has no biases");
+                }
+            }
+            Target::Xylo => {
+                if matches!(l.op, Op::Conv2d { .. } | Op::Pool { .. }) {
+                    return fail(k, "op", "Xylo has no convolution or pooling: dense (and recurrent) layers only");
+                }
+                if let Some(n) = kind
+                    && !matches!(n, NeuronKind::CubaLif | NeuronKind::Lif | NeuronKind::Li)
+                {
+                    return fail(k, "neurons", "Xylo runs (current-based) LIF neurons");
+                }
+                if l.op.n_out() > 1000 {
+                    return fail(k, "op", "Xylo holds at most 1000 hidden neurons");
+                }
+            }
+            Target::Loihi2 => {
+                if matches!(l.op, Op::Pool { kind: PoolKind::Avg, .. }) {
+                    return fail(k, "op", "Loihi 2 (lava-dl) pools by summing; average pooling is not mapped");
+                }
+            }
+            Target::Spinnaker2 => {
+                if matches!(l.op, Op::Conv2d { .. } | Op::Pool { .. }) {
+                    return fail(
+                        k,
+                        "op",
+                        "the SpiNNaker2 NIR mapping (py-spinnaker2) takes dense and recurrent layers",
+                    );
+                }
+                if kind == Some(NeuronKind::If) {
+                    return fail(k, "neurons", "the SpiNNaker2 NIR mapping runs LIF and CubaLIF neurons");
+                }
+            }
+        }
+    }
+    Ok(())
+}
