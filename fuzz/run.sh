@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-300}
-for target in aedat4_decode csv_decode npy_decode; do
+for target in aedat4_decode csv_decode npy_decode model_load nir_import; do
   mkdir -p "corpus/$target"
   cargo +nightly fuzz run "$target" "corpus/$target" -- \
     -max_total_time="$seconds" -rss_limit_mb=1024 -malloc_limit_mb=512 -timeout=10 2>&1 |

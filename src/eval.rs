@@ -25,15 +25,18 @@ pub enum ModeArg {
 }
 
 #[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct Args {
+    #[command(subcommand)]
+    what: Option<What>,
     /// A dataset folder in the iCub Braille layout.
-    #[arg(long)]
-    data: PathBuf,
+    #[arg(long, required = true)]
+    data: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "test")]
     split: SplitArg,
     /// The model file.
-    #[arg(long)]
-    model: PathBuf,
+    #[arg(long, required = true)]
+    model: Option<PathBuf>,
     /// Engine mode: `stepped` reproduces the trained network exactly; `async` fires at threshold
     /// crossings (LIF and IF layers only).
     #[arg(long, value_enum, default_value = "stepped")]
@@ -41,6 +44,12 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(clap::Subcommand)]
+pub enum What {
+    /// A character classifier on simulated scans of a board (SIMULATED data).
+    Chars(crate::chars::EvalCharsArgs),
 }
 
 /// Accuracy and work of an SNN on a set of spike trains.
@@ -82,13 +91,14 @@ pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mo
     let k = set.classes.len().max(n_out);
     let mut confusion = vec![vec![0u32; k]; k];
     let mut correct = 0;
-    let (mut synops, mut spikes, mut inputs) = (0u64, 0u64, 0u64);
-    for (&(pred, s, z, e), &label) in results.iter().zip(&set.labels) {
+    let (mut synops, mut spikes) = (0u64, 0u64);
+    // sensor events (a step's several events at one input reach the engine as one weighted input)
+    let inputs: u64 = set.trains.iter().map(|t| t.total()).sum();
+    for (&(pred, s, z, _), &label) in results.iter().zip(&set.labels) {
         confusion[label][pred] += 1;
         correct += usize::from(pred == label);
         synops += s;
         spikes += z;
-        inputs += e;
     }
     let n = set.len().max(1) as f64;
     Ok(Scored {
@@ -128,10 +138,16 @@ struct Report<'a> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let model = SnnModel::load(&args.model)?;
+    if let Some(What::Chars(a)) = args.what {
+        return crate::chars::eval(a);
+    }
+    let (Some(data_dir), Some(model_path)) = (args.data.clone(), args.model.clone()) else {
+        anyhow::bail!("eval needs --data DIR and --model PATH, or the `chars` subcommand");
+    };
+    let model = SnnModel::load(&model_path)?;
     let encoding: TactileEncoding = serde_json::from_value(model.preprocess.clone())
-        .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", args.model.display()))?;
-    let data = Dataset::load(&args.data, encoding.period_us)?;
+        .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", model_path.display()))?;
+    let data = Dataset::load(&data_dir, encoding.period_us)?;
     let split = match args.split {
         SplitArg::Train => Some(Split::Train),
         SplitArg::Test => Some(Split::Test),
@@ -144,13 +160,13 @@ pub fn run(args: Args) -> Result<()> {
     };
     let s = snn_accuracy_in(&model.network, &model.config, &set, mode)?;
     let report = Report {
-        data: args.data.display().to_string(),
+        data: data_dir.display().to_string(),
         split: match args.split {
             SplitArg::Train => "train",
             SplitArg::Test => "test",
             SplitArg::All => "all",
         },
-        model: args.model.display().to_string(),
+        model: model_path.display().to_string(),
         mode: match mode {
             Mode::Stepped => "stepped",
             Mode::Async => "async",

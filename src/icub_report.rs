@@ -37,10 +37,13 @@ struct Baselines {
 
 fn baselines(name: &str) -> Baselines {
     match name {
-        "raw1350" => {
-            Baselines { recurrent_snn: 78.9, feedforward_snn: "80.4-84.8", ridge: 91.1, lstm: "93.3-98.9 (raw frames)" }
-        }
-        _ => Baselines { recurrent_snn: 62.7, feedforward_snn: "31.9", ridge: 41.6, lstm: "65.6-67.4" },
+        "raw1350" => Baselines {
+            recurrent_snn: 78.9,
+            feedforward_snn: "80.4-84.8%",
+            ridge: 91.1,
+            lstm: "93.3-98.9% (raw frames)",
+        },
+        _ => Baselines { recurrent_snn: 62.7, feedforward_snn: "31.9%", ridge: 41.6, lstm: "65.6-67.4%" },
     }
 }
 
@@ -124,7 +127,7 @@ pub fn run(args: Args) -> Result<()> {
         let b = baselines(&r.dataset);
         writeln!(
             md,
-            "| {} | {:.0}% | **{:.1}%** ({}/{}) | {} | {:.1}% | {}% | {:.1}% | {}% |",
+            "| {} | {:.0}% | **{:.1}%** ({}/{}) | {} | {:.1}% | {} | {:.1}% | {} |",
             r.dataset,
             r.target_percent,
             100.0 * r.accuracy_stepped,
@@ -161,7 +164,7 @@ fn plot(rows: &[Row], path: &std::path::Path) -> Result<()> {
     for (area, r) in panels.iter().zip(rows) {
         let b = baselines(&r.dataset);
         let mid = |s: &str| -> f64 {
-            let v: Vec<f64> = s.split(['-', ' ']).filter_map(|x| x.parse().ok()).collect();
+            let v: Vec<f64> = s.split(['-', ' ', '%']).filter_map(|x| x.parse().ok()).collect();
             if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 }
         };
         let bars = [

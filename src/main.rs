@@ -2,6 +2,7 @@
 //! streams; `demo` shows what works on built-in defaults.
 
 mod bench;
+mod chars;
 mod convert;
 mod demo;
 mod eval;
@@ -47,7 +48,8 @@ enum Command {
     Bench(bench::Args),
     /// Train a classifier (the SNN on a tactile dataset folder) and save it as a model file.
     Train(train::Args),
-    /// A trained model's accuracy on a dataset folder's split, on the event-driven engine.
+    /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
+    /// engine), or `eval chars` on simulated scans of a board.
     Eval(eval::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),

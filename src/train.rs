@@ -26,6 +26,12 @@ pub enum NeuronArg {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ResetArg {
+    Zero,
+    Subtract,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ReadoutArg {
     MaxMembrane,
     SpikeCount,
@@ -43,9 +49,18 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "snn")]
     arch: ArchArg,
     /// A dataset folder in the iCub Braille layout (events: samples.csv, events.csv, split.csv;
-    /// analog: raw.csv, split.csv).
+    /// analog: raw.csv, split.csv). Required for the SNN; the ResNet trains on simulated scans.
     #[arg(long)]
-    data: PathBuf,
+    data: Option<PathBuf>,
+    /// ResNet: the network's size.
+    #[arg(long, value_enum, default_value = "lite")]
+    preset: crate::chars::PresetArg,
+    /// ResNet: the paper's input configuration.
+    #[arg(long, value_enum, default_value = "normaug")]
+    aug: crate::chars::AugArg,
+    /// ResNet: simulated scans per board row (SAB and UN, 8 mm/s, 1.5 mm).
+    #[arg(long, default_value_t = 10)]
+    trials: u64,
     /// Sampling period of analog data, in microseconds (the iCub taxels: 40 Hz).
     #[arg(long, default_value_t = 25_000)]
     period_us: i64,
@@ -76,6 +91,13 @@ pub struct Args {
     /// sample's start; neuromorphic chips often prefer networks without).
     #[arg(long)]
     bias: bool,
+    /// How hidden neurons reset after a spike. NIR (and so the chips) can only express
+    /// `zero` (to v_reset); `subtract` keeps the excess.
+    #[arg(long, value_enum, default_value = "subtract")]
+    reset: ResetArg,
+    /// Clip the gradient norm to this (0: off).
+    #[arg(long, default_value_t = 0.0)]
+    clip_norm: f64,
     /// Recurrent connections in the hidden layers.
     #[arg(long)]
     recurrent: bool,
@@ -182,7 +204,10 @@ fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<Networ
         NeuronArg::CubaLif => LifConfig::cuba_lif(args.tau_mem_us, args.tau_syn_us),
         NeuronArg::If => LifConfig::integrate_and_fire(),
     }
-    .with_reset(Reset::Subtract)
+    .with_reset(match args.reset {
+        ResetArg::Zero => Reset::Zero,
+        ResetArg::Subtract => Reset::Subtract,
+    })
     .discretise(dt, Discretisation::Exact);
     if args.hidden.is_empty() || args.hidden.contains(&0) {
         bail!("--hidden needs positive layer sizes");
@@ -217,15 +242,40 @@ fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<Networ
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.arch != ArchArg::Snn {
-        bail!(
-            "--data trains the SNN; the ResNet trains on simulated character windows (`--arch resnet` without --data)"
-        );
-    }
     if args.out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", args.out.display());
     }
-    let data = Dataset::load(&args.data, args.period_us)?;
+    let mut bars = Bars { bar: None, quiet: args.quiet, sum: (0.0, 0.0, 0) };
+    let cfg = TrainConfig {
+        epochs: args.epochs,
+        batch_size: args.batch_size,
+        lr: args.lr,
+        seed: args.seed,
+        patience: args.patience,
+        augment: learn::train::Augment { drop_events: args.drop_events, stretch: args.stretch },
+        clip_norm: args.clip_norm,
+        ..TrainConfig::default()
+    };
+    let data_dir = match (args.arch, &args.data) {
+        (ArchArg::Resnet, Some(_)) => bail!("the ResNet trains on simulated character windows; --data is for the SNN"),
+        (ArchArg::Resnet, None) => {
+            return crate::chars::train(crate::chars::ResnetTrainArgs {
+                preset: args.preset,
+                aug: args.aug,
+                trials: args.trials,
+                train: cfg,
+                out: &args.out,
+                force: args.force,
+                history: args.history.as_ref(),
+                observer: &mut bars,
+            });
+        }
+        (ArchArg::Snn, None) => {
+            bail!("the SNN trains on a dataset folder (--data DIR); on simulated windows it is not built yet")
+        }
+        (ArchArg::Snn, Some(d)) => d.clone(),
+    };
+    let data = Dataset::load(&data_dir, args.period_us)?;
     let sd = SigmaDeltaConfig { threshold: args.sigma_delta, interpolate: args.interpolate };
     let encoding = TactileEncoding::fit(&data, sd, args.dt_us)?;
     let all_train = encoding.encode(&data, Some(Split::Train))?;
@@ -238,7 +288,7 @@ pub fn run(args: Args) -> Result<()> {
     let events = |s: &SpikeSet| s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64;
     eprintln!(
         "{}: {} classes, {} inputs, {} steps of {} us; train {} / validation {} / test {} samples, {:.1} input events per sample",
-        args.data.display(),
+        data_dir.display(),
         data.classes.len(),
         encoding.n_inputs(),
         encoding.steps,
@@ -259,17 +309,7 @@ pub fn run(args: Args) -> Result<()> {
         ReadoutArg::SpikeCount => Readout::SpikeCount,
     };
     let twin = SnnTwin::new(spec.clone(), surrogate, readout)?;
-    let cfg = TrainConfig {
-        epochs: args.epochs,
-        batch_size: args.batch_size,
-        lr: args.lr,
-        seed: args.seed,
-        patience: args.patience,
-        augment: learn::train::Augment { drop_events: args.drop_events, stretch: args.stretch },
-        ..TrainConfig::default()
-    };
     let init = spec.init(args.seed, args.init_gain)?;
-    let mut bars = Bars { bar: None, quiet: args.quiet, sum: (0.0, 0.0, 0) };
     let started = std::time::Instant::now();
     let outcome = learn::train::train(&twin, &init, &train, &val, &cfg, &mut bars)?;
     let train_seconds = started.elapsed().as_secs_f64();
@@ -289,7 +329,7 @@ pub fn run(args: Args) -> Result<()> {
         preprocess: serde_json::to_value(&encoding)?,
         classes: data.classes.clone(),
         provenance: serde_json::json!({
-            "data": args.data.file_name().map(|n| n.to_string_lossy().into_owned()),
+            "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
             "train": cfg,
             "surrogate": format!("{surrogate:?}"),
             "init_gain": args.init_gain,

@@ -4,5 +4,6 @@
 //! for the event-driven engine.
 
 pub mod data;
+pub mod resnet;
 pub mod snn;
 pub mod train;

@@ -5,6 +5,7 @@ use crate::data::SpikeSet;
 use crate::snn::{SnnParams, SnnTwin};
 use burn::module::Module;
 use burn::nn::loss::CrossEntropyLossConfig;
+use burn::optim::grad_clipping::GradientClippingConfig;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use rand::SeedableRng;
@@ -26,6 +27,9 @@ pub struct TrainConfig {
     pub patience: usize,
     #[serde(default)]
     pub augment: Augment,
+    /// Clip the gradient's norm to this (0: no clipping).
+    #[serde(default)]
+    pub clip_norm: f64,
 }
 
 /// Training-time augmentation of input spike trains, drawn per sample from the training seed.
@@ -48,6 +52,7 @@ impl Default for TrainConfig {
             seed: 1,
             patience: 0,
             augment: Augment::default(),
+            clip_norm: 0.0,
         }
     }
 }
@@ -172,7 +177,11 @@ pub fn train(
     let device = Device::flex().autodiff();
     device.seed(cfg.seed);
     let mut params = SnnParams::from_weights(&twin.spec, init, &device)?;
-    let mut optim = AdamConfig::new().init();
+    let mut adam = AdamConfig::new();
+    if cfg.clip_norm > 0.0 {
+        adam = adam.with_grad_clipping(Some(GradientClippingConfig::Norm(cfg.clip_norm as f32)));
+    }
+    let mut optim = adam.init();
     let loss_fn = CrossEntropyLossConfig::new().init(&device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
     let mut best = (init.to_vec(), 0usize, -1.0f64);

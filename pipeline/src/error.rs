@@ -4,6 +4,8 @@ pub enum Error {
     Config(String),
     #[error(transparent)]
     Encoders(#[from] encoders::Error),
+    #[error(transparent)]
+    Sim(#[from] sim::Error),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -4,6 +4,7 @@
 //! The segmentation network and the classifiers behind one interface come next.
 
 pub mod augment;
+pub mod chars;
 pub mod error;
 pub mod labeling;
 pub mod lexicon;
