@@ -272,10 +272,7 @@ pub fn train(
     let mut history = Vec::new();
     for epoch in 1..=tc.epochs {
         let start = std::time::Instant::now();
-        let progress = (epoch - 1) as f64 / (tc.epochs.max(2) - 1) as f64;
-        let lr = tc.lr
-            * (tc.lr_final_fraction
-                + (1.0 - tc.lr_final_fraction) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()));
+        let lr = tc.lr_at(epoch);
         order.shuffle(&mut rng);
         let batches: Vec<&[usize]> = order.chunks(tc.batch_size.max(1)).collect();
         observer.epoch_begin(epoch, batches.len());

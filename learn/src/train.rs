@@ -42,6 +42,16 @@ pub struct Augment {
     pub stretch: f64,
 }
 
+impl TrainConfig {
+    /// The learning rate of `epoch` (from 1): a cosine from `lr` down to `lr * lr_final_fraction`.
+    pub fn lr_at(&self, epoch: usize) -> f64 {
+        let progress = (epoch - 1) as f64 / (self.epochs.max(2) - 1) as f64;
+        self.lr
+            * (self.lr_final_fraction
+                + (1.0 - self.lr_final_fraction) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()))
+    }
+}
+
 impl Default for TrainConfig {
     fn default() -> Self {
         Self {
@@ -189,10 +199,7 @@ pub fn train(
     let mut order: Vec<usize> = (0..train.len()).collect();
     for epoch in 1..=cfg.epochs {
         let start = Instant::now();
-        let progress = (epoch - 1) as f64 / (cfg.epochs.max(2) - 1) as f64;
-        let lr = cfg.lr
-            * (cfg.lr_final_fraction
-                + (1.0 - cfg.lr_final_fraction) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()));
+        let lr = cfg.lr_at(epoch);
         order.shuffle(&mut rng);
         let batches: Vec<&[usize]> = order.chunks(cfg.batch_size).collect();
         observer.epoch_begin(epoch, batches.len());

@@ -20,7 +20,7 @@ use crate::spec::{LayerWeights, NetworkSpec};
 use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 pub const FORMAT: &str = "braille-model";
 /// Version 1: float32 little-endian tensors, the keys above.
@@ -66,13 +66,20 @@ fn model_err(path: &Path, what: impl Into<String>) -> Error {
     Error::Model { path: path.to_path_buf(), what: what.into() }
 }
 
+/// Writes `bytes` to `path` through [`encoders::formats::AtomicFile`] (a temporary sibling, then a
+/// rename); an existing file is kept unless `force`.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8], force: bool) -> Result<()> {
+    use std::io::Write;
+    let err = |e: String| model_err(path, e.trim_start_matches(&format!("{}: ", path.display())).to_string());
+    let mut f = encoders::formats::AtomicFile::create(path, force).map_err(|e| err(e.to_string()))?;
+    f.write_all(bytes).map_err(|e| err(e.to_string()))?;
+    f.commit().map_err(|e| err(e.to_string()))
+}
+
 impl ModelFile {
     /// Writes the file atomically (a temporary sibling, then a rename); an existing file is kept
     /// unless `force`.
     pub fn write(&self, path: &Path, force: bool) -> Result<()> {
-        if path.exists() && !force {
-            return Err(model_err(path, "exists; pass --force to replace it"));
-        }
         let json = |v: &serde_json::Value| v.to_string();
         let meta = HashMap::from([
             ("format".to_string(), FORMAT.to_string()),
@@ -94,15 +101,7 @@ impl ModelFile {
             .collect::<std::result::Result<Vec<_>, _>>()
             .map_err(|e| model_err(path, format!("tensor layout: {e}")))?;
         let out = safetensors::serialize(views, Some(meta)).map_err(|e| model_err(path, e.to_string()))?;
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let name = path.file_name().ok_or_else(|| model_err(path, "is not a file path"))?.to_string_lossy();
-        let tmp: PathBuf = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let io = |e: std::io::Error| model_err(path, e.to_string());
-        std::fs::write(&tmp, &out).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io(e)
-        })
+        write_atomic(path, &out, force)
     }
 
     /// Reads and checks a model file of architecture `arch`.

@@ -24,7 +24,7 @@ use crate::network::{Layer, Network, Op, PoolKind};
 use crate::neuron::{NeuronKind, NeuronParams, Reset};
 use hdf5_pure::{File, FileBuilder};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The NIR version written.
 pub const NIR_VERSION: &str = "1.0.8";
@@ -130,9 +130,6 @@ impl Graph {
     /// Writes the graph (HDF5, the layout `nir.write` produces) atomically; an existing file is
     /// kept unless `force`.
     pub fn write(&self, path: &Path, force: bool) -> Result<()> {
-        if path.exists() && !force {
-            return Err(nir_err(path, "exists; pass --force to replace it"));
-        }
         let mut b = FileBuilder::new();
         b.create_dataset("version").with_vlen_strings(&[NIR_VERSION]).with_shape(&[]);
         let mut node = b.create_group("node");
@@ -157,14 +154,7 @@ impl Graph {
         node.add_group(nodes.finish());
         b.add_group(node.finish());
         let bytes = b.finish().map_err(|e| nir_err(path, format!("HDF5: {e}")))?;
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let name = path.file_name().ok_or_else(|| nir_err(path, "is not a file path"))?.to_string_lossy();
-        let tmp: PathBuf = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        std::fs::write(&tmp, bytes).map_err(|e| nir_err(path, e.to_string()))?;
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            nir_err(path, e.to_string())
-        })
+        crate::model_file::write_atomic(path, &bytes, force)
     }
 }
 
