@@ -3,14 +3,19 @@
 
 use anyhow::{Context, Result, bail};
 use encoders::heatmap::Heatmap;
+use encoders::spike_train::SpikeTrain;
+use learn::data::SpikeSet;
 use learn::resnet::{ImageSet, Resnet, ResnetConfig};
+use learn::snn::{SnnParams, SnnTwin};
 use pipeline::augment::{AugmentConfig, Preprocess, prepare};
-use pipeline::chars::{CharSample, CharSetSpec, class_of, scan_seed, scan_windows, scans};
+use pipeline::chars::{CharSetSpec, class_of, scan_seed, scan_windows, scans};
 use pipeline::labeling::LabelerConfig;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::BoardKind;
-use snn::model_file::{Arch, ModelFile};
+use snn::engine::Mode;
+use snn::model_file::{Arch, ModelFile, SnnModel};
+use snn::neuron::{NeuronKind, Surrogate};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -21,16 +26,24 @@ pub struct CharInput {
     /// Pooled rows and columns kept (the labeler masks columns outside 20-100 anyway).
     pub rows: Range<usize>,
     pub cols: Range<usize>,
+    /// Sum-pooling of the crop (rows and columns); 1 keeps the labeler's grid.
+    #[serde(default = "one")]
+    pub pool: usize,
     pub preprocess: Preprocess,
     pub augment: AugmentConfig,
 }
 
+fn one() -> usize {
+    1
+}
+
 impl CharInput {
     pub fn shape(&self) -> [usize; 3] {
-        [self.labeler.frames * 2, self.rows.len(), self.cols.len()]
+        let p = self.pool.max(1);
+        [self.labeler.frames * 2, self.rows.len() / p, self.cols.len() / p]
     }
 
-    /// The window's counts, cropped, as a heat map of the crop.
+    /// The window's counts, cropped and pooled, as a heat map of the crop.
     pub fn crop(&self, map: &Heatmap) -> Result<Heatmap> {
         if self.rows.end > map.height || self.cols.end > map.width || map.bins != self.labeler.frames {
             bail!(
@@ -43,12 +56,16 @@ impl CharInput {
                 self.labeler.frames
             );
         }
-        let (h, w) = (self.rows.len(), self.cols.len());
-        let mut counts = Vec::with_capacity(map.bins * 2 * h * w);
+        let [_, h, w] = self.shape();
+        let p = self.pool.max(1);
+        let mut counts = vec![0f32; map.bins * 2 * h * w];
         for plane in 0..map.bins * 2 {
-            for r in self.rows.clone() {
-                let at = (plane * map.height + r) * map.width;
-                counts.extend_from_slice(&map.counts[at + self.cols.start..at + self.cols.end]);
+            for (i, r) in self.rows.clone().take(h * p).enumerate() {
+                let at = (plane * map.height + r) * map.width + self.cols.start;
+                let out = (plane * h + i / p) * w;
+                for (j, &v) in map.counts[at..at + w * p].iter().enumerate() {
+                    counts[out + j / p] += v;
+                }
             }
         }
         Ok(Heatmap { t_start_us: map.t_start_us, bin_us: map.bin_us, bins: map.bins, height: h, width: w, counts })
@@ -56,14 +73,20 @@ impl CharInput {
 
     /// The cropped counts of an image as a heat map again.
     fn as_map(&self, image: &[f32]) -> Heatmap {
-        Heatmap {
-            t_start_us: 0,
-            bin_us: 1,
-            bins: self.labeler.frames,
-            height: self.rows.len(),
-            width: self.cols.len(),
-            counts: image.to_vec(),
+        let [_, height, width] = self.shape();
+        Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image.to_vec() }
+    }
+
+    /// An SNN's input from a cropped image: the window's events as input spikes, one step per
+    /// frame (`dt_us` each), input `(polarity * height + row) * width + col`. Of the paper's
+    /// preparation only the vertical centring applies (when configured: `norm`, `normaug`), as a
+    /// whole-row shift that keeps every event; counts are events, so nothing is normalised.
+    pub fn spikes(&self, image: &[f32], dt_us: i64) -> SpikeTrain {
+        let mut map = self.as_map(image);
+        if self.preprocess.normalises() {
+            pipeline::augment::center_vertically(&mut map);
         }
+        SpikeTrain::from_dense(0, dt_us, 2 * map.height * map.width, &map.counts)
     }
 
     /// Network input of a cropped image: centred and normalised as configured; augmented when
@@ -74,8 +97,9 @@ impl CharInput {
     }
 }
 
-/// Windows of `spec`'s scans, simulated in parallel; each window's crop, with the scan it came
-/// from, the number of scans and the scans skipped.
+/// Windows of `spec`'s scans, simulated in parallel and cropped as soon as their scan is done
+/// (so memory holds only the crops); each window's crop, with the scan it came from, the number
+/// of scans and the scans skipped. The same spec gives the same windows, whichever model asks.
 #[allow(clippy::type_complexity)]
 pub fn build(spec: &CharSetSpec, input: &CharInput) -> Result<(ImageSet, Vec<(String, usize, u64)>, usize, usize)> {
     let sensor = crate::simulate::sensor(encoders::Resolution::DVXPLORER, 1)?;
@@ -85,26 +109,47 @@ pub fn build(spec: &CharSetSpec, input: &CharInput) -> Result<(ImageSet, Vec<(St
         indicatif::ProgressStyle::with_template("simulating scans [{bar:30}] {pos}/{len} ({elapsed})")
             .expect("template"),
     );
-    let per_scan: Vec<Option<Vec<CharSample>>> = list
+    let per_scan: Vec<Option<Vec<(usize, Vec<f32>, (String, usize, u64))>>> = list
         .par_iter()
-        .map(|(board, row, trial)| {
+        .map(|(board, row, trial)| -> Result<_> {
             let seed = scan_seed(spec.seed, &board.kind, *row, *trial);
-            let r = scan_windows(board, &sensor, *row, *trial, seed, spec.speed_mm_s, spec.depth_mm, &input.labeler);
+            let r = scan_windows(board, &sensor, *row, *trial, seed, spec.speed_mm_s, spec.depth_mm, &input.labeler)?;
             bar.inc(1);
-            r
+            let Some(samples) = r else { return Ok(None) };
+            let mut kept = Vec::with_capacity(samples.len());
+            for s in samples {
+                if let Some(class) = class_of(s.letter) {
+                    kept.push((class, input.crop(&s.map)?.counts, s.scan));
+                }
+            }
+            Ok(Some(kept))
         })
-        .collect::<pipeline::error::Result<_>>()?;
+        .collect::<Result<_>>()?;
     bar.finish_and_clear();
     let mut set = ImageSet { shape: input.shape(), ..ImageSet::default() };
     let mut origin = Vec::new();
     let skipped = per_scan.iter().filter(|s| s.is_none()).count();
-    for s in per_scan.into_iter().flatten().flatten() {
-        let Some(class) = class_of(s.letter) else { continue };
-        set.data.push(input.crop(&s.map)?.counts);
+    for (class, counts, scan) in per_scan.into_iter().flatten().flatten() {
+        set.data.push(counts);
         set.labels.push(class);
-        origin.push(s.scan);
+        origin.push(scan);
     }
     Ok((set, origin, list.len(), skipped))
+}
+
+/// The training protocol's windows: SAB and UN at 8 mm/s and 1.5 mm, split by whole scans
+/// (every fifth trial goes to validation when there are five or more), so no scan feeds both.
+#[allow(clippy::type_complexity)]
+pub fn training_windows(
+    trials: u64,
+    seed: u64,
+    input: &CharInput,
+) -> Result<(ImageSet, Vec<usize>, Vec<usize>, usize, usize)> {
+    let spec =
+        CharSetSpec { boards: vec![BoardKind::Sab, BoardKind::Un], speed_mm_s: 8.0, depth_mm: 1.5, trials, seed };
+    let (all, origin, n_scans, skipped) = build(&spec, input)?;
+    let (val, train): (Vec<usize>, Vec<usize>) = (0..all.len()).partition(|&i| trials >= 5 && origin[i].2 % 5 == 4);
+    Ok((all, train, val, n_scans, skipped))
 }
 
 pub fn classes() -> Vec<String> {
@@ -197,28 +242,24 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
         PresetArg::Lite => (28..92, 20..100),
         PresetArg::Paper => (0..120, 20..100),
     };
-    let input = CharInput { labeler, rows, cols, preprocess: a.aug.preprocess(), augment: AugmentConfig::default() };
-    let spec = CharSetSpec {
-        boards: vec![BoardKind::Sab, BoardKind::Un],
-        speed_mm_s: 8.0,
-        depth_mm: 1.5,
-        trials: a.trials,
-        seed: a.train.seed,
-    };
-    let (all, origin, n_scans, skipped) = build(&spec, &input)?;
-    // Whole scans go to validation (every fifth trial), so no scan feeds both sides.
-    let val_idx: Vec<usize> = (0..all.len()).filter(|&i| a.trials >= 5 && origin[i].2 % 5 == 4).collect();
-    let pick = |idx: &[usize], set: &ImageSet, prepared: bool| ImageSet {
-        shape: set.shape,
+    let input =
+        CharInput { labeler, rows, cols, pool: 1, preprocess: a.aug.preprocess(), augment: AugmentConfig::default() };
+    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(a.trials, a.train.seed, &input)?;
+    // the windows move into the two sets (no copy: the training set is most of the memory)
+    let mut all = all;
+    let mut pick = |idx: &[usize], prepared: bool| ImageSet {
+        shape: all.shape,
         data: idx
             .iter()
-            .map(|&i| if prepared { input.prepare(&set.data[i], None) } else { set.data[i].clone() })
+            .map(|&i| {
+                let img = std::mem::take(&mut all.data[i]);
+                if prepared { input.prepare(&img, None) } else { img }
+            })
             .collect(),
-        labels: idx.iter().map(|&i| set.labels[i]).collect(),
+        labels: idx.iter().map(|&i| all.labels[i]).collect(),
     };
-    let train_idx: Vec<usize> = (0..all.len()).filter(|i| !val_idx.contains(i)).collect();
-    let train_set = pick(&train_idx, &all, false);
-    let val = pick(&val_idx, &all, true);
+    let train_set = pick(&train_idx, false);
+    let val = pick(&val_idx, true);
     eprintln!(
         "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows of {:?}",
         train_set.len(),
@@ -247,6 +288,7 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
             "train": a.train,
             "best_val_accuracy": best,
             "train_seconds": started.elapsed().as_secs_f64(),
+            "peak_rss_mb": crate::bench::peak_rss_mb(),
         }),
         a.force,
     )?;
@@ -261,7 +303,8 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
 pub struct EvalCharsArgs {
     #[arg(long, value_enum, default_value = "resnet")]
     arch: crate::train::ArchArg,
-    /// The model file [default: models/resnet-lite-normaug.safetensors].
+    /// The model file [default: the architecture's shipped model, models/resnet-lite-normaug.safetensors
+    /// or models/snn-chars.safetensors].
     #[arg(long)]
     model: Option<PathBuf>,
     #[arg(long, default_value = "RAB")]
@@ -280,6 +323,169 @@ pub struct EvalCharsArgs {
     json: bool,
 }
 
+/// A character classifier of either architecture, with how its input is made.
+#[allow(clippy::large_enum_variant)] // one per process: the size does not matter
+pub enum CharModel {
+    Resnet(ResnetModel),
+    Snn { model: SnnModel, input: CharInput },
+}
+
+/// How a classifier did on a set of windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Score {
+    pub n: usize,
+    pub accuracy: f64,
+    pub macro_f1: f64,
+    /// Cross-entropy of the network's outputs (the SNN's: of its time-stepped twin, which the
+    /// stepped engine reproduces spike for spike).
+    pub loss: f64,
+    /// `[truth][predicted]`.
+    pub confusion: Vec<Vec<u32>>,
+    /// SNN only: the event-driven engine's work per window (stepped mode), and its accuracy in
+    /// async mode where the network allows it (LIF/IF layers without bias or recurrence).
+    pub synops_per_sample: Option<f64>,
+    pub spikes_per_sample: Option<f64>,
+    pub input_events_per_sample: Option<f64>,
+    pub accuracy_async: Option<f64>,
+}
+
+impl CharModel {
+    /// The shipped default of each architecture.
+    pub fn default_path(arch: crate::train::ArchArg) -> PathBuf {
+        match arch {
+            crate::train::ArchArg::Resnet => PathBuf::from("models/resnet-lite-normaug.safetensors"),
+            crate::train::ArchArg::Snn => PathBuf::from("models/snn-chars.safetensors"),
+        }
+    }
+
+    pub fn load(arch: crate::train::ArchArg, path: &Path) -> Result<CharModel> {
+        Ok(match arch {
+            crate::train::ArchArg::Resnet => CharModel::Resnet(ResnetModel::load(path)?),
+            crate::train::ArchArg::Snn => {
+                let model = SnnModel::load(path)?;
+                let input: CharInput = serde_json::from_value(model.preprocess.clone()).with_context(|| {
+                    format!(
+                        "{}: header `preprocess` is not a character-window input (a model for `eval --data`?)",
+                        path.display()
+                    )
+                })?;
+                let n = 2 * input.shape()[1] * input.shape()[2];
+                if model.config.network.input_shape.iter().product::<usize>() != n {
+                    bail!(
+                        "{}: the preprocessing gives {n} inputs, the network takes {:?}",
+                        path.display(),
+                        model.config.network.input_shape
+                    );
+                }
+                CharModel::Snn { model, input }
+            }
+        })
+    }
+
+    pub fn input(&self) -> &CharInput {
+        match self {
+            CharModel::Resnet(m) => &m.input,
+            CharModel::Snn { input, .. } => input,
+        }
+    }
+
+    pub fn arch(&self) -> &'static str {
+        match self {
+            CharModel::Resnet(_) => "resnet",
+            CharModel::Snn { .. } => "snn",
+        }
+    }
+
+    /// Scores the windows of `raw` (crops as [`build`] makes them for this model).
+    pub fn score(&self, raw: &ImageSet) -> Result<Score> {
+        let mut confusion = vec![vec![0u32; 26]; 26];
+        match self {
+            CharModel::Resnet(m) => {
+                let set = ImageSet {
+                    shape: raw.shape,
+                    data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
+                    labels: raw.labels.clone(),
+                };
+                let (loss, accuracy, preds) = learn::resnet::evaluate(&m.model, &set, 32);
+                for (&p, &l) in preds.iter().zip(&set.labels) {
+                    confusion[l][p] += 1;
+                }
+                Ok(Score {
+                    n: set.len(),
+                    accuracy,
+                    macro_f1: macro_f1(&confusion),
+                    loss,
+                    confusion,
+                    synops_per_sample: None,
+                    spikes_per_sample: None,
+                    input_events_per_sample: None,
+                    accuracy_async: None,
+                })
+            }
+            CharModel::Snn { model, input } => {
+                let set = snn_set(input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us);
+                let stepped = crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Stepped)?;
+                let accuracy_async = if async_capable(&model.network) {
+                    Some(crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Async)?.accuracy)
+                } else {
+                    None
+                };
+                let twin = SnnTwin::new(
+                    model.config.network.clone(),
+                    Surrogate::FastSigmoid { slope: 1.0 },
+                    model.config.readout,
+                )?;
+                let params = SnnParams::from_weights(
+                    &model.config.network,
+                    &model.network.weights(),
+                    &burn::tensor::Device::flex(),
+                )?;
+                let (loss, _, _) = learn::train::evaluate(&twin, &params, &set, 64);
+                for (l, row) in stepped.confusion.iter().enumerate().take(26) {
+                    for (p, &c) in row.iter().enumerate().take(26) {
+                        confusion[l][p] += c;
+                    }
+                }
+                Ok(Score {
+                    n: stepped.n,
+                    accuracy: stepped.accuracy,
+                    macro_f1: macro_f1(&confusion),
+                    loss,
+                    confusion,
+                    synops_per_sample: Some(stepped.synops_per_sample),
+                    spikes_per_sample: Some(stepped.spikes_per_sample),
+                    input_events_per_sample: Some(stepped.input_events_per_sample),
+                    accuracy_async,
+                })
+            }
+        }
+    }
+}
+
+/// Whether the engine's async mode runs this network (LIF, IF and leaky-integrator layers
+/// without bias or recurrence).
+pub fn async_capable(network: &snn::network::Network) -> bool {
+    network.layers.iter().all(|l| {
+        l.recurrent.is_none()
+            && l.op.bias().is_none()
+            && l.neurons.is_none_or(|p| matches!(p.kind, NeuronKind::Lif | NeuronKind::If | NeuronKind::Li))
+    })
+}
+
+/// The windows `idx` of `raw` as labelled spike trains for an SNN.
+pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64) -> SpikeSet {
+    let [frames2, h, w] = input.shape();
+    SpikeSet {
+        n_inputs: 2 * h * w,
+        steps: frames2 / 2,
+        dt_us,
+        classes: classes(),
+        trains: idx.par_iter().map(|&i| input.spikes(&raw.data[i], dt_us)).collect(),
+        labels: idx.iter().map(|&i| raw.labels[i]).collect(),
+        dropped_events: 0,
+    }
+}
+
 #[derive(Serialize)]
 struct CharReport {
     data: &'static str,
@@ -290,11 +496,8 @@ struct CharReport {
     depth_mm: f64,
     scans: usize,
     skipped_scans: usize,
-    n: usize,
-    accuracy: f64,
-    macro_f1: f64,
-    loss: f64,
-    confusion: Vec<Vec<u32>>,
+    #[serde(flatten)]
+    score: Score,
 }
 
 /// Macro-averaged F1 over the classes that occur (in truth or prediction).
@@ -314,13 +517,8 @@ pub fn macro_f1(confusion: &[Vec<u32>]) -> f64 {
 }
 
 pub fn eval(args: EvalCharsArgs) -> Result<()> {
-    if args.arch != crate::train::ArchArg::Resnet {
-        bail!(
-            "`eval chars --arch snn` needs the SNN trained on simulated windows, which is not built yet; use --arch resnet"
-        );
-    }
-    let path = args.model.clone().unwrap_or_else(|| PathBuf::from("models/resnet-lite-normaug.safetensors"));
-    let m = ResnetModel::load(&path)?;
+    let path = args.model.clone().unwrap_or_else(|| CharModel::default_path(args.arch));
+    let m = CharModel::load(args.arch, &path)?;
     let spec = CharSetSpec {
         boards: vec![args.board.clone()],
         speed_mm_s: args.speed,
@@ -328,46 +526,34 @@ pub fn eval(args: EvalCharsArgs) -> Result<()> {
         trials: args.trials,
         seed: args.seed,
     };
-    let (raw, _, scans, skipped) = build(&spec, &m.input)?;
-    let set = ImageSet {
-        shape: raw.shape,
-        data: raw.data.iter().map(|d| m.input.prepare(d, None)).collect(),
-        labels: raw.labels,
-    };
-    let (loss, accuracy, preds) = learn::resnet::evaluate(&m.model, &set, 32);
-    let mut confusion = vec![vec![0u32; 26]; 26];
-    for (&p, &l) in preds.iter().zip(&set.labels) {
-        confusion[l][p] += 1;
-    }
+    let (raw, _, scans, skipped) = build(&spec, m.input())?;
     let r = CharReport {
         data: "simulated (virtual Evetac)",
-        arch: "resnet",
+        arch: m.arch(),
         model: path.display().to_string(),
         board: args.board.name(),
         speed_mm_s: args.speed,
         depth_mm: args.depth,
         scans,
         skipped_scans: skipped,
-        n: set.len(),
-        accuracy,
-        macro_f1: macro_f1(&confusion),
-        loss,
-        confusion,
+        score: m.score(&raw)?,
     };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         println!(
-            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped): accuracy {:.2}%, macro F1 {:.3}, loss {:.3}",
+            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped): {} accuracy {:.2}%, macro F1 {:.3}, loss {:.3}{}",
             r.board,
             r.speed_mm_s,
             r.depth_mm,
-            r.n,
+            r.score.n,
             r.scans,
             r.skipped_scans,
-            100.0 * r.accuracy,
-            r.macro_f1,
-            r.loss
+            r.arch,
+            100.0 * r.score.accuracy,
+            r.score.macro_f1,
+            r.score.loss,
+            r.score.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a))
         );
     }
     Ok(())

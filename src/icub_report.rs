@@ -9,7 +9,6 @@ use plotters::prelude::*;
 use serde::Serialize;
 use snn::engine::Mode;
 use snn::model_file::SnnModel;
-use snn::neuron::NeuronKind;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -73,11 +72,7 @@ pub fn run(args: Args) -> Result<()> {
         let test = encoding.encode(&data, Some(Split::Test))?;
         let stepped = crate::eval::snn_accuracy_in(&model.network, &model.config, &test, Mode::Stepped)?;
         // Async mode runs LIF and IF layers without bias or recurrence.
-        let async_ok = model.network.layers.iter().all(|l| {
-            l.recurrent.is_none()
-                && l.op.bias().is_none()
-                && l.neurons.is_none_or(|p| matches!(p.kind, NeuronKind::Lif | NeuronKind::If | NeuronKind::Li))
-        });
+        let async_ok = crate::chars::async_capable(&model.network);
         let asynchronous = if async_ok {
             Some(crate::eval::snn_accuracy_in(&model.network, &model.config, &test, Mode::Async)?.accuracy)
         } else {
@@ -140,15 +135,36 @@ pub fn run(args: Args) -> Result<()> {
             b.lstm
         )?;
     }
-    writeln!(md, "\n| data | network | input events / sample | synops / sample | spikes / sample |")?;
-    writeln!(md, "| --- | --- | --- | --- | --- |")?;
+    use snn::energy::{CMOS45_ADD, LOIHI_SYNOP, TRUENORTH_SYNOP};
+    writeln!(
+        md,
+        "\n| data | network | input events / sample | synops / sample | spikes / sample | energy / sample: Loihi | TrueNorth | 45 nm float add |"
+    )?;
+    writeln!(md, "| --- | --- | --- | --- | --- | --- | --- | --- |")?;
     for r in &rows {
         writeln!(
             md,
-            "| {} | {} | {:.0} | {:.0} | {:.0} |",
-            r.dataset, r.network, r.input_events_per_sample, r.synops_per_sample, r.spikes_per_sample
+            "| {} | {} | {:.0} | {:.0} | {:.0} | {:.2} uJ | {:.2} uJ | {:.3} uJ |",
+            r.dataset,
+            r.network,
+            r.input_events_per_sample,
+            r.synops_per_sample,
+            r.spikes_per_sample,
+            LOIHI_SYNOP.nanojoules(r.synops_per_sample) / 1e3,
+            TRUENORTH_SYNOP.nanojoules(r.synops_per_sample) / 1e3,
+            CMOS45_ADD.nanojoules(r.synops_per_sample) / 1e3
         )?;
     }
+    writeln!(
+        md,
+        "\nEnergy: SynOps times published energies per synaptic operation (`snn::energy`; {} pJ, {}; {} pJ, {}; {} pJ, {}), synaptic work only.",
+        LOIHI_SYNOP.pj_per_op,
+        LOIHI_SYNOP.source,
+        TRUENORTH_SYNOP.pj_per_op,
+        TRUENORTH_SYNOP.source,
+        CMOS45_ADD.pj_per_op,
+        CMOS45_ADD.source
+    )?;
     std::fs::write(args.out.join("icub.md"), &md)?;
     std::fs::write(args.out.join("icub.json"), serde_json::to_string_pretty(&rows)? + "\n")?;
     plot(&rows, &args.out.join("icub.png"))?;

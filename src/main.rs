@@ -3,6 +3,7 @@
 
 mod bench;
 mod chars;
+mod chars_report;
 mod convert;
 mod demo;
 mod eval;
@@ -51,6 +52,9 @@ enum Command {
     /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
     /// engine), or `eval chars` on simulated scans of a board.
     Eval(eval::Args),
+    /// Table I and the depth curve on simulated RAB scans: the four ResNet configurations and the
+    /// SNN on the same windows (Markdown, JSON, PNG).
+    CharsReport(chars_report::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),
     /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
@@ -76,6 +80,7 @@ fn main() -> ExitCode {
         Command::Train(a) => train::run(a),
         Command::Eval(a) => eval::run(a),
         Command::IcubReport(a) => icub_report::run(a),
+        Command::CharsReport(a) => chars_report::run(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
     };

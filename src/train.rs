@@ -38,6 +38,12 @@ pub enum ReadoutArg {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReadoutGradientArg {
+    StraightThrough,
+    Clamped,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SurrogateArg {
     FastSigmoid,
     Arctan,
@@ -58,9 +64,15 @@ pub struct Args {
     /// ResNet: the paper's input configuration.
     #[arg(long, value_enum, default_value = "normaug")]
     aug: crate::chars::AugArg,
-    /// ResNet: simulated scans per board row (SAB and UN, 8 mm/s, 1.5 mm).
+    /// Without --data: simulated scans per board row (SAB and UN, 8 mm/s, 1.5 mm).
     #[arg(long, default_value_t = 10)]
     trials: u64,
+    /// SNN on simulated windows: sum-pooling of the 64x80 crop (2: 32x40 per polarity).
+    #[arg(long, default_value_t = 2)]
+    pool: usize,
+    /// SNN on simulated windows: centre each window vertically (a whole-row shift of its events).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    center: bool,
     /// Sampling period of analog data, in microseconds (the iCub taxels: 40 Hz).
     #[arg(long, default_value_t = 25_000)]
     period_us: i64,
@@ -103,6 +115,11 @@ pub struct Args {
     recurrent: bool,
     #[arg(long, value_enum, default_value = "max-membrane")]
     readout: ReadoutArg,
+    /// Max-membrane readout: how the clamp of the readout at zero backpropagates. `straight-through`
+    /// (the default) lets a readout whose membrane stays below zero keep learning; `clamped` gives
+    /// it no gradient (such a class can stop being predicted for good).
+    #[arg(long, value_enum, default_value = "straight-through")]
+    readout_gradient: ReadoutGradientArg,
     #[arg(long, value_enum, default_value = "fast-sigmoid")]
     surrogate: SurrogateArg,
     /// Surrogate sharpness: fast-sigmoid slope, arctan alpha or triangle width.
@@ -270,9 +287,7 @@ pub fn run(args: Args) -> Result<()> {
                 observer: &mut bars,
             });
         }
-        (ArchArg::Snn, None) => {
-            bail!("the SNN trains on a dataset folder (--data DIR); on simulated windows it is not built yet")
-        }
+        (ArchArg::Snn, None) => return train_snn_chars(&args, cfg, &mut bars),
         (ArchArg::Snn, Some(d)) => d.clone(),
     };
     let data = Dataset::load(&data_dir, args.period_us)?;
@@ -299,22 +314,7 @@ pub fn run(args: Args) -> Result<()> {
         events(&all_train)
     );
     let spec = network_spec(&args, encoding.n_inputs(), data.classes.len())?;
-    let surrogate = match args.surrogate {
-        SurrogateArg::FastSigmoid => Surrogate::FastSigmoid { slope: args.surrogate_scale },
-        SurrogateArg::Arctan => Surrogate::Arctan { alpha: args.surrogate_scale },
-        SurrogateArg::Triangle => Surrogate::Triangle { width: args.surrogate_scale },
-    };
-    let readout = match args.readout {
-        ReadoutArg::MaxMembrane => Readout::MaxMembrane,
-        ReadoutArg::SpikeCount => Readout::SpikeCount,
-    };
-    let twin = SnnTwin::new(spec.clone(), surrogate, readout)?;
-    let init = spec.init(args.seed, args.init_gain)?;
-    let started = std::time::Instant::now();
-    let outcome = learn::train::train(&twin, &init, &train, &val, &cfg, &mut bars)?;
-    let train_seconds = started.elapsed().as_secs_f64();
-    let network = spec.build(outcome.weights.clone())?;
-    let config = SnnConfig { network: spec, dt_us: args.dt_us, readout };
+    let (outcome, network, config, surrogate, train_seconds) = fit(&args, spec, &train, &val, &cfg, &mut bars)?;
     let scored = crate::eval::snn_accuracy(&network, &config, &test)?;
     eprintln!(
         "best epoch {} (validation {:.1}%); test accuracy on the event-driven engine: {:.2}% of {}",
@@ -328,24 +328,148 @@ pub fn run(args: Args) -> Result<()> {
         network,
         preprocess: serde_json::to_value(&encoding)?,
         classes: data.classes.clone(),
-        provenance: serde_json::json!({
-            "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
-            "train": cfg,
-            "surrogate": format!("{surrogate:?}"),
-            "init_gain": args.init_gain,
-            "best_epoch": outcome.best_epoch,
-            "val_accuracy": outcome.best_val_accuracy,
-            "test_accuracy": scored.accuracy,
-            "train_seconds": train_seconds,
-        }),
+        provenance: provenance(
+            &args,
+            &cfg,
+            surrogate,
+            &outcome,
+            train_seconds,
+            serde_json::json!({
+                "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
+                "test_accuracy": scored.accuracy,
+            }),
+        ),
     };
+    save(&args, &model, &outcome.history)
+}
+
+/// The SNN on the CNN path's simulated character windows (SAB and UN, 8 mm/s, 1.5 mm, the same
+/// scans and validation split as `--arch resnet` with the same trials and seed), the windows'
+/// events fed as input spikes, one step per 10 ms frame.
+fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()> {
+    use crate::chars::{CharInput, snn_set, training_windows};
+    if args.pool == 0 || 64 % args.pool != 0 || 80 % args.pool != 0 {
+        bail!("--pool must divide the 64x80 crop (1, 2, 4, 8 or 16), got {}", args.pool);
+    }
+    let input = CharInput {
+        labeler: pipeline::labeling::LabelerConfig::default(),
+        rows: 28..92,
+        cols: 20..100,
+        pool: args.pool,
+        preprocess: if args.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
+        augment: pipeline::augment::AugmentConfig::default(),
+    };
+    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(args.trials, args.seed, &input)?;
+    let train = snn_set(&input, &all, &train_idx, args.dt_us);
+    let val = snn_set(&input, &all, &val_idx, args.dt_us);
+    let events = |s: &SpikeSet| s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64;
+    eprintln!(
+        "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows; {} inputs, {} steps of {} us, {:.0} input events per window",
+        train.len(),
+        val.len(),
+        train.n_inputs,
+        train.steps,
+        args.dt_us,
+        events(&train)
+    );
+    let spec = network_spec(args, train.n_inputs, 26)?;
+    let (outcome, network, config, surrogate, train_seconds) = fit(args, spec, &train, &val, &cfg, bars)?;
+    let scored = crate::eval::snn_accuracy(&network, &config, &val)?;
+    eprintln!(
+        "best epoch {} (validation {:.1}% time-stepped, {:.1}% on the event-driven engine; SIMULATED)",
+        outcome.best_epoch,
+        100.0 * outcome.best_val_accuracy,
+        100.0 * scored.accuracy
+    );
+    let model = SnnModel {
+        config,
+        network,
+        preprocess: serde_json::to_value(&input)?,
+        classes: crate::chars::classes(),
+        provenance: provenance(
+            args,
+            &cfg,
+            surrogate,
+            &outcome,
+            train_seconds,
+            serde_json::json!({
+                "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "scans": n_scans,
+                "train_windows": train.len(),
+                "val_windows": val.len(),
+            }),
+        ),
+    };
+    save(args, &model, &outcome.history)
+}
+
+fn surrogate_and_readout(args: &Args) -> (Surrogate, Readout) {
+    let surrogate = match args.surrogate {
+        SurrogateArg::FastSigmoid => Surrogate::FastSigmoid { slope: args.surrogate_scale },
+        SurrogateArg::Arctan => Surrogate::Arctan { alpha: args.surrogate_scale },
+        SurrogateArg::Triangle => Surrogate::Triangle { width: args.surrogate_scale },
+    };
+    let readout = match args.readout {
+        ReadoutArg::MaxMembrane => Readout::MaxMembrane,
+        ReadoutArg::SpikeCount => Readout::SpikeCount,
+    };
+    (surrogate, readout)
+}
+
+/// Writes the model and, when asked, the training history.
+fn save(args: &Args, model: &SnnModel, history: &[EpochReport]) -> Result<()> {
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     model.save(&args.out, args.force)?;
     if let Some(h) = &args.history {
-        crate::simulate::write_json(h, &outcome.history, args.force)?;
+        crate::simulate::write_json(h, &history, args.force)?;
     }
-    eprintln!("wrote {}", args.out.display());
+    eprintln!("wrote {} (peak RSS {:.0} MB)", args.out.display(), crate::bench::peak_rss_mb().unwrap_or(f64::NAN));
     Ok(())
+}
+
+/// Trains `spec` from the seeded initialisation; the best checkpoint as an engine network.
+fn fit(
+    args: &Args,
+    spec: NetworkSpec,
+    train: &SpikeSet,
+    val: &SpikeSet,
+    cfg: &TrainConfig,
+    observer: &mut dyn Observer,
+) -> Result<(learn::train::Outcome, snn::network::Network, SnnConfig, Surrogate, f64)> {
+    let (surrogate, readout) = surrogate_and_readout(args);
+    let mut twin = SnnTwin::new(spec.clone(), surrogate, readout)?;
+    twin.clamped_readout_gradient = args.readout_gradient == ReadoutGradientArg::Clamped;
+    let init = spec.init(args.seed, args.init_gain)?;
+    let started = std::time::Instant::now();
+    let outcome = learn::train::train(&twin, &init, train, val, cfg, observer)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let network = spec.build(outcome.weights.clone())?;
+    Ok((outcome, network, SnnConfig { network: spec, dt_us: args.dt_us, readout }, surrogate, seconds))
+}
+
+/// How a model was trained, with `extra` (an object) merged in.
+fn provenance(
+    args: &Args,
+    cfg: &TrainConfig,
+    surrogate: Surrogate,
+    outcome: &learn::train::Outcome,
+    seconds: f64,
+    extra: serde_json::Value,
+) -> serde_json::Value {
+    let mut p = serde_json::json!({
+        "train": cfg,
+        "surrogate": format!("{surrogate:?}"),
+        "readout_gradient": format!("{:?}", args.readout_gradient),
+        "init_gain": args.init_gain,
+        "best_epoch": outcome.best_epoch,
+        "val_accuracy": outcome.best_val_accuracy,
+        "train_seconds": seconds,
+        "peak_rss_mb": crate::bench::peak_rss_mb(),
+    });
+    if let (Some(p), serde_json::Value::Object(extra)) = (p.as_object_mut(), extra) {
+        p.extend(extra);
+    }
+    p
 }

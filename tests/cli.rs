@@ -286,6 +286,56 @@ fn train_a_resnet_on_simulated_windows_and_evaluate_characters() {
 }
 
 #[test]
+fn train_an_snn_on_simulated_windows_and_report_characters() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = dir.path().join("models");
+    let model = models.join("snn-chars.safetensors");
+    let m = model.to_str().unwrap();
+    let o = braille(&[
+        "train", "--arch", "snn", "--trials", "1", "--epochs", "1", "--hidden", "16", "--neuron", "lif", "--quiet",
+        "--out", m,
+    ]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("SIMULATED training windows") && err.contains("2560 inputs"), "{err}");
+    let o = braille(&["eval", "chars", "--arch", "snn", "--model", m, "--trials", "1", "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!((v["data"].as_str(), v["arch"].as_str()), (Some("simulated (virtual Evetac)"), Some("snn")));
+    assert!(v["n"].as_u64().unwrap() > 0 && v["synops_per_sample"].as_f64().unwrap() > 0.0);
+    // LIF without bias: the async engine runs it too
+    assert!(v["accuracy_async"].as_f64().is_some(), "{out}");
+    // an SNN of the iCub data is no character model: the file is named
+    let icub = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/snn-raw1350.safetensors");
+    let o = braille(&["eval", "chars", "--arch", "snn", "--model", icub.to_str().unwrap(), "--trials", "1"]);
+    let (_, err) = text(&o);
+    assert!(
+        !o.status.success() && err.contains("snn-raw1350.safetensors") && err.contains("not a character-window input"),
+        "{err}"
+    );
+    // the report over whatever models the folder holds
+    let out_dir = dir.path().join("docs");
+    let o = braille(&[
+        "chars-report",
+        "--models",
+        models.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--trials",
+        "1",
+        "--depths",
+        "1.0,1.5",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("Table I") && out.contains("SIMULATED") && out.contains("SynOps"), "{out}");
+    for f in ["chars.md", "chars.json", "chars_depth.png", "chars_confusion_snn.png"] {
+        assert!(out_dir.join(f).exists(), "{f}");
+    }
+}
+
+#[test]
 fn export_to_nir_and_import_back() {
     let dir = tempfile::tempdir().unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

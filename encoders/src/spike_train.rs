@@ -72,6 +72,26 @@ impl SpikeTrain {
         self.counts.iter().map(|&c| c as u64).sum()
     }
 
+    /// The sparse form of a dense `[step][input]` matrix of event counts (the inverse of
+    /// [`SpikeTrain::to_dense`]; a heat map's bins read this way are its spike train). Counts are
+    /// rounded and saturate at `u16::MAX`; zero and negative entries are no spike.
+    pub fn from_dense(t_start_us: i64, dt_us: i64, n_inputs: usize, dense: &[f32]) -> SpikeTrain {
+        let steps = dense.len().checked_div(n_inputs).unwrap_or(0);
+        let mut t =
+            SpikeTrain { t_start_us, dt_us, n_inputs, offsets: vec![0], inputs: Vec::new(), counts: Vec::new() };
+        for k in 0..steps {
+            for (i, &v) in dense[k * n_inputs..(k + 1) * n_inputs].iter().enumerate() {
+                let c = v.round();
+                if c >= 1.0 {
+                    t.inputs.push(i as u32);
+                    t.counts.push(c.min(u16::MAX as f32) as u16);
+                }
+            }
+            t.offsets.push(t.inputs.len() as u32);
+        }
+        t
+    }
+
     /// The dense `[step][input]` matrix, for time-stepped networks.
     pub fn to_dense(&self) -> Vec<f32> {
         let mut d = vec![0f32; self.n_steps() * self.n_inputs];
@@ -173,7 +193,10 @@ mod tests {
             let hm = HeatmapEncoder::new(HeatmapConfig::new(sensor).with_pool(pool).with_bin_us(2_500)).unwrap();
             let train = st.encode(&events, 0, 20);
             prop_assert_eq!(train.total(), events.len() as u64);
-            prop_assert_eq!(train.to_dense(), hm.encode(&events, 0, 20).counts);
+            let map = hm.encode(&events, 0, 20);
+            prop_assert_eq!(&train.to_dense(), &map.counts);
+            // and the heat map read back as spikes is the same train
+            prop_assert_eq!(SpikeTrain::from_dense(0, 2_500, train.n_inputs, &map.counts), train.clone());
             for k in 0..train.n_steps() {
                 let (inputs, _) = train.step(k);
                 prop_assert!(inputs.windows(2).all(|w| w[0] < w[1]));

@@ -44,6 +44,43 @@ impl ResnetConfig {
         Self { input, stem_channels: 16, stages: vec![(16, 1), (32, 1)], hidden: vec![64, 32], dropout: 0.3, classes }
     }
 
+    /// Multiply-accumulates of one inference (convolutions and fully connected layers; batch
+    /// norm, pooling and additions left out), for energy comparisons with an SNN's SynOps.
+    pub fn macs(&self) -> u64 {
+        let out = |n: usize, k: usize, s: usize, p: usize| (n + 2 * p - k) / s + 1;
+        let [c_in, mut h, mut w] = self.input;
+        let mut macs = 0u64;
+        let mut conv = |h: &mut usize, w: &mut usize, ci: usize, co: usize, k: usize, s: usize, p: usize| {
+            *h = out(*h, k, s, p);
+            *w = out(*w, k, s, p);
+            macs += (*h * *w * ci * co * k * k) as u64;
+        };
+        conv(&mut h, &mut w, c_in, self.stem_channels, 7, 2, 3);
+        let (mut h, mut w) = (out(h, 3, 2, 1), out(w, 3, 2, 1));
+        let mut c = self.stem_channels;
+        for (k, &(o, n)) in self.stages.iter().enumerate() {
+            for b in 0..n {
+                let stride = if k > 0 && b == 0 { 2 } else { 1 };
+                let (h0, w0) = (h, w);
+                conv(&mut h, &mut w, c, o, 3, stride, 1);
+                let (h1, w1) = (h, w);
+                conv(&mut h, &mut w, o, o, 3, 1, 1);
+                if stride != 1 || c != o {
+                    let (mut hd, mut wd) = (h0, w0);
+                    conv(&mut hd, &mut wd, c, o, 1, stride, 0);
+                }
+                (h, w) = (h1, w1);
+                c = o;
+            }
+        }
+        let mut n = c;
+        for &f in self.hidden.iter().chain(std::iter::once(&self.classes)) {
+            macs += (n * f) as u64;
+            n = f;
+        }
+        macs
+    }
+
     pub fn init(&self, device: &Device) -> Resnet {
         let conv = |i: usize, o: usize, k: usize, s: usize, p: usize| {
             Conv2dConfig::new([i, o], [k, k])
@@ -148,6 +185,24 @@ impl Resnet {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[test]
+    fn macs_count_by_hand() {
+        // stem 7x7 s2 p3 on 2x8x8 -> 4x4x4: 16*2*4*49 = 6272; pool -> 2x2; one block of 4
+        // channels: two 3x3 convs on 2x2: 2 * 4*4*4*9 = 1152; fc 4 -> 3: 12
+        let cfg = ResnetConfig {
+            input: [2, 8, 8],
+            stem_channels: 4,
+            stages: vec![(4, 1)],
+            hidden: vec![],
+            dropout: 0.0,
+            classes: 3,
+        };
+        assert_eq!(cfg.macs(), 6272 + 1152 + 12);
+        // a second stage halves the resolution and adds a 1x1 projection: 2x2 -> 1x1 with 8 channels
+        let cfg2 = ResnetConfig { stages: vec![(4, 1), (8, 1)], ..cfg };
+        assert_eq!(cfg2.macs(), 6272 + 1152 + (4 * 8 * 9) + (8 * 8 * 9) + (4 * 8) + 8 * 3);
+    }
+
     use burn::nn::loss::CrossEntropyLossConfig;
     use burn::optim::{AdamConfig, GradientsParams};
     use burn::tensor::{Int, TensorData};

@@ -11,7 +11,8 @@
 //! ```
 //!
 //! A leaky-integrator output layer never fires; its readout is `max(0, max_t v[t])`, what the
-//! engine's [`snn::engine::EngineState::output_v_max`] keeps.
+//! engine's [`snn::engine::EngineState::output_v_max`] keeps; its gradient passes the clamp at
+//! zero straight through (a straight-through estimator), so no class's readout can die.
 
 use burn::module::{Module, Param};
 use burn::tensor::module::{avg_pool2d, conv2d};
@@ -135,6 +136,9 @@ pub struct SnnTwin {
     pub shapes: Vec<LayerShapes>,
     pub surrogate: Surrogate,
     pub readout: Readout,
+    /// Backpropagate the readout's clamp at zero as it is (zero gradient below it) instead of
+    /// straight through.
+    pub clamped_readout_gradient: bool,
 }
 
 /// The spike: the step forward, `d(x)` backward (`x * d(x).detach()` carries the gradient; its
@@ -170,7 +174,7 @@ impl SnnTwin {
                 )));
             }
         }
-        Ok(SnnTwin { spec, shapes, surrogate, readout })
+        Ok(SnnTwin { spec, shapes, surrogate, readout, clamped_readout_gradient: false })
     }
 
     /// Runs `input`: one `[batch, n_inputs]` tensor per step.
@@ -241,7 +245,15 @@ impl SnnTwin {
                 if steps == 0 {
                     zeros(self.n_outputs())
                 } else {
-                    Tensor::stack::<3>(out_v, 0).max_dim(0).squeeze_dim::<2>(0).clamp_min(0.0)
+                    // forward: max(0, max_t v), as the engine keeps it; backward: as if
+                    // unclamped, so a readout whose membrane stays below zero still learns
+                    // (with the clamp's zero gradient such a class could never be predicted again)
+                    let m = Tensor::stack::<3>(out_v, 0).max_dim(0).squeeze_dim::<2>(0);
+                    if self.clamped_readout_gradient {
+                        m.clamp_min(0.0)
+                    } else {
+                        m.clone() + (m.clone().clamp_min(0.0) - m).detach()
+                    }
                 }
             }
         };

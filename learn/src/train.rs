@@ -195,6 +195,7 @@ pub fn train(
     let loss_fn = CrossEntropyLossConfig::new().init(&device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
     let mut best = (init.to_vec(), 0usize, -1.0f64);
+    let mut best_loss = f64::INFINITY;
     let mut history = Vec::new();
     let mut order: Vec<usize> = (0..train.len()).collect();
     for epoch in 1..=cfg.epochs {
@@ -230,10 +231,12 @@ pub fn train(
             seconds: start.elapsed().as_secs_f64(),
         };
         observer.epoch_end(&report);
-        // Without a validation set the last epoch is kept.
-        let score = if val.is_empty() { epoch as f64 } else { val_accuracy };
-        if score > best.2 {
+        // The best validation accuracy, ties going to the lower validation loss; without a
+        // validation set the last epoch is kept.
+        let (score, loss) = if val.is_empty() { (epoch as f64, 0.0) } else { (val_accuracy, val_loss) };
+        if score > best.2 || (score == best.2 && loss < best_loss) {
             best = (inference.weights(&twin.spec)?, epoch, score);
+            best_loss = loss;
         }
         history.push(report);
         if cfg.patience > 0 && epoch - best.1 >= cfg.patience {

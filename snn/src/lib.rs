@@ -19,6 +19,7 @@
 //! assert_eq!(stream.stats.synops, 2);
 //! ```
 
+pub mod energy;
 pub mod engine;
 pub mod error;
 pub mod model_file;

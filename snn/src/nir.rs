@@ -91,6 +91,7 @@ impl Graph {
             return Err(nir_err(path, format!("`node/type` is `{kind}`, not `NIRGraph`")));
         }
         let edges_ds = f.dataset("node/edges").map_err(|e| nir_err(path, format!("`node/edges`: {e}")))?;
+        check_size(path, "node/edges", &edges_ds.shape().map_err(|e| nir_err(path, format!("`node/edges`: {e}")))?)?;
         let flat = edges_ds.read_string().map_err(|e| nir_err(path, format!("`node/edges`: {e}")))?;
         if flat.len() % 2 != 0 {
             return Err(nir_err(path, "`node/edges` is not a list of pairs"));
@@ -109,14 +110,17 @@ impl Graph {
                     continue;
                 }
                 let d = g.dataset(&ds).map_err(|e| nir_err(path, format!("`{at}/{ds}`: {e}")))?;
-                let Ok(data) = d.read_f64() else { continue }; // strings and other non-numbers
                 let shape = d.shape().map_err(|e| nir_err(path, format!("`{at}/{ds}`: {e}")))?;
+                check_size(path, &format!("{at}/{ds}"), &shape)?;
+                let Ok(data) = d.read_f64() else { continue }; // strings and other non-numbers
                 params.insert(ds, Array { shape: shape.iter().map(|&s| s as usize).collect(), data });
             }
             // NIR 1.0 keeps Input/Output shapes in `shape`; older files also in `*_type/*`.
             for (group, key) in [("input_type", "input"), ("output_type", "output")] {
                 if !params.contains_key("shape")
                     && let Ok(d) = f.dataset(&format!("{at}/{group}/{key}"))
+                    && let Ok(shape) = d.shape()
+                    && check_size(path, &format!("{at}/{group}/{key}"), &shape).is_ok()
                     && let Ok(data) = d.read_f64()
                 {
                     params.insert(format!("{group}.{key}"), Array { shape: vec![data.len()], data });
@@ -710,4 +714,18 @@ pub fn check_target(net: &Network, target: Target) -> Result<()> {
         }
     }
     Ok(())
+}
+/// Most elements a dataset may declare (256 MiB of float64): a corrupt header claiming more is
+/// refused before anything is allocated.
+pub const MAX_DATASET_ELEMENTS: u64 = 32 << 20;
+
+fn check_size(path: &Path, name: &str, shape: &[u64]) -> Result<()> {
+    let n = shape.iter().try_fold(1u64, |a, &d| a.checked_mul(d));
+    match n {
+        Some(n) if n <= MAX_DATASET_ELEMENTS => Ok(()),
+        _ => Err(nir_err(
+            path,
+            format!("`{name}` declares shape {shape:?}, more than the limit of {MAX_DATASET_ELEMENTS} elements"),
+        )),
+    }
 }

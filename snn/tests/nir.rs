@@ -190,3 +190,12 @@ fn bad_graphs_are_refused_with_the_file_and_the_node() {
     let e = Graph::read(&p).unwrap_err().to_string();
     assert!(e.contains("bad.nir"), "{e}");
 }
+
+/// Found by the `nir_import` fuzz target: a dataset header claiming about 8 TB. It is refused
+/// before anything is allocated, and the file and the dataset are named.
+#[test]
+fn a_dataset_claiming_terabytes_is_refused() {
+    let p = fixture("fuzz_huge_dataset.nir");
+    let e = Graph::read(&p).unwrap_err().to_string();
+    assert!(e.contains("fuzz_huge_dataset.nir") && e.contains("more than the limit"), "{e}");
+}

@@ -1,0 +1,371 @@
+//! `braille chars-report`: the paper's Table I (Raw / Norm / Aug / NormAug) and its depth figure
+//! on SIMULATED scans of the RAB board at 8 mm/s, with the SNN beside the ResNet on the same
+//! windows, and confusion matrices. Markdown, JSON and PNG.
+
+use crate::chars::{CharModel, Score, build};
+use crate::train::ArchArg;
+use anyhow::{Context, Result, bail};
+use pipeline::chars::CharSetSpec;
+use plotters::prelude::*;
+use serde::Serialize;
+use sim::BoardKind;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The paper's test depths, in mm.
+pub const DEPTHS_MM: [f64; 7] = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5];
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Folder holding `resnet-lite-{raw,norm,aug,normaug}.safetensors` (`scripts/table1.sh`) and
+    /// `snn-chars.safetensors` (`scripts/train_snn_chars.sh`); missing models are left out.
+    #[arg(long, default_value = "models")]
+    models: PathBuf,
+    /// Where to write `chars.md`, `chars.json`, `chars_depth.png` and the confusion PNGs.
+    #[arg(long, default_value = "docs")]
+    out: PathBuf,
+    /// RAB scans per board row and depth.
+    #[arg(long, default_value_t = 10)]
+    trials: u64,
+    /// Scan seed of the test scans (training used others).
+    #[arg(long, default_value_t = 1_000_003)]
+    seed: u64,
+    /// Depths to test, in mm [default: the paper's 0.2-1.5 mm].
+    #[arg(long, value_delimiter = ',')]
+    depths: Vec<f64>,
+}
+
+#[derive(Serialize)]
+struct Entry {
+    name: String,
+    arch: &'static str,
+    model: String,
+    /// ResNet: multiply-accumulates per window.
+    macs: Option<u64>,
+    /// One score per depth, in the order of `depths_mm`.
+    scores: Vec<Score>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    data: &'static str,
+    board: &'static str,
+    speed_mm_s: f64,
+    trials: u64,
+    seed: u64,
+    depths_mm: Vec<f64>,
+    windows: Vec<usize>,
+    entries: Vec<Entry>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let depths = if args.depths.is_empty() { DEPTHS_MM.to_vec() } else { args.depths.clone() };
+    let mut models = Vec::new();
+    for aug in ["raw", "norm", "aug", "normaug"] {
+        let p = args.models.join(format!("resnet-lite-{aug}.safetensors"));
+        if p.exists() {
+            models.push((format!("ResNet lite {}", label(aug)), CharModel::load(ArchArg::Resnet, &p)?, p));
+        }
+    }
+    let p = args.models.join("snn-chars.safetensors");
+    if p.exists() {
+        models.push(("SNN (event-driven engine)".to_string(), CharModel::load(ArchArg::Snn, &p)?, p));
+    }
+    if models.is_empty() {
+        bail!("{}: no character models (run scripts/table1.sh)", args.models.display());
+    }
+    let mut entries: Vec<Entry> = models
+        .iter()
+        .map(|(name, m, p)| Entry {
+            name: name.clone(),
+            arch: m.arch(),
+            model: p.display().to_string(),
+            macs: match m {
+                CharModel::Resnet(r) => Some(r.config.macs()),
+                CharModel::Snn { .. } => None,
+            },
+            scores: vec![],
+        })
+        .collect();
+    let mut windows = Vec::new();
+    for &depth in &depths {
+        let spec = CharSetSpec {
+            boards: vec![BoardKind::Rab],
+            speed_mm_s: 8.0,
+            depth_mm: depth,
+            trials: args.trials,
+            seed: args.seed,
+        };
+        let mut n = None;
+        for ((_, m, _), e) in models.iter().zip(&mut entries) {
+            // the same spec gives every model the same scans and windows
+            let (raw, _, _, _) = build(&spec, m.input())?;
+            let s = m.score(&raw)?;
+            eprintln!("SIMULATED RAB {depth} mm: {}: {:.2}% of {}", e.name, 100.0 * s.accuracy, s.n);
+            if n.is_some_and(|n| n != s.n) {
+                bail!("models saw different window counts at {depth} mm");
+            }
+            n = Some(s.n);
+            e.scores.push(s);
+        }
+        windows.push(n.unwrap_or(0));
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let report = Report {
+        data: "simulated (virtual Evetac)",
+        board: "RAB",
+        speed_mm_s: 8.0,
+        trials: args.trials,
+        seed: args.seed,
+        depths_mm: depths.clone(),
+        windows,
+        entries,
+    };
+    let md = markdown(&report)?;
+    std::fs::write(args.out.join("chars.md"), &md)?;
+    std::fs::write(args.out.join("chars.json"), serde_json::to_string_pretty(&report)? + "\n")?;
+    plot_depth(&report, &args.out.join("chars_depth.png"))?;
+    let at = depths.iter().position(|&d| d == 1.5).unwrap_or(depths.len() - 1);
+    for e in &report.entries {
+        if e.name.contains("NormAug") || e.arch == "snn" {
+            let file = if e.arch == "snn" { "chars_confusion_snn.png" } else { "chars_confusion_normaug.png" };
+            let title = format!("{}: RAB {} mm, SIMULATED (rows truth, columns predicted)", e.name, depths[at]);
+            plot_confusion(&e.scores[at].confusion, &title, &args.out.join(file))?;
+        }
+    }
+    print!("{md}");
+    Ok(())
+}
+
+fn label(aug: &str) -> &'static str {
+    match aug {
+        "raw" => "Raw",
+        "norm" => "Norm",
+        "aug" => "Aug",
+        _ => "NormAug",
+    }
+}
+
+fn markdown(r: &Report) -> Result<String> {
+    let mut md = String::new();
+    let at = r.depths_mm.iter().position(|&d| d == 1.5).unwrap_or(r.depths_mm.len() - 1);
+    writeln!(md, "# Character recognition on SIMULATED scans (virtual Evetac)\n")?;
+    writeln!(
+        md,
+        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`). Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
+        r.trials,
+        r.seed,
+        r.windows.get(at).copied().unwrap_or(0)
+    )?;
+    writeln!(md, "## Table I: RAB at {} mm\n", r.depths_mm[at])?;
+    writeln!(md, "| model | accuracy | macro F1 | loss |")?;
+    writeln!(md, "| --- | --- | --- | --- |")?;
+    for e in &r.entries {
+        let s = &e.scores[at];
+        writeln!(md, "| {} | {:.2}% | {:.3} | {:.3} |", e.name, 100.0 * s.accuracy, s.macro_f1, s.loss)?;
+    }
+    writeln!(md, "\nThe paper (real Evetac recordings): NormAug 99.54%.\n")?;
+    writeln!(md, "## Accuracy against depth (RAB, 8 mm/s)\n")?;
+    write!(md, "| depth (mm) | windows |")?;
+    for e in &r.entries {
+        write!(md, " {} |", e.name)?;
+    }
+    writeln!(md)?;
+    writeln!(md, "|{}", " --- |".repeat(2 + r.entries.len()))?;
+    for (i, d) in r.depths_mm.iter().enumerate() {
+        write!(md, "| {d} | {} |", r.windows[i])?;
+        for e in &r.entries {
+            write!(md, " {:.1}% |", 100.0 * e.scores[i].accuracy)?;
+        }
+        writeln!(md)?;
+    }
+    // targets
+    writeln!(md, "\n## Targets\n")?;
+    let normaug = r.entries.iter().find(|e| e.name.contains("NormAug"));
+    if let Some(n) = normaug {
+        let a = n.scores[at].accuracy;
+        writeln!(md, "- NormAug at 1.5 mm at least 99.5%: {:.2}%, {}.", 100.0 * a, met(a >= 0.995))?;
+        let from = r.depths_mm.iter().enumerate().filter(|(_, d)| **d >= 0.6 - 1e-9);
+        let worst =
+            from.map(|(i, d)| (n.scores[i].accuracy, *d)).fold((1.0, 0.0), |w, x| if x.0 < w.0 { x } else { w });
+        writeln!(
+            md,
+            "- NormAug at least 95% at every depth from 0.6 mm: lowest {:.1}% (at {} mm), {}.",
+            100.0 * worst.0,
+            worst.1,
+            met(worst.0 >= 0.95)
+        )?;
+    }
+    if let (Some(n), Some(s)) = (normaug, r.entries.iter().find(|e| e.arch == "snn")) {
+        let gaps: Vec<f64> = n.scores.iter().zip(&s.scores).map(|(a, b)| 100.0 * (a.accuracy - b.accuracy)).collect();
+        let worst = gaps.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        writeln!(
+            md,
+            "- SNN within 1.5 points of the ResNet (NormAug) at every depth: largest shortfall {:.1} points, {}.",
+            worst,
+            met(worst <= 1.5)
+        )?;
+        writeln!(md, "\n## The SNN on the event-driven engine\n")?;
+        writeln!(md, "| depth (mm) | stepped | async | input events / window | synops / window | spikes / window |")?;
+        writeln!(md, "| --- | --- | --- | --- | --- | --- |")?;
+        for (i, d) in r.depths_mm.iter().enumerate() {
+            let x = &s.scores[i];
+            writeln!(
+                md,
+                "| {d} | {:.1}% | {} | {:.0} | {:.0} | {:.0} |",
+                100.0 * x.accuracy,
+                x.accuracy_async.map_or("n/a".into(), |a| format!("{:.1}%", 100.0 * a)),
+                x.input_events_per_sample.unwrap_or(0.0),
+                x.synops_per_sample.unwrap_or(0.0),
+                x.spikes_per_sample.unwrap_or(0.0)
+            )?;
+        }
+        writeln!(
+            md,
+            "\n`stepped` evaluates thresholds at the 10 ms step boundaries and reproduces the trained network spike for spike; `async` fires the moment a membrane crosses threshold."
+        )?;
+    }
+    energy_section(&mut md, r, at)?;
+    writeln!(
+        md,
+        "\nFigures: `chars_depth.png` (accuracy against depth), `chars_confusion_normaug.png`, `chars_confusion_snn.png`."
+    )?;
+    Ok(md)
+}
+
+/// Energy per window from operation counts: the SNN's SynOps on the engine, the ResNet's MACs.
+fn energy_section(md: &mut String, r: &Report, at: usize) -> Result<()> {
+    use snn::energy::{CMOS45_MAC, SYNOP_ENERGIES};
+    writeln!(md, "\n## Energy per window (estimate, RAB {} mm)\n", r.depths_mm[at])?;
+    writeln!(
+        md,
+        "Operation counts times published energies per operation (`snn::energy`): synaptic and arithmetic work only, no neuron updates, routing, memory traffic or static power. Sources below the table.\n"
+    )?;
+    writeln!(md, "| model | operations / window | platform | energy / window |")?;
+    writeln!(md, "| --- | --- | --- | --- |")?;
+    let mut shown_resnet = false;
+    for e in &r.entries {
+        let s = &e.scores[at];
+        match (e.arch, s.synops_per_sample) {
+            ("snn", Some(synops)) => {
+                for op in SYNOP_ENERGIES {
+                    writeln!(
+                        md,
+                        "| {} | {:.0} SynOps | {} ({} pJ per {}) | {:.1} uJ |",
+                        e.name,
+                        synops,
+                        op.platform,
+                        op.pj_per_op,
+                        op.operation,
+                        op.nanojoules(synops) / 1e3
+                    )?;
+                }
+            }
+            _ if !shown_resnet => {
+                if let Some(macs) = e.macs {
+                    shown_resnet = true;
+                    writeln!(
+                        md,
+                        "| ResNet lite (all four configurations) | {:.0} MACs | {} ({} pJ per {}) | {:.1} uJ |",
+                        macs as f64,
+                        CMOS45_MAC.platform,
+                        CMOS45_MAC.pj_per_op,
+                        CMOS45_MAC.operation,
+                        CMOS45_MAC.nanojoules(macs as f64) / 1e3
+                    )?;
+                }
+            }
+            _ => {}
+        }
+    }
+    writeln!(md)?;
+    let mut sources: Vec<&str> = SYNOP_ENERGIES.iter().map(|o| o.source).chain([CMOS45_MAC.source]).collect();
+    sources.dedup();
+    for src in sources {
+        writeln!(md, "- {src}")?;
+    }
+    Ok(())
+}
+
+fn met(ok: bool) -> &'static str {
+    if ok { "met" } else { "**not met**" }
+}
+
+fn plot_depth(r: &Report, path: &Path) -> Result<()> {
+    crate::plot::register_fonts();
+    let root = BitMapBackend::new(path, (900, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let lo =
+        r.entries.iter().flat_map(|e| e.scores.iter().map(|s| 100.0 * s.accuracy)).fold(100.0f64, f64::min).min(90.0);
+    let mut chart = ChartBuilder::on(&root)
+        .caption("SIMULATED: accuracy against depth, RAB at 8 mm/s", ("sans-serif", 20))
+        .margin(14)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.1f64..1.6f64, (lo - 2.0).max(0.0)..100.5f64)?;
+    chart.configure_mesh().x_desc("indentation depth (mm)").y_desc("accuracy (%)").draw()?;
+    let colors = [
+        RGBColor(120, 120, 120),
+        RGBColor(60, 120, 200),
+        RGBColor(230, 150, 30),
+        RGBColor(30, 30, 30),
+        RGBColor(200, 40, 40),
+    ];
+    for (i, e) in r.entries.iter().enumerate() {
+        let c = colors[i % colors.len()];
+        let pts: Vec<(f64, f64)> = r.depths_mm.iter().zip(&e.scores).map(|(&d, s)| (d, 100.0 * s.accuracy)).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+            .label(e.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+    }
+    chart.draw_series(std::iter::once(PathElement::new(vec![(0.55, 95.0), (1.6, 95.0)], BLACK.stroke_width(1))))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(())
+}
+
+fn plot_confusion(confusion: &[Vec<u32>], title: &str, path: &Path) -> Result<()> {
+    crate::plot::register_fonts();
+    let k = confusion.len();
+    let root = BitMapBackend::new(path, (760, 760)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 15))
+        .margin(12)
+        .x_label_area_size(30)
+        .y_label_area_size(30)
+        .build_cartesian_2d((0..k).into_segmented(), (0..k).into_segmented())?;
+    let letter = |v: &SegmentValue<usize>, flip: bool| match v {
+        SegmentValue::CenterOf(i) if *i < k => {
+            let i = if flip { k - 1 - i } else { *i };
+            ((b'A' + i.min(25) as u8) as char).to_string()
+        }
+        _ => String::new(),
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(k)
+        .y_labels(k)
+        .x_label_formatter(&|v| letter(v, false))
+        .y_label_formatter(&|v| letter(v, true))
+        .draw()?;
+    chart.draw_series((0..k).flat_map(|t| (0..k).map(move |p| (t, p))).map(|(t, p)| {
+        let row: u32 = confusion[t].iter().sum();
+        let f = if row == 0 { 0.0 } else { confusion[t][p] as f64 / row as f64 };
+        let shade = (255.0 * (1.0 - f)) as u8;
+        let color = if t == p { RGBColor(shade, shade, 255) } else { RGBColor(255, shade, shade) };
+        let (x, y) = (SegmentValue::Exact(p), SegmentValue::Exact(k - 1 - t));
+        let (x1, y1) = (SegmentValue::Exact(p + 1), SegmentValue::Exact(k - t));
+        Rectangle::new([(x, y), (x1, y1)], color.filled())
+    }))?;
+    root.present().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(())
+}
