@@ -137,16 +137,27 @@ pub fn build(spec: &CharSetSpec, input: &CharInput) -> Result<(ImageSet, Vec<(St
     Ok((set, origin, list.len(), skipped))
 }
 
-/// The training protocol's windows: SAB and UN at 8 mm/s and 1.5 mm, split by whole scans
-/// (every fifth trial goes to validation when there are five or more), so no scan feeds both.
+/// Words of the EV board, kept out of the random word rows so that EV stays a test board.
+pub const EV_WORDS: [&str; 9] = ["RIGHT", "LEFT", "EXIT", "OPEN", "PUSH", "PULL", "STOP", "HELP", "WATER"];
+
+/// The training protocol's windows: SAB and UN at 8 mm/s and 1.5 mm (the paper's), plus
+/// `word_rows` rows of random words (beyond the paper: letters with neighbours at the cell
+/// spacing, as in words; the single-letter boards spread their letters over the row), split by
+/// whole scans (every fifth trial goes to validation when there are five or more), so no scan
+/// feeds both.
 #[allow(clippy::type_complexity)]
 pub fn training_windows(
     trials: u64,
     seed: u64,
+    word_rows: usize,
     input: &CharInput,
 ) -> Result<(ImageSet, Vec<usize>, Vec<usize>, usize, usize)> {
-    let spec =
-        CharSetSpec { boards: vec![BoardKind::Sab, BoardKind::Un], speed_mm_s: 8.0, depth_mm: 1.5, trials, seed };
+    let mut boards = vec![BoardKind::Sab, BoardKind::Un];
+    if word_rows > 0 {
+        let text = pipeline::chars::random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
+        boards.push(BoardKind::Text(text));
+    }
+    let spec = CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed };
     let (all, origin, n_scans, skipped) = build(&spec, input)?;
     let (val, train): (Vec<usize>, Vec<usize>) = (0..all.len()).partition(|&i| trials >= 5 && origin[i].2 % 5 == 4);
     Ok((all, train, val, n_scans, skipped))
@@ -228,6 +239,7 @@ pub struct ResnetTrainArgs<'a> {
     pub preset: PresetArg,
     pub aug: AugArg,
     pub trials: u64,
+    pub word_rows: usize,
     pub train: learn::train::TrainConfig,
     pub out: &'a PathBuf,
     pub force: bool,
@@ -244,7 +256,7 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
     };
     let input =
         CharInput { labeler, rows, cols, pool: 1, preprocess: a.aug.preprocess(), augment: AugmentConfig::default() };
-    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(a.trials, a.train.seed, &input)?;
+    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(a.trials, a.train.seed, a.word_rows, &input)?;
     // the windows move into the two sets (no copy: the training set is most of the memory)
     let mut all = all;
     let mut pick = |idx: &[usize], prepared: bool| ImageSet {
@@ -261,7 +273,8 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
     let train_set = pick(&train_idx, false);
     let val = pick(&val_idx, true);
     eprintln!(
-        "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows of {:?}",
+        "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows of {:?}",
+        a.word_rows,
         train_set.len(),
         val.len(),
         input.shape()
@@ -282,6 +295,7 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
         a.out,
         serde_json::json!({
             "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+            "word_rows": a.word_rows,
             "scans": n_scans,
             "train_windows": train_set.len(),
             "val_windows": val.len(),

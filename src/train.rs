@@ -67,6 +67,11 @@ pub struct Args {
     /// Without --data: simulated scans per board row (SAB and UN, 8 mm/s, 1.5 mm).
     #[arg(long, default_value_t = 10)]
     trials: u64,
+    /// Without --data: rows of random words (TextBlob's frequent words, none of the EV board's)
+    /// added to the training boards, so that letters are also seen with neighbours as in words
+    /// (0: the paper's protocol, SAB and UN only).
+    #[arg(long, default_value_t = 0)]
+    words: usize,
     /// SNN on simulated windows: sum-pooling of the 64x80 crop (2: 32x40 per polarity).
     #[arg(long, default_value_t = 2)]
     pool: usize,
@@ -280,6 +285,7 @@ pub fn run(args: Args) -> Result<()> {
                 preset: args.preset,
                 aug: args.aug,
                 trials: args.trials,
+                word_rows: args.words,
                 train: cfg,
                 out: &args.out,
                 force: args.force,
@@ -359,12 +365,13 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
         preprocess: if args.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
         augment: pipeline::augment::AugmentConfig::default(),
     };
-    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(args.trials, args.seed, &input)?;
+    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(args.trials, args.seed, args.words, &input)?;
     let train = snn_set(&input, &all, &train_idx, args.dt_us);
     let val = snn_set(&input, &all, &val_idx, args.dt_us);
     let events = |s: &SpikeSet| s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64;
     eprintln!(
-        "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows; {} inputs, {} steps of {} us, {:.0} input events per window",
+        "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows; {} inputs, {} steps of {} us, {:.0} input events per window",
+        args.words,
         train.len(),
         val.len(),
         train.n_inputs,
@@ -394,6 +401,7 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
             train_seconds,
             serde_json::json!({
                 "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "word_rows": args.words,
                 "scans": n_scans,
                 "train_windows": train.len(),
                 "val_windows": val.len(),

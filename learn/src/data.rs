@@ -127,6 +127,14 @@ impl TactileEncoding {
         2 * self.channels
     }
 
+    /// The spike-train encoder of this encoding for a sensor of `resolution` (channels along x).
+    pub fn encoder(&self, resolution: encoders::Resolution) -> encoders::Result<SpikeTrainEncoder> {
+        let mut cfg = SpikeTrainConfig::new(resolution);
+        cfg.dt_us = self.dt_us;
+        cfg.pool = 1;
+        SpikeTrainEncoder::new(cfg)
+    }
+
     /// Encodes the samples of `split` (all samples for `None`).
     pub fn encode(&self, data: &Dataset, split: Option<Split>) -> encoders::Result<SpikeSet> {
         if data.channels != self.channels {
@@ -137,10 +145,7 @@ impl TactileEncoding {
                 self.channels
             )));
         }
-        let mut cfg = SpikeTrainConfig::new(data.resolution());
-        cfg.dt_us = self.dt_us;
-        cfg.pool = 1;
-        let encoder = SpikeTrainEncoder::new(cfg)?;
+        let encoder = self.encoder(data.resolution())?;
         let mut set = SpikeSet {
             n_inputs: self.n_inputs(),
             steps: self.steps,

@@ -87,3 +87,53 @@ pub fn scans(spec: &CharSetSpec) -> Result<Vec<(Board, usize, u64)>> {
     }
     Ok(out)
 }
+
+/// `rows` board rows of random English words in capitals (uniform over the 3000 most frequent
+/// words of TextBlob's list with 2-8 letters, none of them in `exclude`), each at most
+/// `max_chars` long, joined by `/` as a text board takes them. Seeded.
+pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&str]) -> String {
+    use rand::{Rng, SeedableRng};
+    let words: Vec<String> = crate::spelling::Norvig::textblob()
+        .most_frequent(usize::MAX)
+        .into_iter()
+        .map(|(w, _)| w.to_uppercase())
+        .filter(|w| (2..=8).contains(&w.len()) && w.bytes().all(|b| b.is_ascii_uppercase()))
+        .filter(|w| !exclude.iter().any(|e| e.eq_ignore_ascii_case(w)))
+        .take(3000)
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(rows);
+    for _ in 0..rows {
+        let mut row = String::new();
+        loop {
+            let w = &words[rng.random_range(0..words.len())];
+            if row.len() + usize::from(!row.is_empty()) + w.len() > max_chars {
+                break;
+            }
+            if !row.is_empty() {
+                row.push(' ');
+            }
+            row.push_str(w);
+        }
+        out.push(row);
+    }
+    out.join("/")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn word_rows_are_seeded_bounded_and_leave_out_the_excluded() {
+        let a = random_word_rows(7, 5, 22, &["THE", "OF"]);
+        assert_eq!(a, random_word_rows(7, 5, 22, &["THE", "OF"]));
+        assert_ne!(a, random_word_rows(8, 5, 22, &["THE", "OF"]));
+        let rows: Vec<&str> = a.split('/').collect();
+        assert_eq!(rows.len(), 5);
+        for r in rows {
+            assert!(!r.is_empty() && r.len() <= 22, "{r}");
+            assert!(r.split(' ').all(|w| w != "THE" && w != "OF" && w.len() >= 2), "{r}");
+        }
+    }
+}

@@ -38,6 +38,14 @@ impl Norvig {
         Norvig { words }
     }
 
+    /// The `n` most frequent words (ties by spelling), most frequent first.
+    pub fn most_frequent(&self, n: usize) -> Vec<(&str, u64)> {
+        let mut all: Vec<(&str, u64)> = self.words.iter().map(|(w, &f)| (w.as_str(), f)).collect();
+        all.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+        all.truncate(n);
+        all
+    }
+
     pub fn len(&self) -> usize {
         self.words.len()
     }
