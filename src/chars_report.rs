@@ -174,7 +174,7 @@ fn markdown(r: &Report) -> Result<String> {
     writeln!(md, "# Character recognition on SIMULATED scans (virtual Evetac)\n")?;
     writeln!(
         md,
-        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`). Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
+        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, and both again with rows of random words, then runs `braille chars-report`). Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
         r.trials,
         r.seed,
         r.windows.get(at).copied().unwrap_or(0)
