@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use sim::BoardKind;
 use snn::engine::Mode;
 use snn::model_file::{Arch, ModelFile, SnnModel};
-use snn::neuron::{NeuronKind, Surrogate};
+use snn::neuron::Surrogate;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -32,6 +32,11 @@ pub struct CharInput {
     pub preprocess: Preprocess,
     pub augment: AugmentConfig,
 }
+
+/// The `lite` crop (pooled rows and columns): the dots of one Braille row fill the middle of
+/// the image. The ResNet lite and the SNN see it.
+pub const LITE_ROWS: Range<usize> = 28..92;
+pub const LITE_COLS: Range<usize> = 20..100;
 
 fn one() -> usize {
     1
@@ -102,6 +107,21 @@ impl CharInput {
 /// of scans and the scans skipped. The same spec gives the same windows, whichever model asks.
 #[allow(clippy::type_complexity)]
 pub fn build(spec: &CharSetSpec, input: &CharInput) -> Result<(ImageSet, Vec<(String, usize, u64)>, usize, usize)> {
+    let (mut sets, origin, n_scans, skipped) = build_many(spec, &[input])?;
+    Ok((sets.remove(0), origin, n_scans, skipped))
+}
+
+/// [`build`] for several models at once: each scan is simulated and labelled once and its windows
+/// cropped for every input (which must share one labeler), so all models see the same windows.
+#[allow(clippy::type_complexity)]
+pub fn build_many(
+    spec: &CharSetSpec,
+    inputs: &[&CharInput],
+) -> Result<(Vec<ImageSet>, Vec<(String, usize, u64)>, usize, usize)> {
+    let Some(first) = inputs.first() else { bail!("no model input to build windows for") };
+    if inputs.iter().any(|i| i.labeler != first.labeler) {
+        bail!("the models label their windows differently; build their windows separately");
+    }
     let sensor = crate::simulate::sensor(encoders::Resolution::DVXPLORER, 1)?;
     let list = scans(spec)?;
     let bar = indicatif::ProgressBar::new(list.len() as u64);
@@ -109,32 +129,36 @@ pub fn build(spec: &CharSetSpec, input: &CharInput) -> Result<(ImageSet, Vec<(St
         indicatif::ProgressStyle::with_template("simulating scans [{bar:30}] {pos}/{len} ({elapsed})")
             .expect("template"),
     );
-    let per_scan: Vec<Option<Vec<(usize, Vec<f32>, (String, usize, u64))>>> = list
+    type Kept = (usize, Vec<Vec<f32>>, (String, usize, u64));
+    let per_scan: Vec<Option<Vec<Kept>>> = list
         .par_iter()
         .map(|(board, row, trial)| -> Result<_> {
             let seed = scan_seed(spec.seed, &board.kind, *row, *trial);
-            let r = scan_windows(board, &sensor, *row, *trial, seed, spec.speed_mm_s, spec.depth_mm, &input.labeler)?;
+            let r = scan_windows(board, &sensor, *row, *trial, seed, spec.speed_mm_s, spec.depth_mm, &first.labeler)?;
             bar.inc(1);
             let Some(samples) = r else { return Ok(None) };
             let mut kept = Vec::with_capacity(samples.len());
             for s in samples {
                 if let Some(class) = class_of(s.letter) {
-                    kept.push((class, input.crop(&s.map)?.counts, s.scan));
+                    let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
+                    kept.push((class, crops, s.scan));
                 }
             }
             Ok(Some(kept))
         })
         .collect::<Result<_>>()?;
     bar.finish_and_clear();
-    let mut set = ImageSet { shape: input.shape(), ..ImageSet::default() };
+    let mut sets: Vec<ImageSet> = inputs.iter().map(|i| ImageSet { shape: i.shape(), ..ImageSet::default() }).collect();
     let mut origin = Vec::new();
     let skipped = per_scan.iter().filter(|s| s.is_none()).count();
-    for (class, counts, scan) in per_scan.into_iter().flatten().flatten() {
-        set.data.push(counts);
-        set.labels.push(class);
+    for (class, crops, scan) in per_scan.into_iter().flatten().flatten() {
+        for (set, counts) in sets.iter_mut().zip(crops) {
+            set.data.push(counts);
+            set.labels.push(class);
+        }
         origin.push(scan);
     }
-    Ok((set, origin, list.len(), skipped))
+    Ok((sets, origin, list.len(), skipped))
 }
 
 /// Words of the EV board, kept out of the random word rows so that EV stays a test board.
@@ -250,8 +274,7 @@ pub struct ResnetTrainArgs<'a> {
 pub fn train(a: ResnetTrainArgs) -> Result<()> {
     let labeler = LabelerConfig::default();
     let (rows, cols) = match a.preset {
-        // the dots of one Braille row fill the middle of the image; the lite network sees them
-        PresetArg::Lite => (28..92, 20..100),
+        PresetArg::Lite => (LITE_ROWS, LITE_COLS),
         PresetArg::Paper => (0..120, 20..100),
     };
     let input =
@@ -412,9 +435,9 @@ impl CharModel {
 
     /// Scores the windows of `raw` (crops as [`build`] makes them for this model).
     pub fn score(&self, raw: &ImageSet) -> Result<Score> {
-        let mut confusion = vec![vec![0u32; 26]; 26];
         match self {
             CharModel::Resnet(m) => {
+                let mut confusion = vec![vec![0u32; 26]; 26];
                 let set = ImageSet {
                     shape: raw.shape,
                     data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
@@ -439,7 +462,7 @@ impl CharModel {
             CharModel::Snn { model, input } => {
                 let set = snn_set(input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us);
                 let stepped = crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Stepped)?;
-                let accuracy_async = if async_capable(&model.network) {
+                let accuracy_async = if async_capable(&model.network, model.config.dt_us) {
                     Some(crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Async)?.accuracy)
                 } else {
                     None
@@ -455,17 +478,12 @@ impl CharModel {
                     &burn::tensor::Device::flex(),
                 )?;
                 let (loss, _, _) = learn::train::evaluate(&twin, &params, &set, 64);
-                for (l, row) in stepped.confusion.iter().enumerate().take(26) {
-                    for (p, &c) in row.iter().enumerate().take(26) {
-                        confusion[l][p] += c;
-                    }
-                }
                 Ok(Score {
                     n: stepped.n,
                     accuracy: stepped.accuracy,
-                    macro_f1: macro_f1(&confusion),
+                    macro_f1: macro_f1(&stepped.confusion),
                     loss,
-                    confusion,
+                    confusion: stepped.confusion,
                     synops_per_sample: Some(stepped.synops_per_sample),
                     spikes_per_sample: Some(stepped.spikes_per_sample),
                     input_events_per_sample: Some(stepped.input_events_per_sample),
@@ -476,14 +494,10 @@ impl CharModel {
     }
 }
 
-/// Whether the engine's async mode runs this network (LIF, IF and leaky-integrator layers
+/// Whether the engine's async mode runs this network (the engine's own rule: LIF and IF layers
 /// without bias or recurrence).
-pub fn async_capable(network: &snn::network::Network) -> bool {
-    network.layers.iter().all(|l| {
-        l.recurrent.is_none()
-            && l.op.bias().is_none()
-            && l.neurons.is_none_or(|p| matches!(p.kind, NeuronKind::Lif | NeuronKind::If | NeuronKind::Li))
-    })
+pub fn async_capable(network: &snn::network::Network, dt_us: i64) -> bool {
+    snn::engine::Engine::new(network, dt_us, Mode::Async).is_ok()
 }
 
 /// The windows `idx` of `raw` as labelled spike trains for an SNN.

@@ -2,7 +2,7 @@
 //! on SIMULATED scans of the RAB board at 8 mm/s, with the SNN beside the ResNet on the same
 //! windows, and confusion matrices. Markdown, JSON and PNG.
 
-use crate::chars::{CharModel, Score, build};
+use crate::chars::{CharInput, CharModel, Score, build, build_many};
 use crate::train::ArchArg;
 use anyhow::{Context, Result, bail};
 use pipeline::chars::CharSetSpec;
@@ -98,6 +98,7 @@ pub fn run(args: Args) -> Result<()> {
             scores: vec![],
         })
         .collect();
+    let chars: Vec<&CharModel> = models.iter().map(|m| &m.2).collect();
     let mut windows = Vec::new();
     for &depth in &depths {
         let spec = CharSetSpec {
@@ -107,19 +108,12 @@ pub fn run(args: Args) -> Result<()> {
             trials: args.trials,
             seed: args.seed,
         };
-        let mut n = None;
-        for ((_, _, m, _), e) in models.iter().zip(&mut entries) {
-            // the same spec gives every model the same scans and windows
-            let (raw, _, _, _) = build(&spec, m.input())?;
-            let s = m.score(&raw)?;
+        let (scores, n) = score_all(&spec, &chars)?;
+        for (e, s) in entries.iter_mut().zip(scores) {
             eprintln!("SIMULATED RAB {depth} mm: {}: {:.2}% of {}", e.name, 100.0 * s.accuracy, s.n);
-            if n.is_some_and(|n| n != s.n) {
-                bail!("models saw different window counts at {depth} mm");
-            }
-            n = Some(s.n);
             e.scores.push(s);
         }
-        windows.push(n.unwrap_or(0));
+        windows.push(n);
     }
     // Word rows: letters at the cell spacing of words, with neighbours in view.
     let ev_speeds = vec![8.0, 16.0];
@@ -132,12 +126,9 @@ pub fn run(args: Args) -> Result<()> {
             trials: args.trials,
             seed: args.seed,
         };
-        let mut row = Vec::new();
-        for (_, name, m, _) in &models {
-            let (raw, _, _, _) = build(&spec, m.input())?;
-            let s = m.score(&raw)?;
-            eprintln!("SIMULATED EV {speed} mm/s: {name}: {:.2}% of {}", 100.0 * s.accuracy, s.n);
-            row.push(s);
+        let (row, _) = score_all(&spec, &chars)?;
+        for (e, s) in entries.iter().zip(&row) {
+            eprintln!("SIMULATED EV {speed} mm/s: {}: {:.2}% of {}", e.name, 100.0 * s.accuracy, s.n);
         }
         ev.push(row);
     }
@@ -325,6 +316,23 @@ fn energy_section(md: &mut String, r: &Report, at: usize) -> Result<()> {
         writeln!(md, "- {src}")?;
     }
     Ok(())
+}
+
+/// Every model on the windows of `spec`, simulated and labelled once (models that label
+/// differently get their own scans of the same seeds); the scores and the window count.
+fn score_all(spec: &CharSetSpec, models: &[&CharModel]) -> Result<(Vec<Score>, usize)> {
+    let inputs: Vec<&CharInput> = models.iter().map(|m| m.input()).collect();
+    let sets = if inputs.iter().all(|i| i.labeler == inputs[0].labeler) {
+        build_many(spec, &inputs)?.0
+    } else {
+        inputs.iter().map(|i| Ok(build(spec, i)?.0)).collect::<Result<_>>()?
+    };
+    let scores: Vec<Score> = models.iter().zip(&sets).map(|(m, set)| m.score(set)).collect::<Result<_>>()?;
+    let n = scores.first().map_or(0, |s| s.n);
+    if scores.iter().any(|s| s.n != n) {
+        bail!("the models saw different window counts");
+    }
+    Ok((scores, n))
 }
 
 fn met(ok: bool) -> &'static str {

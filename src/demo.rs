@@ -31,13 +31,14 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
-fn default_data() -> PathBuf {
-    let local = PathBuf::from("data/icub_braille/raw1350");
-    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/raw1350") }
+/// A file of the repository: from the working directory, else from where the binary was built.
+fn repo_path(rel: &str) -> PathBuf {
+    let local = PathBuf::from(rel);
+    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let data = args.data.clone().unwrap_or_else(default_data);
+    let data = args.data.clone().unwrap_or_else(|| repo_path("data/icub_braille/raw1350"));
     println!("braille demo: what works so far, on real data\n");
     let t = Instant::now();
     let ds = Dataset::load(&data, args.period_us).with_context(|| format!("loading the dataset {}", data.display()))?;
@@ -156,12 +157,7 @@ fn read_letters(
     classes: &[String],
     threshold: f32,
 ) -> Result<()> {
-    let local = PathBuf::from("models/snn-raw1350.safetensors");
-    let path = if local.exists() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/snn-raw1350.safetensors")
-    };
+    let path = repo_path("models/snn-raw1350.safetensors");
     let model = snn::model_file::SnnModel::load(&path)?;
     let enc: learn::data::TactileEncoding = serde_json::from_value(model.preprocess.clone())
         .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", path.display()))?;
@@ -188,8 +184,7 @@ fn read_letters(
         engine.reset(&mut state, 0);
         engine.run_train(&mut state, &encoder.encode(&letter, 0, enc.steps))?;
         synops += state.stats.synops;
-        let v = state.output_v_max();
-        let best = (0..v.len()).fold(0, |m, j| if v[j] > v[m] { j } else { m });
+        let best = crate::eval::argmax(state.output_v_max().iter().copied());
         read.push(match classes.get(best).map(String::as_str) {
             Some("Space") => ' ',
             Some(c) => c.chars().next().unwrap_or('?'),

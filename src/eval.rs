@@ -113,7 +113,7 @@ pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mo
 }
 
 /// The index of the largest value; the first on ties (as burn's argmax).
-fn argmax(v: impl Iterator<Item = f32>) -> usize {
+pub fn argmax(v: impl Iterator<Item = f32>) -> usize {
     let mut best = (0, f32::NEG_INFINITY);
     for (i, x) in v.enumerate() {
         if x > best.1 {

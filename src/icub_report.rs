@@ -72,7 +72,7 @@ pub fn run(args: Args) -> Result<()> {
         let test = encoding.encode(&data, Some(Split::Test))?;
         let stepped = crate::eval::snn_accuracy_in(&model.network, &model.config, &test, Mode::Stepped)?;
         // Async mode runs LIF and IF layers without bias or recurrence.
-        let async_ok = crate::chars::async_capable(&model.network);
+        let async_ok = crate::chars::async_capable(&model.network, model.config.dt_us);
         let asynchronous = if async_ok {
             Some(crate::eval::snn_accuracy_in(&model.network, &model.config, &test, Mode::Async)?.accuracy)
         } else {

@@ -353,14 +353,15 @@ pub fn run(args: Args) -> Result<()> {
 /// scans and validation split as `--arch resnet` with the same trials and seed), the windows'
 /// events fed as input spikes, one step per 10 ms frame.
 fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()> {
-    use crate::chars::{CharInput, snn_set, training_windows};
-    if args.pool == 0 || 64 % args.pool != 0 || 80 % args.pool != 0 {
-        bail!("--pool must divide the 64x80 crop (1, 2, 4, 8 or 16), got {}", args.pool);
+    use crate::chars::{CharInput, LITE_COLS, LITE_ROWS, snn_set, training_windows};
+    let (h, w) = (LITE_ROWS.len(), LITE_COLS.len());
+    if args.pool == 0 || h % args.pool != 0 || w % args.pool != 0 {
+        bail!("--pool must divide the {h}x{w} crop, got {}", args.pool);
     }
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
-        rows: 28..92,
-        cols: 20..100,
+        rows: LITE_ROWS,
+        cols: LITE_COLS,
         pool: args.pool,
         preprocess: if args.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
         augment: pipeline::augment::AugmentConfig::default(),

@@ -715,6 +715,7 @@ pub fn check_target(net: &Network, target: Target) -> Result<()> {
     }
     Ok(())
 }
+
 /// Most elements a dataset may declare (256 MiB of float64): a corrupt header claiming more is
 /// refused before anything is allocated.
 pub const MAX_DATASET_ELEMENTS: u64 = 32 << 20;
