@@ -1,6 +1,7 @@
 //! The event-driven SNN engine (stepped mode, exactly the time-stepped network) on the peer
 //! benchmark's network and input statistics: 2x60x80 input, 20 steps, 1.5% of pixels active per
-//! step, batch 1, one core. Throughput is in synaptic events per second.
+//! step, batch 1, one core. Throughput is in synaptic events per second (stepped) and input events
+//! per second (async).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use snn::engine::{Engine, Mode};
@@ -52,5 +53,31 @@ fn engine(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, engine);
+/// Async mode: every input event is processed to the end (each spike it causes, through every
+/// layer) before the next is handed in, so time per input event is the per-event latency's mean;
+/// `braille bench --json` gives its p50 and p99, timed event by event.
+fn engine_async(c: &mut Criterion) {
+    let net = peers_conv(1, 7.5);
+    let engine = Engine::new(&net, 1_000, Mode::Async).unwrap();
+    let inputs = samples(net.n_inputs());
+    let events: u64 = inputs.iter().map(|s| s.len() as u64).sum();
+    let mut st = engine.state(0);
+    let mut group = c.benchmark_group("snn_engine");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(events));
+    group.bench_function("peers_conv_32_samples_async_input_events", |b| {
+        b.iter(|| {
+            for s in &inputs {
+                engine.reset(&mut st, 0);
+                for &(t, i) in s {
+                    engine.push(&mut st, t, i, 1.0).unwrap();
+                }
+            }
+            black_box(st.output.len())
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, engine, engine_async);
 criterion_main!(benches);

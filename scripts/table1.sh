@@ -3,10 +3,9 @@
 # trains the ResNet lite in the four input configurations (Raw, Norm, Aug, NormAug) and the SNN
 # on the same windows (SAB and UN boards, 8 mm/s, 1.5 mm, 40 scans per board row, seed 1), then
 # tests every model on the same RAB scans at the paper's seven depths (`braille chars-report`).
-# Beyond the paper, both architectures are also trained with 30 rows of random words added
-# (`--words 30`, 10 scans per row: letters with neighbours, as in words) and tested on the EV
-# board's word rows too. Writes models/resnet-lite-*.safetensors, models/snn-chars.safetensors,
-# models/snn-words.safetensors, docs/chars.* and the training histories. About 75 minutes on two
+# The report also tests the word-reading classifiers (`+ words`, trained by scripts/words.sh) when
+# models/ holds them. Writes models/resnet-lite-{raw,norm,aug,normaug}.safetensors,
+# models/snn-chars.safetensors, docs/chars.* and the training histories. About 60 minutes on two
 # cores; `--report-only` skips the training.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,12 +23,5 @@ if [[ "${1:-}" != "--report-only" ]]; then
   target/release/braille train --arch snn --trials 40 --epochs 30 --neuron lif --tau-mem-us 100000 \
     --tau-out-us 100000 --drop-events 0.3 --seed 1 --out models/snn-chars.safetensors \
     --history docs/snn_chars_history.json --force --quiet
-  # Beyond the paper: the same networks, also trained on rows of random words.
-  target/release/braille train --arch resnet --preset lite --aug normaug --words 30 --trials 10 --epochs 20 \
-    --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
-    --history docs/resnet_lite_normaug_words_history.json --force --quiet
-  target/release/braille train --arch snn --words 30 --trials 10 --epochs 20 --neuron lif --tau-mem-us 100000 \
-    --tau-out-us 100000 --drop-events 0.3 --seed 1 --out models/snn-words.safetensors \
-    --history docs/snn_words_history.json --force --quiet
 fi
 target/release/braille chars-report --models models --out docs --trials 10

@@ -127,6 +127,45 @@ struct Report {
     peer_pytorch_ms_per_sample: f64,
     speedup_vs_pytorch: f64,
     speedup_vs_snntorch: f64,
+    /// Async mode (a neuron fires the moment its membrane crosses threshold): the time from an
+    /// input event handed in to all its effects done (every spike it causes, through every
+    /// layer), per event, timed one by one (the clock's own cost, about 20 ns, included).
+    async_event_latency_ns_p50: Option<f64>,
+    async_event_latency_ns_p99: Option<f64>,
+    async_event_latency_ns_max: Option<f64>,
+    async_input_events_per_s: f64,
+}
+
+/// Per-event latency in async mode over the samples: (histogram, events per second untimed).
+fn async_latency(
+    net: &snn::network::Network,
+    samples: &[Vec<(i64, u32)>],
+) -> Result<(pipeline::classify::Histogram, f64, u64)> {
+    let engine = Engine::new(net, DT_US, Mode::Async)?;
+    let mut st = engine.state(0);
+    let mut h = pipeline::classify::Histogram::default();
+    let mut max = 0u64;
+    for s in samples {
+        engine.reset(&mut st, 0);
+        for &(t, i) in s {
+            let t0 = Instant::now();
+            engine.push(&mut st, t, i, 1.0)?;
+            let ns = t0.elapsed().as_nanos() as u64;
+            max = max.max(ns);
+            h.add(ns);
+        }
+    }
+    // throughput without the per-event clock
+    let start = Instant::now();
+    let mut n = 0u64;
+    for s in samples {
+        engine.reset(&mut st, 0);
+        for &(t, i) in s {
+            engine.push(&mut st, t, i, 1.0)?;
+        }
+        n += s.len() as u64;
+    }
+    Ok((h, n as f64 / start.elapsed().as_secs_f64(), max))
 }
 
 /// Input events of one sample, `(t_us, input)`, in time order.
@@ -175,6 +214,7 @@ pub fn run(args: Args) -> Result<()> {
     times.sort_by(f64::total_cmp);
     let n = samples.len() as f64;
     let per_sample = times[times.len() / 2] / n;
+    let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
     let r = Report {
         network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
         mode: "event-driven, stepped (exactly the time-stepped network)",
@@ -188,6 +228,10 @@ pub fn run(args: Args) -> Result<()> {
         peer_pytorch_ms_per_sample: 3.45,
         speedup_vs_pytorch: 3.45 / (per_sample * 1e3),
         speedup_vs_snntorch: 7.96 / (per_sample * 1e3),
+        async_event_latency_ns_p50: latency.quantile_ns(0.5),
+        async_event_latency_ns_p99: latency.quantile_ns(0.99),
+        async_event_latency_ns_max: Some(async_max as f64),
+        async_input_events_per_s: async_rate,
     };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
@@ -202,6 +246,13 @@ pub fn run(args: Args) -> Result<()> {
             r.spikes_per_sample,
             r.speedup_vs_pytorch,
             r.speedup_vs_snntorch
+        );
+        println!(
+            "async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99), {:.0} ns at most; {:.2} M input events/s",
+            r.async_event_latency_ns_p50.unwrap_or(f64::NAN),
+            r.async_event_latency_ns_p99.unwrap_or(f64::NAN),
+            r.async_event_latency_ns_max.unwrap_or(f64::NAN),
+            r.async_input_events_per_s / 1e6
         );
     }
     Ok(())

@@ -2,105 +2,21 @@
 //! `braille eval chars`. Everything here runs on SIMULATED data (the virtual Evetac).
 
 use anyhow::{Context, Result, bail};
-use encoders::heatmap::Heatmap;
-use encoders::spike_train::SpikeTrain;
 use learn::data::SpikeSet;
 use learn::resnet::{ImageSet, Resnet, ResnetConfig};
 use learn::snn::{SnnParams, SnnTwin};
-use pipeline::augment::{AugmentConfig, Preprocess, prepare};
-use pipeline::chars::{CharSetSpec, class_of, scan_seed, scan_windows, scans};
+use pipeline::augment::{AugmentConfig, Preprocess};
+use pipeline::chars::{CharSetSpec, Task, scan_seed, scan_windows, scans};
 use pipeline::labeling::LabelerConfig;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use sim::BoardKind;
 use snn::engine::Mode;
 use snn::model_file::{Arch, ModelFile, SnnModel};
 use snn::neuron::Surrogate;
-use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// How windows become network input, as the model file records it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CharInput {
-    pub labeler: LabelerConfig,
-    /// Pooled rows and columns kept (the labeler masks columns outside 20-100 anyway).
-    pub rows: Range<usize>,
-    pub cols: Range<usize>,
-    /// Sum-pooling of the crop (rows and columns); 1 keeps the labeler's grid.
-    #[serde(default = "one")]
-    pub pool: usize,
-    pub preprocess: Preprocess,
-    pub augment: AugmentConfig,
-}
-
-/// The `lite` crop (pooled rows and columns): the dots of one Braille row fill the middle of
-/// the image. The ResNet lite and the SNN see it.
-pub const LITE_ROWS: Range<usize> = 28..92;
-pub const LITE_COLS: Range<usize> = 20..100;
-
-fn one() -> usize {
-    1
-}
-
-impl CharInput {
-    pub fn shape(&self) -> [usize; 3] {
-        let p = self.pool.max(1);
-        [self.labeler.frames * 2, self.rows.len() / p, self.cols.len() / p]
-    }
-
-    /// The window's counts, cropped and pooled, as a heat map of the crop.
-    pub fn crop(&self, map: &Heatmap) -> Result<Heatmap> {
-        if self.rows.end > map.height || self.cols.end > map.width || map.bins != self.labeler.frames {
-            bail!(
-                "a window of {} bins x {}x{} does not fit the model's input (rows {:?}, columns {:?}, {} bins)",
-                map.bins,
-                map.height,
-                map.width,
-                self.rows,
-                self.cols,
-                self.labeler.frames
-            );
-        }
-        let [_, h, w] = self.shape();
-        let p = self.pool.max(1);
-        let mut counts = vec![0f32; map.bins * 2 * h * w];
-        for plane in 0..map.bins * 2 {
-            for (i, r) in self.rows.clone().take(h * p).enumerate() {
-                let at = (plane * map.height + r) * map.width + self.cols.start;
-                let out = (plane * h + i / p) * w;
-                for (j, &v) in map.counts[at..at + w * p].iter().enumerate() {
-                    counts[out + j / p] += v;
-                }
-            }
-        }
-        Ok(Heatmap { t_start_us: map.t_start_us, bin_us: map.bin_us, bins: map.bins, height: h, width: w, counts })
-    }
-
-    /// The cropped counts of an image as a heat map again.
-    fn as_map(&self, image: &[f32]) -> Heatmap {
-        let [_, height, width] = self.shape();
-        Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image.to_vec() }
-    }
-
-    /// An SNN's input from a cropped image: the window's events as input spikes, one step per
-    /// frame (`dt_us` each), input `(polarity * height + row) * width + col`. Of the paper's
-    /// preparation only the vertical centring applies (when configured: `norm`, `normaug`), as a
-    /// whole-row shift that keeps every event; counts are events, so nothing is normalised.
-    pub fn spikes(&self, image: &[f32], dt_us: i64) -> SpikeTrain {
-        let mut map = self.as_map(image);
-        if self.preprocess.normalises() {
-            pipeline::augment::center_vertically(&mut map);
-        }
-        SpikeTrain::from_dense(0, dt_us, 2 * map.height * map.width, &map.counts)
-    }
-
-    /// Network input of a cropped image: centred and normalised as configured; augmented when
-    /// `rng` is given.
-    pub fn prepare(&self, image: &[f32], rng: Option<&mut rand_chacha::ChaCha8Rng>) -> Vec<f32> {
-        let rng = rng.map(|r| r as &mut dyn rand::RngCore);
-        prepare(&self.as_map(image), self.preprocess, &self.augment, rng).counts
-    }
-}
+pub use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
 
 /// Windows of `spec`'s scans, simulated in parallel and cropped as soon as their scan is done
 /// (so memory holds only the crops); each window's crop, with the scan it came from, the number
@@ -134,15 +50,24 @@ pub fn build_many(
         .par_iter()
         .map(|(board, row, trial)| -> Result<_> {
             let seed = scan_seed(spec.seed, &board.kind, *row, *trial);
-            let r = scan_windows(board, &sensor, *row, *trial, seed, spec.speed_mm_s, spec.depth_mm, &first.labeler)?;
+            let r = scan_windows(
+                board,
+                &sensor,
+                *row,
+                *trial,
+                seed,
+                spec.speed_mm_s,
+                spec.depth_mm,
+                &first.labeler,
+                spec.task,
+                spec.jitter_ms,
+            )?;
             bar.inc(1);
             let Some(samples) = r else { return Ok(None) };
             let mut kept = Vec::with_capacity(samples.len());
             for s in samples {
-                if let Some(class) = class_of(s.letter) {
-                    let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
-                    kept.push((class, crops, s.scan));
-                }
+                let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
+                kept.push((s.class, crops, s.scan));
             }
             Ok(Some(kept))
         })
@@ -175,20 +100,18 @@ pub fn training_windows(
     seed: u64,
     word_rows: usize,
     input: &CharInput,
+    task: Task,
+    jitter_ms: f64,
 ) -> Result<(ImageSet, Vec<usize>, Vec<usize>, usize, usize)> {
     let mut boards = vec![BoardKind::Sab, BoardKind::Un];
     if word_rows > 0 {
         let text = pipeline::chars::random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
         boards.push(BoardKind::Text(text));
     }
-    let spec = CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed };
+    let spec = CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed, task, jitter_ms };
     let (all, origin, n_scans, skipped) = build(&spec, input)?;
     let (val, train): (Vec<usize>, Vec<usize>) = (0..all.len()).partition(|&i| trials >= 5 && origin[i].2 % 5 == 4);
     Ok((all, train, val, n_scans, skipped))
-}
-
-pub fn classes() -> Vec<String> {
-    (b'A'..=b'Z').map(|c| (c as char).to_string()).collect()
 }
 
 /// A trained ResNet and how its input is made.
@@ -196,6 +119,7 @@ pub struct ResnetModel {
     pub config: ResnetConfig,
     pub input: CharInput,
     pub model: Resnet,
+    pub classes: Vec<String>,
 }
 
 impl ResnetModel {
@@ -205,7 +129,7 @@ impl ResnetModel {
             arch: Arch::Resnet,
             config: serde_json::to_value(&self.config)?,
             preprocess: serde_json::to_value(&self.input)?,
-            classes: classes(),
+            classes: self.classes.clone(),
             provenance,
             tensors,
         }
@@ -229,7 +153,10 @@ impl ResnetModel {
         }
         let model =
             learn::resnet::from_tensors(&config, &f.tensors).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        Ok(ResnetModel { config, input, model })
+        if f.classes.len() != config.classes {
+            bail!("{}: {} class names for a network of {} outputs", path.display(), f.classes.len(), config.classes);
+        }
+        Ok(ResnetModel { config, input, model, classes: f.classes })
     }
 }
 
@@ -237,6 +164,8 @@ impl ResnetModel {
 pub enum PresetArg {
     Lite,
     Paper,
+    /// The smallest: for the segmentation network, which runs on every frame.
+    Tiny,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -262,6 +191,9 @@ impl AugArg {
 pub struct ResnetTrainArgs<'a> {
     pub preset: PresetArg,
     pub aug: AugArg,
+    pub task: Task,
+    pub jitter_ms: f64,
+    pub pool: usize,
     pub trials: u64,
     pub word_rows: usize,
     pub train: learn::train::TrainConfig,
@@ -274,12 +206,14 @@ pub struct ResnetTrainArgs<'a> {
 pub fn train(a: ResnetTrainArgs) -> Result<()> {
     let labeler = LabelerConfig::default();
     let (rows, cols) = match a.preset {
-        PresetArg::Lite => (LITE_ROWS, LITE_COLS),
+        PresetArg::Lite | PresetArg::Tiny => (LITE_ROWS, LITE_COLS),
         PresetArg::Paper => (0..120, 20..100),
     };
+    let pool = if a.preset == PresetArg::Paper { 1 } else { crate::train::check_pool(a.pool)? };
     let input =
-        CharInput { labeler, rows, cols, pool: 1, preprocess: a.aug.preprocess(), augment: AugmentConfig::default() };
-    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(a.trials, a.train.seed, a.word_rows, &input)?;
+        CharInput { labeler, rows, cols, pool, preprocess: a.aug.preprocess(), augment: AugmentConfig::default() };
+    let (all, train_idx, val_idx, n_scans, skipped) =
+        training_windows(a.trials, a.train.seed, a.word_rows, &input, a.task, a.jitter_ms)?;
     // the windows move into the two sets (no copy: the training set is most of the memory)
     let mut all = all;
     let mut pick = |idx: &[usize], prepared: bool| ImageSet {
@@ -302,15 +236,17 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
         val.len(),
         input.shape()
     );
+    let classes = a.task.classes();
     let config = match a.preset {
-        PresetArg::Lite => ResnetConfig::lite(input.shape(), 26),
-        PresetArg::Paper => ResnetConfig::paper(input.shape(), 26),
+        PresetArg::Lite => ResnetConfig::lite(input.shape(), classes.len()),
+        PresetArg::Paper => ResnetConfig::paper(input.shape(), classes.len()),
+        PresetArg::Tiny => ResnetConfig::tiny(input.shape(), classes.len()),
     };
     let started = std::time::Instant::now();
     let augment = |img: &[f32], rng: &mut rand_chacha::ChaCha8Rng| input.prepare(img, Some(rng));
     let (model, history) = learn::resnet::train(&config, &train_set, &val, &a.train, &augment, a.observer);
     let best = history.iter().map(|h| h.val_accuracy).fold(f64::NAN, f64::max);
-    let m = ResnetModel { config, input, model };
+    let m = ResnetModel { config, input, model, classes };
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
@@ -318,6 +254,8 @@ pub fn train(a: ResnetTrainArgs) -> Result<()> {
         a.out,
         serde_json::json!({
             "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+            "task": a.task,
+            "jitter_ms": a.jitter_ms,
             "word_rows": a.word_rows,
             "scans": n_scans,
             "train_windows": train_set.len(),
@@ -460,7 +398,7 @@ impl CharModel {
                 })
             }
             CharModel::Snn { model, input } => {
-                let set = snn_set(input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us);
+                let set = snn_set(input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, Task::Chars);
                 let stepped = crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Stepped)?;
                 let accuracy_async = if async_capable(&model.network, model.config.dt_us) {
                     Some(crate::eval::snn_accuracy_in(&model.network, &model.config, &set, Mode::Async)?.accuracy)
@@ -501,13 +439,13 @@ pub fn async_capable(network: &snn::network::Network, dt_us: i64) -> bool {
 }
 
 /// The windows `idx` of `raw` as labelled spike trains for an SNN.
-pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64) -> SpikeSet {
+pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, task: Task) -> SpikeSet {
     let [frames2, h, w] = input.shape();
     SpikeSet {
         n_inputs: 2 * h * w,
         steps: frames2 / 2,
         dt_us,
-        classes: classes(),
+        classes: task.classes(),
         trains: idx.par_iter().map(|&i| input.spikes(&raw.data[i], dt_us)).collect(),
         labels: idx.iter().map(|&i| raw.labels[i]).collect(),
         dropped_events: 0,
@@ -553,6 +491,8 @@ pub fn eval(args: EvalCharsArgs) -> Result<()> {
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
+        task: Task::Chars,
+        jitter_ms: 0.0,
     };
     let (raw, _, scans, skipped) = build(&spec, m.input())?;
     let r = CharReport {

@@ -5,7 +5,7 @@
 use crate::chars::{CharInput, CharModel, Score, build, build_many};
 use crate::train::ArchArg;
 use anyhow::{Context, Result, bail};
-use pipeline::chars::CharSetSpec;
+use pipeline::chars::{CharSetSpec, Task};
 use plotters::prelude::*;
 use serde::Serialize;
 use sim::BoardKind;
@@ -107,6 +107,8 @@ pub fn run(args: Args) -> Result<()> {
             depth_mm: depth,
             trials: args.trials,
             seed: args.seed,
+            task: Task::Chars,
+            jitter_ms: 0.0,
         };
         let (scores, n) = score_all(&spec, &chars)?;
         for (e, s) in entries.iter_mut().zip(scores) {
@@ -125,6 +127,8 @@ pub fn run(args: Args) -> Result<()> {
             depth_mm: 1.5,
             trials: args.trials,
             seed: args.seed,
+            task: Task::Chars,
+            jitter_ms: 0.0,
         };
         let (row, _) = score_all(&spec, &chars)?;
         for (e, s) in entries.iter().zip(&row) {
@@ -165,7 +169,7 @@ fn markdown(r: &Report) -> Result<String> {
     writeln!(md, "# Character recognition on SIMULATED scans (virtual Evetac)\n")?;
     writeln!(
         md,
-        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, and both again with rows of random words, then runs `braille chars-report`). Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
+        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`); the `+ words` models come from `bash scripts/words.sh`. Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows, with shifted windows). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
         r.trials,
         r.seed,
         r.windows.get(at).copied().unwrap_or(0)
@@ -241,7 +245,7 @@ fn markdown(r: &Report) -> Result<String> {
     writeln!(md, "\n## Letters in words: rows of the EV board (1.5 mm)\n")?;
     writeln!(
         md,
-        "Letters at the 6 mm cell spacing of words, so that a window also holds the neighbours' dots; the paper's training boards (SAB, UN) spread their letters over the row. `+ words` models were also trained on 30 rows of random words (TextBlob's frequent words, none of EV's; `--words 30`), beyond the paper's protocol.\n"
+        "Letters at the 6 mm cell spacing of words, so that a window also holds the neighbours' dots; the paper's training boards (SAB, UN) spread their letters over the row. `+ words` models were also trained on 80 rows of random words (TextBlob's frequent words, none of EV's; `--words 80`) and on every window shifted by 40 ms either way (`--jitter-ms 40`, as a streaming reader meets them), beyond the paper's protocol (`scripts/words.sh`).\n"
     )?;
     write!(md, "| model |")?;
     for v in &r.ev_speeds_mm_s {

@@ -31,15 +31,13 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
-/// A file of the repository: from the working directory, else from where the binary was built.
-fn repo_path(rel: &str) -> PathBuf {
-    let local = PathBuf::from(rel);
-    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let data = args.data.clone().unwrap_or_else(|| repo_path("data/icub_braille/raw1350"));
-    println!("braille demo: what works so far, on real data\n");
+    let data = args.data.clone().unwrap_or_else(|| crate::repo_path("data/icub_braille/raw1350"));
+    let out = args.out.clone().unwrap_or_else(|| std::env::temp_dir().join("braille-demo"));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    println!("braille demo\n");
+    read_words(&out)?;
+    println!("Real tactile recordings (iCub fingertip, not Evetac): events, files, the SNN on the engine.\n");
     let t = Instant::now();
     let ds = Dataset::load(&data, args.period_us).with_context(|| format!("loading the dataset {}", data.display()))?;
     println!(
@@ -87,8 +85,6 @@ pub fn run(args: Args) -> Result<()> {
         spelled.push(ch);
         offset_us += sample_us;
     }
-    let out = args.out.clone().unwrap_or_else(|| std::env::temp_dir().join("braille-demo"));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let path = out.join("icub_text.aedat4");
     let resolution = ds.resolution();
     let file = AtomicFile::create(&path, true)?;
@@ -140,10 +136,7 @@ pub fn run(args: Args) -> Result<()> {
         println!("  taxel {taxel:>2} {row}");
     }
     read_letters(&back, resolution, &spelled, sample_us, &ds.classes, args.threshold)?;
-    simulated_scan(&out)?;
-    println!(
-        "\nNot built yet: reading words from a continuous scan (the segmentation network, `braille read`).\nThe character classifiers on simulated scans: `braille eval chars`, `bash scripts/table1.sh`; see the README."
-    );
+    println!("\nMore: `braille words-report`, `braille eval words`, `braille eval chars`; see the README.");
     Ok(())
 }
 
@@ -157,7 +150,7 @@ fn read_letters(
     classes: &[String],
     threshold: f32,
 ) -> Result<()> {
-    let path = repo_path("models/snn-raw1350.safetensors");
+    let path = crate::repo_path("models/snn-raw1350.safetensors");
     let model = snn::model_file::SnnModel::load(&path)?;
     let enc: learn::data::TactileEncoding = serde_json::from_value(model.preprocess.clone())
         .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", path.display()))?;
@@ -206,46 +199,69 @@ fn read_letters(
     Ok(())
 }
 
-/// A simulated Evetac scan of the paper's EV board (simulated data, not a recording).
-fn simulated_scan(out: &Path) -> Result<()> {
+/// The main job: both rows of the paper's EV board scanned at 16 mm/s by the virtual Evetac
+/// (SIMULATED), each read from its raw events by both architectures.
+fn read_words(out: &Path) -> Result<()> {
+    use crate::read::{Readers, SnnRunnerArg};
+    use crate::train::ArchArg;
+    use pipeline::reader::{Spell, Speller};
     let kind = BoardKind::Ev;
     let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(&kind))?;
     let sensor = crate::simulate::sensor(encoders::Resolution::DVXPLORER, 1)?;
-    let scan = ScanConfig { speed_mm_s: 16.0, depth_mm: 1.0, row: 0, seed: 1, ..ScanConfig::default() };
-    let t = Instant::now();
-    let s = sim::simulate(&board, &sensor, &scan)?;
-    let wall = t.elapsed().as_secs_f64();
-    let path = out.join("ev_row0_16mm_s.aedat4");
-    crate::simulate::write_events(&path, &s.events, sensor.camera.resolution, true)?;
-    crate::simulate::write_json(&crate::simulate::truth_path(&path), &s.truth, true)?;
-    let mut stats = StreamStats::default();
-    stats.add(&s.events);
+    let speed = 16.0;
     println!(
-        "5. SIMULATED scan (virtual Evetac, not a recording): EV board row 0 {:?} at 16 mm/s, 1.0 mm deep:\n   {} events over {:.1} s of sensor time (ON/OFF {:.2}), simulated in {:.2} s; written with its\n   ground truth to {}.",
-        s.truth.row_text,
-        stats.events,
-        s.truth.timeline.end_s,
-        stats.on_off_ratio().unwrap_or(f64::NAN),
-        wall,
-        path.display()
+        "Reading Braille words from raw events (SIMULATED: virtual Evetac scans, not recordings).\nThe EV board at {speed} mm/s, 1.5 mm deep; each scan is read by the segmentation network on every\n10 ms frame (scaled with speed), the character classifier where a character is present, the\ntemporal filter and the lexicon decoder. Both architectures read identical streams.\n"
     );
-    // Where the activity is: events per 250 ms at the sensor's centre band, with the letters.
-    let bin_us = 250_000i64;
-    let bins = (s.truth.timeline.end_s * 1e6 / bin_us as f64).ceil() as usize;
-    let mut counts = vec![0usize; bins];
-    let cx = sensor.camera.resolution.width / 2;
-    for e in s.events.iter().filter(|e| e.x.abs_diff(cx) < 16) {
-        counts[(e.t_us / bin_us) as usize] += 1;
-    }
-    let mut letters = vec![' '; bins];
-    for c in &s.truth.characters {
-        if let Some(t) = c.t_cell_center_s {
-            letters[((t * 1e6) as i64 / bin_us) as usize] = c.letter;
+    let mut readers = [ArchArg::Resnet, ArchArg::Snn]
+        .into_iter()
+        .map(|a| Ok((a, Readers::load(a, None, None, SnnRunnerArg::Sliding.runner())?)))
+        .collect::<Result<Vec<_>>>()?;
+    let speller = Speller::new(Spell::Lexicon);
+    let mut right = vec![(0usize, 0usize); readers.len()];
+    for row in 0..board.rows.len() {
+        let scan = ScanConfig { speed_mm_s: speed, depth_mm: 1.5, row, seed: 1, ..ScanConfig::default() };
+        let t = Instant::now();
+        let s = sim::simulate(&board, &sensor, &scan)?;
+        let sim_s = t.elapsed().as_secs_f64();
+        let path = out.join(format!("ev_row{row}_16mm_s.aedat4"));
+        crate::simulate::write_events(&path, &s.events, sensor.camera.resolution, true)?;
+        crate::simulate::write_json(&crate::simulate::truth_path(&path), &s.truth, true)?;
+        let duration = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+        println!(
+            "row {row}: truth {:?}: {} events, {duration:.1} s of stream (simulated in {sim_s:.1} s, written to {})",
+            s.truth.row_text,
+            s.events.len(),
+            path.display()
+        );
+        let truth: Vec<&str> = s.truth.row_text.split_whitespace().collect();
+        for ((arch, r), ok) in readers.iter_mut().zip(right.iter_mut()) {
+            let t = Instant::now();
+            let (words, stats) = r.read(&s.events, sensor.camera.resolution, speed, &speller, Spell::Lexicon)?;
+            let took = t.elapsed().as_secs_f64();
+            let read: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
+            let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
+            let hits = truth.iter().zip(&read).filter(|(a, b)| a == b).count();
+            ok.0 += hits;
+            ok.1 += truth.len();
+            println!(
+                "  {:<6} read {:?} (letters as registered: {:?}): {hits}/{} words right, in {:.2} s = {:.1}% of the stream's duration ({} frames, classifier on {})",
+                crate::words::arch_name(*arch),
+                read.join(" "),
+                raw.join(" "),
+                truth.len(),
+                took,
+                100.0 * took / duration.max(1e-9),
+                stats.frames,
+                stats.classifier_calls
+            );
         }
     }
-    let max = counts.iter().copied().max().unwrap_or(1).max(1);
-    let bar: String = counts.iter().map(|&n| [' ', '.', ':', 'o', 'O'][(4 * n).div_ceil(max).min(4)]).collect();
-    println!("   events at the sensor's centre, 250 ms per character (truth below):");
-    println!("   |{bar}|\n   |{}|", letters.iter().collect::<String>());
+    for ((arch, _), (hits, n)) in readers.iter().zip(&right) {
+        println!("{}: {hits}/{n} words right on the two rows (SIMULATED).", crate::words::arch_name(*arch));
+    }
+    println!(
+        "Read a file yourself: braille read {} --arch snn\nThe speed table (8-32 mm/s, 30 scans per row): docs/words.md.\n",
+        out.join("ev_row0_16mm_s.aedat4").display()
+    );
     Ok(())
 }

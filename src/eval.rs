@@ -50,6 +50,8 @@ pub struct Args {
 pub enum What {
     /// A character classifier on simulated scans of a board (SIMULATED data).
     Chars(crate::chars::EvalCharsArgs),
+    /// Word reading on simulated scans of a board: the paper's four conditional metrics (SIMULATED data).
+    Words(crate::words::EvalWordsArgs),
 }
 
 /// Accuracy and work of an SNN on a set of spike trains.
@@ -138,11 +140,13 @@ struct Report<'a> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if let Some(What::Chars(a)) = args.what {
-        return crate::chars::eval(a);
+    match args.what {
+        Some(What::Chars(a)) => return crate::chars::eval(a),
+        Some(What::Words(a)) => return crate::words::eval(a),
+        None => {}
     }
     let (Some(data_dir), Some(model_path)) = (args.data.clone(), args.model.clone()) else {
-        anyhow::bail!("eval needs --data DIR and --model PATH, or the `chars` subcommand");
+        anyhow::bail!("eval needs --data DIR and --model PATH, or the `chars` or `words` subcommand");
     };
     let model = SnnModel::load(&model_path)?;
     let encoding: TactileEncoding = serde_json::from_value(model.preprocess.clone())

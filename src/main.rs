@@ -12,12 +12,22 @@ mod info;
 mod label_check;
 mod nir_cli;
 mod plot;
+mod read;
+mod report;
 mod sim_check;
 mod simulate;
 mod train;
+mod words;
 
 use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+/// A file of the repository: from the working directory, else from where the binary was built.
+pub fn repo_path(rel: &str) -> PathBuf {
+    let local = PathBuf::from(rel);
+    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
+}
 
 #[derive(Parser)]
 #[command(
@@ -57,6 +67,15 @@ enum Command {
     CharsReport(chars_report::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),
+    /// Read the words in an event stream (a file, or standard input as it arrives): segmentation
+    /// network, character classifier (ResNet or SNN), temporal filter, spelling.
+    Read(read::Args),
+    /// The paper's speed table on SIMULATED EV scans: both architectures, 8-32 mm/s, with and
+    /// without spelling (Markdown, JSON, PNG).
+    WordsReport(words::ReportArgs),
+    /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
+    /// PNG); `--quick` for a fast check that it all runs.
+    Report(report::Args),
     /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
     Export(nir_cli::ExportArgs),
     /// Import a NIR graph into a model file the engine runs.
@@ -81,6 +100,9 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval::run(a),
         Command::IcubReport(a) => icub_report::run(a),
         Command::CharsReport(a) => chars_report::run(a),
+        Command::Read(a) => read::run(a),
+        Command::Report(a) => report::run(a),
+        Command::WordsReport(a) => words::report(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
     };

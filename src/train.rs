@@ -19,6 +19,23 @@ pub enum ArchArg {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TaskArg {
+    /// The character classifier: 26 letters.
+    Chars,
+    /// The segmentation network: character present against background (the paper's negatives).
+    Segment,
+}
+
+impl TaskArg {
+    pub fn task(self) -> pipeline::chars::Task {
+        match self {
+            TaskArg::Chars => pipeline::chars::Task::Chars,
+            TaskArg::Segment => pipeline::chars::Task::Segment,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum NeuronArg {
     Lif,
     CubaLif,
@@ -58,6 +75,13 @@ pub struct Args {
     /// analog: raw.csv, split.csv). Required for the SNN; the ResNet trains on simulated scans.
     #[arg(long)]
     data: Option<PathBuf>,
+    /// Without --data: what to learn from the simulated windows.
+    #[arg(long, value_enum, default_value = "chars")]
+    task: TaskArg,
+    /// Without --data, character windows: also each window shifted by this many ms either way
+    /// (at 8 mm/s), as a streaming reader meets them (0: the paper's aligned windows only).
+    #[arg(long, default_value_t = 0.0)]
+    jitter_ms: f64,
     /// ResNet: the network's size.
     #[arg(long, value_enum, default_value = "lite")]
     preset: crate::chars::PresetArg,
@@ -72,9 +96,10 @@ pub struct Args {
     /// (0: the paper's protocol, SAB and UN only).
     #[arg(long, default_value_t = 0)]
     words: usize,
-    /// SNN on simulated windows: sum-pooling of the 64x80 crop (2: 32x40 per polarity).
-    #[arg(long, default_value_t = 2)]
-    pool: usize,
+    /// Simulated windows: sum-pooling of the 64x80 crop (2: 32x40 per polarity) [default: 2 for
+    /// the SNN, 1 for the ResNet].
+    #[arg(long)]
+    pool: Option<usize>,
     /// SNN on simulated windows: centre each window vertically (a whole-row shift of its events).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     center: bool,
@@ -284,6 +309,9 @@ pub fn run(args: Args) -> Result<()> {
             return crate::chars::train(crate::chars::ResnetTrainArgs {
                 preset: args.preset,
                 aug: args.aug,
+                task: args.task.task(),
+                jitter_ms: args.jitter_ms,
+                pool: args.pool.unwrap_or(1),
                 trials: args.trials,
                 word_rows: args.words,
                 train: cfg,
@@ -354,21 +382,20 @@ pub fn run(args: Args) -> Result<()> {
 /// events fed as input spikes, one step per 10 ms frame.
 fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()> {
     use crate::chars::{CharInput, LITE_COLS, LITE_ROWS, snn_set, training_windows};
-    let (h, w) = (LITE_ROWS.len(), LITE_COLS.len());
-    if args.pool == 0 || h % args.pool != 0 || w % args.pool != 0 {
-        bail!("--pool must divide the {h}x{w} crop, got {}", args.pool);
-    }
+    let pool = check_pool(args.pool.unwrap_or(2))?;
+    let task = args.task.task();
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
         rows: LITE_ROWS,
         cols: LITE_COLS,
-        pool: args.pool,
+        pool,
         preprocess: if args.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
         augment: pipeline::augment::AugmentConfig::default(),
     };
-    let (all, train_idx, val_idx, n_scans, skipped) = training_windows(args.trials, args.seed, args.words, &input)?;
-    let train = snn_set(&input, &all, &train_idx, args.dt_us);
-    let val = snn_set(&input, &all, &val_idx, args.dt_us);
+    let (all, train_idx, val_idx, n_scans, skipped) =
+        training_windows(args.trials, args.seed, args.words, &input, task, args.jitter_ms)?;
+    let train = snn_set(&input, &all, &train_idx, args.dt_us, task);
+    let val = snn_set(&input, &all, &val_idx, args.dt_us, task);
     let events = |s: &SpikeSet| s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64;
     eprintln!(
         "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {n_scans} scans ({skipped} skipped: window count off), {} training and {} validation windows; {} inputs, {} steps of {} us, {:.0} input events per window",
@@ -380,11 +407,11 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
         args.dt_us,
         events(&train)
     );
-    let spec = network_spec(args, train.n_inputs, 26)?;
+    let spec = network_spec(args, train.n_inputs, train.classes.len())?;
     let (outcome, network, config, surrogate, train_seconds) = fit(args, spec, &train, &val, &cfg, bars)?;
     let scored = crate::eval::snn_accuracy(&network, &config, &val)?;
     eprintln!(
-        "best epoch {} (validation {:.1}% time-stepped, {:.1}% on the event-driven engine; SIMULATED)",
+        "{task:?}: best epoch {} (validation {:.1}% time-stepped, {:.1}% on the event-driven engine; SIMULATED)",
         outcome.best_epoch,
         100.0 * outcome.best_val_accuracy,
         100.0 * scored.accuracy
@@ -393,7 +420,7 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
         config,
         network,
         preprocess: serde_json::to_value(&input)?,
-        classes: crate::chars::classes(),
+        classes: task.classes(),
         provenance: provenance(
             args,
             &cfg,
@@ -402,6 +429,8 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
             train_seconds,
             serde_json::json!({
                 "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "task": task,
+                "jitter_ms": args.jitter_ms,
                 "word_rows": args.words,
                 "scans": n_scans,
                 "train_windows": train.len(),
@@ -410,6 +439,15 @@ fn train_snn_chars(args: &Args, cfg: TrainConfig, bars: &mut Bars) -> Result<()>
         ),
     };
     save(args, &model, &outcome.history)
+}
+
+/// A pooling factor that divides the lite crop.
+pub fn check_pool(pool: usize) -> Result<usize> {
+    let (h, w) = (crate::chars::LITE_ROWS.len(), crate::chars::LITE_COLS.len());
+    if pool == 0 || h % pool != 0 || w % pool != 0 {
+        bail!("--pool must divide the {h}x{w} crop, got {pool}");
+    }
+    Ok(pool)
 }
 
 fn surrogate_and_readout(args: &Args) -> (Surrogate, Readout) {

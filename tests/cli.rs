@@ -17,7 +17,16 @@ fn text(o: &Output) -> (String, String) {
 
 #[test]
 fn every_command_explains_itself() {
-    for cmd in [&["--help"][..], &["info", "--help"], &["convert", "--help"], &["demo", "--help"]] {
+    for cmd in [
+        &["--help"][..],
+        &["info", "--help"],
+        &["convert", "--help"],
+        &["demo", "--help"],
+        &["read", "--help"],
+        &["report", "--help"],
+        &["words-report", "--help"],
+        &["eval", "words", "--help"],
+    ] {
         let o = braille(cmd);
         let (out, _) = text(&o);
         assert!(o.status.success() && out.contains("Usage:"), "{cmd:?}: {out}");
@@ -107,6 +116,13 @@ fn demo_runs_on_its_defaults() {
     let o = braille(&["demo", "--out", dir.path().to_str().unwrap()]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
+    // the main job: both EV rows at 16 mm/s (simulated), read from raw events by both
+    // architectures; the SNN path reads every word (deterministic: same seed, same scans)
+    assert!(out.contains("SIMULATED") && out.contains("truth \"RIGHT LEFT EXIT OPEN\""), "{out}");
+    assert!(out.contains("snn    read \"RIGHT LEFT EXIT OPEN\""), "{out}");
+    assert!(out.contains("snn: 9/9 words right"), "{out}");
+    assert!(out.contains("resnet read") && out.contains("of the stream's duration"), "{out}");
+    assert!(dir.path().join("ev_row0_16mm_s.aedat4").exists() && dir.path().join("ev_row1_16mm_s.truth.json").exists());
     assert!(out.contains("1350 samples, 27 classes, 12 taxels"), "{out}");
     assert!(out.contains("read it back identical"), "{out}");
     // the shipped iCub SNN reads the recorded letters back (its test accuracy is 99.3%)

@@ -30,7 +30,7 @@ pub fn validate(sensor: Resolution, pool: u16, mask_cols: Option<&Range<u16>>) -
 
 /// Lookup tables from sensor coordinates to the pooled cell `row * width + col`.
 #[derive(Debug, Clone)]
-pub(crate) struct PoolMap {
+pub struct PoolMap {
     pub output: Resolution,
     /// Pooled column of each sensor column, or `SKIP` where masked out.
     col_of_x: Vec<u32>,
@@ -59,7 +59,9 @@ impl PoolMap {
     #[inline]
     pub fn cell(&self, x: u16, y: u16) -> Option<u32> {
         let col = *self.col_of_x.get(x as usize)?;
-        let row = *self.row_of_y.get(y as usize)?;
-        (col != SKIP).then(|| row + col)
+        if col == SKIP {
+            return None;
+        }
+        Some(*self.row_of_y.get(y as usize)? + col)
     }
 }

@@ -44,6 +44,12 @@ impl ResnetConfig {
         Self { input, stem_channels: 16, stages: vec![(16, 1), (32, 1)], hidden: vec![64, 32], dropout: 0.3, classes }
     }
 
+    /// The smallest: one narrow block per stage and one hidden layer; for the segmentation
+    /// network, which runs on every frame of a stream.
+    pub fn tiny(input: [usize; 3], classes: usize) -> Self {
+        Self { input, stem_channels: 8, stages: vec![(8, 1), (16, 1)], hidden: vec![16], dropout: 0.2, classes }
+    }
+
     /// Multiply-accumulates of one inference (convolutions and fully connected layers; batch
     /// norm, pooling and additions left out), for energy comparisons with an SNN's SynOps.
     pub fn macs(&self) -> u64 {
@@ -273,6 +279,21 @@ fn batch(set: &ImageSet, idx: &[usize], device: &Device, mut map: impl FnMut(&[f
         flat.extend(map(&set.data[i]));
     }
     Tensor::<4>::from_data(burn::tensor::TensorData::new(flat, [idx.len(), c, h, w]), device)
+}
+
+/// Class probabilities (softmax of the logits) of each image (`[channels, height, width]` of
+/// `shape`, prepared as the model was trained), in one batch.
+pub fn probabilities(model: &Resnet, shape: [usize; 3], images: &[&[f32]]) -> Vec<Vec<f32>> {
+    let [c, h, w] = shape;
+    let mut flat = Vec::with_capacity(images.len() * c * h * w);
+    for im in images {
+        flat.extend_from_slice(im);
+    }
+    let x = Tensor::<4>::from_data(burn::tensor::TensorData::new(flat, [images.len(), c, h, w]), &Device::flex());
+    let p = burn::tensor::activation::softmax(model.forward(x), 1);
+    let k = p.dims()[1];
+    let v = p.into_data().convert::<f32>().try_into_vec::<f32>().expect("f32 probabilities");
+    v.chunks(k).map(<[f32]>::to_vec).collect()
 }
 
 /// Loss, accuracy and the predictions of `model` (in evaluation mode) on `set`.

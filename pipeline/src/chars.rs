@@ -4,16 +4,43 @@
 //! window count matched the row are used (so no window is given another character's letter).
 
 use crate::error::Result;
-use crate::labeling::{LabelerConfig, label, window_heatmap};
+use crate::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
 use encoders::heatmap::Heatmap;
 use serde::{Deserialize, Serialize};
 use sim::sensor::Sensor;
 use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
 
+/// What a scan's windows are labelled with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Task {
+    /// The character classifier's: each character's window, labelled with its letter.
+    #[default]
+    Chars,
+    /// The segmentation network's: each character's window is "character"; the paper's
+    /// negatives are "background": the windows `[t_max - 170 ms, t_max + 10 ms]` and
+    /// `[t_max + 340 ms, t_max + 520 ms]` on either side of the character's 350 ms window
+    /// (durations at 8 mm/s, scaled with speed; relative to the window's start, which is `t_max`
+    /// but for single-column characters, whose window the labeler shifts).
+    Segment,
+}
+
+impl Task {
+    pub fn classes(self) -> Vec<String> {
+        match self {
+            Task::Chars => (b'A'..=b'Z').map(|c| (c as char).to_string()).collect(),
+            Task::Segment => vec!["background".into(), "character".into()],
+        }
+    }
+}
+
 /// One labelled window.
 #[derive(Debug, Clone)]
 pub struct CharSample {
+    /// The character the window belongs to (for a segmentation negative: the one beside it).
     pub letter: char,
+    /// The class in the task's classes (a letter's index; 1 for "character", 0 for background).
+    pub class: usize,
     pub map: Heatmap,
     /// Which scan it came from (board, row, trial).
     pub scan: (String, usize, u64),
@@ -27,6 +54,13 @@ pub struct CharSetSpec {
     pub depth_mm: f64,
     pub trials: u64,
     pub seed: u64,
+    #[serde(default)]
+    pub task: Task,
+    /// Character windows: also the windows shifted by this much either way (at 8 mm/s, scaled
+    /// with speed), labelled with the same letter, as a streaming reader meets them on the
+    /// frames around the aligned one (0: the paper's aligned windows only).
+    #[serde(default)]
+    pub jitter_ms: f64,
 }
 
 /// What a build gives: the windows, and the scans skipped because the count did not match.
@@ -53,6 +87,8 @@ pub fn scan_windows(
     speed_mm_s: f64,
     depth_mm: f64,
     cfg: &LabelerConfig,
+    task: Task,
+    jitter_ms: f64,
 ) -> Result<Option<Vec<CharSample>>> {
     let scan = ScanConfig { speed_mm_s, depth_mm, row, seed: scan_seed, ..ScanConfig::default() };
     let s = sim::simulate(board, sensor, &scan)?;
@@ -62,9 +98,64 @@ pub fn scan_windows(
         return Ok(None);
     }
     let mut out = Vec::with_capacity(chars.len());
-    for (w, &letter) in l.windows.iter().zip(&chars) {
-        let map = window_heatmap(&s.events, sensor.camera.resolution, speed_mm_s, w, cfg)?;
-        out.push(CharSample { letter, map, scan: (board.kind.name(), row, trial) });
+    let scaled = |ms: f64| (ms * 1e3 * cfg.reference_speed_mm_s / speed_mm_s).round() as i64;
+    for (k, (w, &letter)) in l.windows.iter().zip(&chars).enumerate() {
+        let mut windows = Vec::new();
+        match task {
+            Task::Chars => {
+                if let Some(class) = class_of(letter) {
+                    windows.push((class, w.clone()));
+                    if jitter_ms > 0.0 {
+                        for d in [-jitter_ms, jitter_ms] {
+                            let d = scaled(d);
+                            windows.push((
+                                class,
+                                CharWindow { t_start_us: w.t_start_us + d, t_end_us: w.t_end_us + d, ..w.clone() },
+                            ));
+                        }
+                    }
+                }
+            }
+            Task::Segment => {
+                let at = |from_ms: f64, to_ms: f64| CharWindow {
+                    t_start_us: w.t_start_us + scaled(from_ms),
+                    t_end_us: w.t_start_us + scaled(to_ms),
+                    ..w.clone()
+                };
+                windows.push((1, w.clone()));
+                windows.push((0, at(-170.0, 10.0)));
+                windows.push((0, at(cfg.window_ms - 10.0, cfg.window_ms + 170.0)));
+            }
+        }
+        if task == Task::Segment && k + 1 == l.windows.len() {
+            // Beyond the paper: background from the rest of the scan as well (touch-down,
+            // lift-off, and between characters, where the second column of one and the first of
+            // the next look like a character). Candidates every 50 ms (scaled) at least 170 ms
+            // from every character's window; two per character, evenly spread.
+            let (t0, t1) = (s.events.first().map_or(0, |e| e.t_us), s.events.last().map_or(0, |e| e.t_us));
+            let span = scaled(cfg.window_ms);
+            let guard = scaled(170.0);
+            let mut candidates = Vec::new();
+            let mut t = t0;
+            while t + span <= t1 {
+                if l.windows.iter().all(|c| (c.t_start_us - t).abs() >= guard) {
+                    candidates.push(t);
+                }
+                t += scaled(50.0);
+            }
+            let want = 2 * l.windows.len();
+            let stride = (candidates.len() as f64 / want as f64).max(1.0);
+            let mut k = 0.0;
+            while (k as usize) < candidates.len() && windows.len() < 3 + want {
+                let t = candidates[k as usize];
+                windows.push((0, CharWindow { t_start_us: t, t_end_us: t + span, ..w.clone() }));
+                k += stride;
+            }
+        }
+        for (class, w) in windows {
+            let map = window_heatmap(&s.events, sensor.camera.resolution, speed_mm_s, &w, cfg)?;
+            out.push(CharSample { letter, class, map, scan: (board.kind.name(), row, trial) });
+        }
     }
     Ok(Some(out))
 }

@@ -5,10 +5,13 @@
 
 pub mod augment;
 pub mod chars;
+pub mod classify;
 pub mod error;
+pub mod input;
 pub mod labeling;
 pub mod lexicon;
 pub mod metrics;
+pub mod reader;
 pub mod spelling;
 pub mod words;
 

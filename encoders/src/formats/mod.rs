@@ -137,6 +137,23 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Box<dyn EventSource>> 
     })
 }
 
+/// Opens standard input for streaming (named `-` in errors): AEDAT4 or NumPy by their magic
+/// bytes, anything else read as CSV. Nothing is read ahead beyond the first 16 bytes, so a live
+/// sensor piped in is read as it arrives.
+pub fn open_stdin(options: &OpenOptions) -> Result<Box<dyn EventSource>> {
+    let path = Path::new("-");
+    let mut stdin = std::io::stdin();
+    let mut head = [0u8; 16];
+    let n = read_up_to(&mut stdin, &mut head).map_err(|e| io(path, e))?;
+    let reader = std::io::Cursor::new(head[..n].to_vec()).chain(stdin);
+    let reader = std::io::BufReader::with_capacity(1 << 16, reader);
+    Ok(match Format::sniff(&head[..n]).unwrap_or(Format::Csv) {
+        Format::Aedat4 => Box::new(aedat4::Decoder::from_reader(reader, path, options)?),
+        Format::Csv => Box::new(csv::Decoder::from_reader(reader, path, options)?),
+        Format::Npy => Box::new(npy::Decoder::from_reader(reader, path, options)?),
+    })
+}
+
 /// Creates an event file in the format its extension names. The file appears under its name only
 /// when [`EventSink::finish`] succeeds; an existing file is replaced only with `force`.
 pub fn create(path: &Path, resolution: Option<Resolution>, force: bool) -> Result<Box<dyn EventSink>> {

@@ -1,0 +1,75 @@
+//! End-to-end stream reading (SIMULATED data): one row of the EV board ("RIGHT LEFT EXIT OPEN")
+//! scanned at 32 mm/s by the virtual Evetac (about 7 s of events, seeded), read from its raw
+//! events to words by each architecture's shipped networks: segmentation network on every frame,
+//! character classifier where a character is present, temporal filter, lexicon decoder. The
+//! issue's target: the SNN path within 1% of the stream's duration. Prints the stream's duration
+//! and what was read once before measuring.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use pipeline::classify::{SnnRunner, WindowModel};
+use pipeline::reader::{ReaderConfig, Spell, Speller, read_all};
+use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
+use std::hint::black_box;
+use std::path::Path;
+
+const SPEED_MM_S: f64 = 32.0;
+
+fn scan() -> sim::Scan {
+    let kind = BoardKind::Ev;
+    let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(&kind)).expect("EV board");
+    let camera = sim::sensor::CameraConfig::default();
+    let sensor = sim::sensor::Sensor::new(camera, sim::sensor::GelConfig::default(), 1).expect("sensor");
+    let cfg = ScanConfig { speed_mm_s: SPEED_MM_S, depth_mm: 1.5, row: 0, seed: 7, ..ScanConfig::default() };
+    sim::simulate(&board, &sensor, &cfg).expect("simulated scan")
+}
+
+fn models(arch: &str) -> (WindowModel, WindowModel) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    match arch {
+        "snn" => (
+            WindowModel::load_snn(&root.join("snn-segment.safetensors"), SnnRunner::Sliding).expect("SNN segmenter"),
+            WindowModel::load_snn(&root.join("snn-words.safetensors"), SnnRunner::Sliding).expect("SNN classifier"),
+        ),
+        _ => (
+            WindowModel::load_resnet(&root.join("resnet-tiny-segment.safetensors")).expect("ResNet segmenter"),
+            WindowModel::load_resnet(&root.join("resnet-lite-normaug-words.safetensors")).expect("ResNet classifier"),
+        ),
+    }
+}
+
+fn reading(c: &mut Criterion) {
+    let s = scan();
+    let resolution = s.truth.resolution;
+    let duration_s = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+    let speller = Speller::new(Spell::Lexicon);
+    let mut group = c.benchmark_group("reading");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(s.events.len() as u64));
+    for arch in ["snn", "resnet"] {
+        let (mut seg, mut cls) = models(arch);
+        let cfg =
+            ReaderConfig { labeler: cls.input().labeler.clone(), ..ReaderConfig::new(SPEED_MM_S, Spell::Lexicon) };
+        let (words, stats) = read_all(&s.events, cfg.clone(), resolution, &mut seg, &mut cls, &speller).expect("read");
+        let text: Vec<String> = words.iter().map(|w| w.text.clone()).collect();
+        eprintln!(
+            "SIMULATED EV row 0 at {SPEED_MM_S} mm/s: {:.2} s of stream, {} events, {} frames; {arch} read {:?} ({} classifier calls); 1% of the duration is {:.1} ms",
+            duration_s,
+            s.events.len(),
+            stats.frames,
+            text.join(" "),
+            stats.classifier_calls,
+            duration_s * 10.0
+        );
+        group.bench_function(format!("ev_row_32mm_s_{arch}"), |b| {
+            b.iter(|| {
+                black_box(
+                    read_all(&s.events, cfg.clone(), resolution, &mut seg, &mut cls, &speller).expect("read").0.len(),
+                )
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, reading);
+criterion_main!(benches);

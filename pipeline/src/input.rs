@@ -1,0 +1,123 @@
+//! How a window becomes a network's input, as the model file records it: the crop of the
+//! labeler's pooled grid, its pooling, the paper's preparation (for the ResNet) or the events as
+//! input spikes (for the SNN). Training windows ([`crate::labeling::window_heatmap`]) and the
+//! reader's streaming windows ([`crate::reader::Window`]) give the same input.
+
+use crate::augment::{AugmentConfig, Preprocess, prepare};
+use crate::error::{Error, Result};
+use crate::labeling::LabelerConfig;
+use encoders::heatmap::Heatmap;
+use encoders::spike_train::SpikeTrain;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// How windows become network input, as the model file records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CharInput {
+    pub labeler: LabelerConfig,
+    /// Pooled rows and columns kept (the labeler masks columns outside 20-100 anyway).
+    pub rows: Range<usize>,
+    pub cols: Range<usize>,
+    /// Sum-pooling of the crop (rows and columns); 1 keeps the labeler's grid.
+    #[serde(default = "one")]
+    pub pool: usize,
+    pub preprocess: Preprocess,
+    pub augment: AugmentConfig,
+}
+
+/// The `lite` crop (pooled rows and columns): the dots of one Braille row fill the middle of
+/// the image. The ResNet lite and the SNN see it.
+pub const LITE_ROWS: Range<usize> = 28..92;
+pub const LITE_COLS: Range<usize> = 20..100;
+
+fn one() -> usize {
+    1
+}
+
+impl CharInput {
+    pub fn shape(&self) -> [usize; 3] {
+        let p = self.pool.max(1);
+        [self.labeler.frames * 2, self.rows.len() / p, self.cols.len() / p]
+    }
+
+    /// The window's counts, cropped and pooled, as a heat map of the crop.
+    pub fn crop(&self, map: &Heatmap) -> Result<Heatmap> {
+        if self.rows.end > map.height || self.cols.end > map.width || map.bins != self.labeler.frames {
+            return Err(Error::Config(format!(
+                "a window of {} bins x {}x{} does not fit the model's input (rows {:?}, columns {:?}, {} bins)",
+                map.bins, map.height, map.width, self.rows, self.cols, self.labeler.frames
+            )));
+        }
+        let [_, h, w] = self.shape();
+        let p = self.pool.max(1);
+        let mut counts = vec![0f32; map.bins * 2 * h * w];
+        for plane in 0..map.bins * 2 {
+            for (i, r) in self.rows.clone().take(h * p).enumerate() {
+                let at = (plane * map.height + r) * map.width + self.cols.start;
+                let out = (plane * h + i / p) * w;
+                for (j, &v) in map.counts[at..at + w * p].iter().enumerate() {
+                    counts[out + j / p] += v;
+                }
+            }
+        }
+        Ok(Heatmap { t_start_us: map.t_start_us, bin_us: map.bin_us, bins: map.bins, height: h, width: w, counts })
+    }
+
+    /// The crop of a streaming window (the reader's sparse bins on the labeler's pooled grid), as
+    /// [`crop`](Self::crop) gives it for a labelled window.
+    pub fn crop_window(&self, w: &crate::reader::Window) -> Result<Vec<f32>> {
+        let [planes, h, wd] = self.shape();
+        if w.n_bins() * 2 != planes || self.rows.end > w.height || self.cols.end > w.width {
+            return Err(Error::Config(format!(
+                "a window of {} bins x {}x{} does not fit the model's input (rows {:?}, columns {:?}, {} bins)",
+                w.n_bins(),
+                w.height,
+                w.width,
+                self.rows,
+                self.cols,
+                self.labeler.frames
+            )));
+        }
+        let p = self.pool.max(1);
+        let cells = w.height * w.width;
+        let mut out = vec![0f32; planes * h * wd];
+        for (b, bin) in w.bins().enumerate() {
+            for c in bin {
+                let i = c.input as usize;
+                let (pol, r, col) = (i / cells, (i % cells) / w.width, i % w.width);
+                if self.rows.contains(&r) && self.cols.contains(&col) {
+                    let (r, col) = ((r - self.rows.start) / p, (col - self.cols.start) / p);
+                    if r < h && col < wd {
+                        out[((b * 2 + pol) * h + r) * wd + col] += c.count;
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The cropped counts of an image as a heat map again.
+    fn as_map(&self, image: &[f32]) -> Heatmap {
+        let [_, height, width] = self.shape();
+        Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image.to_vec() }
+    }
+
+    /// An SNN's input from a cropped image: the window's events as input spikes, one step per
+    /// frame (`dt_us` each), input `(polarity * height + row) * width + col`. Of the paper's
+    /// preparation only the vertical centring applies (when configured: `norm`, `normaug`), as a
+    /// whole-row shift that keeps every event; counts are events, so nothing is normalised.
+    pub fn spikes(&self, image: &[f32], dt_us: i64) -> SpikeTrain {
+        let mut map = self.as_map(image);
+        if self.preprocess.normalises() {
+            crate::augment::center_vertically(&mut map);
+        }
+        SpikeTrain::from_dense(0, dt_us, 2 * map.height * map.width, &map.counts)
+    }
+
+    /// Network input of a cropped image: centred and normalised as configured; augmented when
+    /// `rng` is given.
+    pub fn prepare(&self, image: &[f32], rng: Option<&mut rand_chacha::ChaCha8Rng>) -> Vec<f32> {
+        let rng = rng.map(|r| r as &mut dyn rand::RngCore);
+        prepare(&self.as_map(image), self.preprocess, &self.augment, rng).counts
+    }
+}

@@ -1,0 +1,710 @@
+//! Reading words from an unsegmented event stream as it arrives: the paper's streaming
+//! inference.
+//!
+//! Events are binned as the labeler bins them (10 ms at 8 mm/s, scaled with speed; pooled by 4;
+//! columns outside the active region masked). Every closed bin is a frame: the window of the
+//! last `frames` bins goes to the segmentation network, and only where it says a character is
+//! present to the character classifier; the temporal filter turns the detections into characters
+//! and words, and a speller corrects each finished word. The reader holds one window of sparse
+//! bins, the filter's open segment and the open word: memory stays bounded however long the
+//! stream runs.
+//!
+//! The classifiers are behind [`WindowClassifier`], so the ResNet and the SNN read identical
+//! windows of identical streams.
+
+use crate::error::{Error, Result};
+use crate::labeling::LabelerConfig;
+use crate::lexicon::LexiconDecoder;
+use crate::spelling::Norvig;
+use crate::words::{Detection, FilterOutput, ReadChar, TemporalFilter, TemporalFilterConfig};
+use encoders::pooling::PoolMap;
+use encoders::{Event, Resolution};
+use serde::{Deserialize, Serialize};
+
+/// Events summed in one pooled cell of one bin: input `polarity * cells + row * width + col`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    pub input: u32,
+    pub count: f32,
+}
+
+/// One frame's input: the last `frames` bins, oldest first, each a sparse list of cells.
+pub struct Window<'a> {
+    /// The end of the newest bin.
+    pub t_end_us: i64,
+    pub bin_us: i64,
+    /// The pooled grid.
+    pub height: usize,
+    pub width: usize,
+    bins: [&'a [Vec<Cell>]; 2],
+}
+
+impl Window<'_> {
+    /// The bins, oldest first.
+    pub fn bins(&self) -> impl Iterator<Item = &[Cell]> {
+        self.bins[0].iter().chain(self.bins[1]).map(Vec::as_slice)
+    }
+
+    pub fn n_bins(&self) -> usize {
+        self.bins[0].len() + self.bins[1].len()
+    }
+
+    /// The window as a dense heat map of the pooled grid (`[bin][polarity][row][col]`).
+    pub fn heatmap(&self) -> encoders::heatmap::Heatmap {
+        let plane = 2 * self.height * self.width;
+        let mut counts = vec![0f32; self.n_bins() * plane];
+        for (b, cells) in self.bins().enumerate() {
+            for c in cells {
+                counts[b * plane + c.input as usize] += c.count;
+            }
+        }
+        encoders::heatmap::Heatmap {
+            t_start_us: self.t_end_us - self.bin_us * self.n_bins() as i64,
+            bin_us: self.bin_us,
+            bins: self.n_bins(),
+            height: self.height,
+            width: self.width,
+            counts,
+        }
+    }
+}
+
+/// A network that reads a window: class probabilities (they sum to 1). The segmentation network
+/// gives `[background, character]`, a character classifier the 26 letters A..Z.
+pub trait WindowClassifier {
+    fn classify(&mut self, window: &Window) -> Result<Vec<f32>>;
+
+    /// A new stream begins: forget whatever was kept from the previous one.
+    fn start_stream(&mut self) {}
+}
+
+/// How finished words are corrected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Spell {
+    /// The letters as read.
+    None,
+    /// The paper's corrector: TextBlob's (Norvig's algorithm over TextBlob's word list).
+    Textblob,
+    /// The Braille-aware lexicon decoder over the classifier's letter probabilities.
+    Lexicon,
+}
+
+/// A speller, built once.
+#[allow(clippy::large_enum_variant)] // one per reader: the size does not matter
+pub enum Speller {
+    None,
+    Textblob(Norvig),
+    Lexicon(LexiconDecoder),
+}
+
+impl Speller {
+    pub fn new(spell: Spell) -> Speller {
+        match spell {
+            Spell::None => Speller::None,
+            Spell::Textblob => Speller::Textblob(Norvig::textblob()),
+            Spell::Lexicon => Speller::Lexicon(LexiconDecoder::textblob(Default::default())),
+        }
+    }
+
+    /// The word the characters spell, corrected.
+    pub fn correct(&self, chars: &[ReadChar]) -> String {
+        let raw: String = chars.iter().map(|c| c.letter).collect();
+        match self {
+            Speller::None => raw,
+            Speller::Textblob(n) => n.correct(&raw),
+            Speller::Lexicon(d) => {
+                let obs: Vec<crate::lexicon::LetterProbs> = chars
+                    .iter()
+                    .map(|c| match <[f32; 26]>::try_from(c.probs.as_slice()) {
+                        Ok(p) => p,
+                        Err(_) => crate::lexicon::one_hot(&c.letter.to_string(), c.confidence.clamp(0.04, 0.999))
+                            .first()
+                            .copied()
+                            .unwrap_or([1.0 / 26.0; 26]),
+                    })
+                    .collect();
+                d.decode(&obs).0
+            }
+        }
+    }
+}
+
+/// A finished word.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReadWord {
+    /// As corrected by the speller.
+    pub text: String,
+    /// The letters as registered.
+    pub raw: String,
+    pub chars: Vec<ReadChar>,
+}
+
+/// What the reader gives as the stream goes on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReadOutput {
+    /// A character registered (its word may still grow).
+    Char(ReadChar),
+    /// A word is complete.
+    Word(ReadWord),
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReaderConfig {
+    /// Binning and window length: the labeler's, as the classifiers were trained on.
+    pub labeler: LabelerConfig,
+    /// The scanning speed: bins and the filter's durations scale by `reference / speed`.
+    pub speed_mm_s: f64,
+    /// The temporal filter at the labeler's reference speed (the paper's: 4 frames, 70 ms, 1 s
+    /// at 8 mm/s).
+    pub filter: TemporalFilterConfig,
+    /// The segmentation network's probability of "character" above which a frame is a detection.
+    pub present_threshold: f32,
+    pub spell: Spell,
+    /// A word that reaches this many characters is given out and a new one begun (a stream
+    /// without word gaps keeps memory bounded; nothing is dropped).
+    #[serde(default = "default_max_word_chars")]
+    pub max_word_chars: usize,
+}
+
+fn default_max_word_chars() -> usize {
+    64
+}
+
+impl ReaderConfig {
+    pub fn new(speed_mm_s: f64, spell: Spell) -> ReaderConfig {
+        ReaderConfig {
+            labeler: LabelerConfig::default(),
+            speed_mm_s,
+            filter: TemporalFilterConfig::default(),
+            present_threshold: 0.5,
+            spell,
+            max_word_chars: default_max_word_chars(),
+        }
+    }
+
+    /// The filter's durations at this speed.
+    pub fn scaled_filter(&self) -> TemporalFilterConfig {
+        let k = self.labeler.reference_speed_mm_s / self.speed_mm_s;
+        TemporalFilterConfig {
+            min_frames: self.filter.min_frames,
+            max_gap_ms: self.filter.max_gap_ms * k,
+            word_gap_ms: self.filter.word_gap_ms * k,
+        }
+    }
+}
+
+/// Counters of one stream.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ReaderStats {
+    pub events: u64,
+    /// Events outside the sensor or the active columns (dropped, as in training).
+    pub events_masked: u64,
+    pub frames: u64,
+    /// Frames whose window held no event (background without asking the network).
+    pub frames_empty: u64,
+    pub segmenter_calls: u64,
+    pub classifier_calls: u64,
+    pub characters: u64,
+    pub words: u64,
+}
+
+/// The streaming reader of one stream.
+pub struct StreamReader<'m> {
+    cfg: ReaderConfig,
+    bin_us: i64,
+    frames: usize,
+    map: PoolMap,
+    cells: usize,
+    /// The last `frames` bins, a ring: `ring[head]` is the oldest once full.
+    ring: Vec<Vec<Cell>>,
+    head: usize,
+    /// The bin being filled: dense counts and the cells touched.
+    acc: Vec<f32>,
+    touched: Vec<u32>,
+    /// Start of the bin being filled (set by the first event).
+    bin_start: Option<i64>,
+    /// Bins in the ring that hold an event.
+    nonempty: usize,
+    last_t: i64,
+    segmenter: &'m mut dyn WindowClassifier,
+    classifier: &'m mut dyn WindowClassifier,
+    filter: TemporalFilter,
+    speller: &'m Speller,
+    word: Vec<ReadChar>,
+    pending: Vec<FilterOutput>,
+    pub stats: ReaderStats,
+}
+
+impl<'m> StreamReader<'m> {
+    pub fn new(
+        cfg: ReaderConfig,
+        resolution: Resolution,
+        segmenter: &'m mut dyn WindowClassifier,
+        classifier: &'m mut dyn WindowClassifier,
+        speller: &'m Speller,
+    ) -> Result<StreamReader<'m>> {
+        if !(cfg.speed_mm_s > 0.0 && cfg.speed_mm_s.is_finite()) {
+            return Err(Error::Config(format!("the speed must be positive, got {} mm/s", cfg.speed_mm_s)));
+        }
+        if cfg.labeler.frames == 0 {
+            return Err(Error::Config("the window needs at least one frame".into()));
+        }
+        let map = PoolMap::new(resolution, cfg.labeler.pool, Some(&cfg.labeler.active_cols))?;
+        segmenter.start_stream();
+        classifier.start_stream();
+        let cells = map.output.pixels();
+        let frames = cfg.labeler.frames;
+        Ok(StreamReader {
+            bin_us: cfg.labeler.bin_us(cfg.speed_mm_s),
+            frames,
+            cells,
+            map,
+            ring: Vec::with_capacity(frames),
+            head: 0,
+            acc: vec![0.0; 2 * cells],
+            touched: Vec::new(),
+            bin_start: None,
+            nonempty: 0,
+            last_t: i64::MIN,
+            filter: TemporalFilter::new(&cfg.scaled_filter()),
+            cfg,
+            segmenter,
+            classifier,
+            speller,
+            word: Vec::new(),
+            pending: Vec::new(),
+            stats: ReaderStats::default(),
+        })
+    }
+
+    /// Bytes the reader holds (its window, the bin being filled, the open segment and word): what
+    /// bounds its memory on an endless stream.
+    pub fn memory_bytes(&self) -> usize {
+        let cell = std::mem::size_of::<Cell>();
+        self.ring.iter().map(|b| b.capacity() * cell).sum::<usize>()
+            + self.acc.capacity() * 4
+            + self.touched.capacity() * 4
+            + self.word.iter().map(|c| std::mem::size_of::<ReadChar>() + c.probs.capacity() * 4).sum::<usize>()
+            + self.pending.capacity() * std::mem::size_of::<FilterOutput>()
+    }
+
+    /// The frame (bin) length at this speed.
+    pub fn bin_us(&self) -> i64 {
+        self.bin_us
+    }
+
+    /// Hands in one event; what it completes is appended to `out`. Events must come in time
+    /// order (the `event` index in the error is the count handed in so far).
+    pub fn push(&mut self, e: &Event, out: &mut Vec<ReadOutput>) -> Result<()> {
+        if e.t_us < self.last_t {
+            return Err(Error::Config(format!(
+                "event {} at {} us goes back in time (the previous was at {} us)",
+                self.stats.events, e.t_us, self.last_t
+            )));
+        }
+        self.last_t = e.t_us;
+        self.stats.events += 1;
+        let start = *self.bin_start.get_or_insert(e.t_us);
+        if e.t_us >= start + self.bin_us {
+            self.advance_to(e.t_us, out)?;
+        }
+        let Some(cell) = self.map.cell(e.x, e.y) else {
+            self.stats.events_masked += 1;
+            return Ok(());
+        };
+        let i = e.polarity.index() as u32 * self.cells as u32 + cell;
+        if self.acc[i as usize] == 0.0 {
+            self.touched.push(i);
+        }
+        self.acc[i as usize] += 1.0;
+        Ok(())
+    }
+
+    /// Hands in events in time order (a chunk of a stream): [`push`](Self::push) for each, with
+    /// the events inside one bin accumulated in a tight loop.
+    pub fn push_all(&mut self, events: &[Event], out: &mut Vec<ReadOutput>) -> Result<()> {
+        let mut k = 0;
+        while k < events.len() {
+            self.push(&events[k], out)?;
+            k += 1;
+            let end = self.bin_start.map_or(i64::MIN, |s| s + self.bin_us);
+            let cells = self.cells as u32;
+            let (mut last, mut masked, start) = (self.last_t, 0u64, k);
+            let (map, acc, touched) = (&self.map, &mut self.acc[..], &mut self.touched);
+            while k < events.len() {
+                let e = &events[k];
+                if e.t_us >= end || e.t_us < last {
+                    break;
+                }
+                last = e.t_us;
+                match map.cell(e.x, e.y) {
+                    Some(cell) => {
+                        let i = (e.polarity.index() as u32 * cells + cell) as usize;
+                        if let Some(a) = acc.get_mut(i) {
+                            if *a == 0.0 {
+                                touched.push(i as u32);
+                            }
+                            *a += 1.0;
+                        }
+                    }
+                    None => masked += 1,
+                }
+                k += 1;
+            }
+            self.last_t = last;
+            self.stats.events += (k - start) as u64;
+            self.stats.events_masked += masked;
+        }
+        Ok(())
+    }
+
+    /// Closes every bin that ends at or before `t_us` (each a frame).
+    pub fn advance_to(&mut self, t_us: i64, out: &mut Vec<ReadOutput>) -> Result<()> {
+        let Some(mut start) = self.bin_start else { return Ok(()) };
+        while t_us >= start + self.bin_us {
+            self.close_bin(start + self.bin_us, out)?;
+            start += self.bin_us;
+            // a long silence: once the window is empty, skip to the bin holding `t_us` (the
+            // filter still sees the time pass)
+            if self.nonempty == 0 && self.touched.is_empty() && t_us >= start + self.bin_us {
+                let skip = (t_us - start) / self.bin_us;
+                let target = start + skip * self.bin_us;
+                // the frames at which the filter closes a segment or a word, on the frame grid
+                while let Some(d) = self.filter.next_deadline().filter(|&d| d <= target) {
+                    let frame = start + (d - start + self.bin_us - 1).div_euclid(self.bin_us) * self.bin_us;
+                    self.filter.tick(frame.max(d), &mut self.pending);
+                }
+                self.filter.tick(target, &mut self.pending);
+                self.stats.frames += skip as u64;
+                self.stats.frames_empty += skip as u64;
+                start = target;
+                self.drain(out);
+            }
+        }
+        self.bin_start = Some(start);
+        Ok(())
+    }
+
+    /// The stream has ended: the bin being filled closes and the open character and word are
+    /// given out.
+    pub fn finish(&mut self, out: &mut Vec<ReadOutput>) -> Result<()> {
+        if let Some(start) = self.bin_start {
+            self.close_bin(start + self.bin_us, out)?;
+            self.bin_start = Some(start + self.bin_us);
+            self.filter.finish(start + self.bin_us, &mut self.pending);
+        }
+        self.drain(out);
+        if !self.word.is_empty() {
+            self.end_word(out);
+        }
+        Ok(())
+    }
+
+    fn close_bin(&mut self, t_end_us: i64, out: &mut Vec<ReadOutput>) -> Result<()> {
+        let mut bin = if self.ring.len() == self.frames {
+            let old = std::mem::take(&mut self.ring[self.head]);
+            self.nonempty -= usize::from(!old.is_empty());
+            old
+        } else {
+            Vec::new()
+        };
+        bin.clear();
+        for &i in &self.touched {
+            bin.push(Cell { input: i, count: self.acc[i as usize] });
+            self.acc[i as usize] = 0.0;
+        }
+        self.touched.clear();
+        self.nonempty += usize::from(!bin.is_empty());
+        if self.ring.len() < self.frames {
+            self.ring.push(bin);
+        } else {
+            self.ring[self.head] = bin;
+            self.head = (self.head + 1) % self.frames;
+        }
+        self.stats.frames += 1;
+        if self.ring.len() == self.frames {
+            self.frame(t_end_us)?;
+        }
+        self.drain(out);
+        Ok(())
+    }
+
+    fn frame(&mut self, t_end_us: i64) -> Result<()> {
+        if self.nonempty == 0 {
+            self.stats.frames_empty += 1;
+            self.filter.tick(t_end_us, &mut self.pending);
+            return Ok(());
+        }
+        let (a, b) = self.ring.split_at(self.head);
+        let window = Window {
+            t_end_us,
+            bin_us: self.bin_us,
+            height: self.map.output.height as usize,
+            width: self.map.output.width as usize,
+            bins: [b, a],
+        };
+        self.stats.segmenter_calls += 1;
+        let seg = self.segmenter.classify(&window)?;
+        let present = seg.get(1).copied().unwrap_or(0.0);
+        if present <= self.cfg.present_threshold {
+            self.filter.tick(t_end_us, &mut self.pending);
+            return Ok(());
+        }
+        self.stats.classifier_calls += 1;
+        let probs = self.classifier.classify(&window)?;
+        let (k, &p) = probs
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))
+            .ok_or_else(|| Error::Config("the character classifier gave no probabilities".into()))?;
+        let letter = (b'A' + k.min(25) as u8) as char;
+        self.filter.detect(&Detection { t_us: t_end_us, letter, confidence: p }, Some(&probs), &mut self.pending);
+        Ok(())
+    }
+
+    fn drain(&mut self, out: &mut Vec<ReadOutput>) {
+        for o in std::mem::take(&mut self.pending) {
+            match o {
+                FilterOutput::Char { c, new_word } => {
+                    if new_word && !self.word.is_empty() {
+                        self.end_word(out);
+                    }
+                    self.stats.characters += 1;
+                    self.word.push(c.clone());
+                    out.push(ReadOutput::Char(c));
+                    if self.word.len() >= self.cfg.max_word_chars.max(1) {
+                        self.end_word(out);
+                    }
+                }
+                FilterOutput::WordEnd => {
+                    if !self.word.is_empty() {
+                        self.end_word(out);
+                    }
+                }
+            }
+        }
+    }
+
+    fn end_word(&mut self, out: &mut Vec<ReadOutput>) {
+        let chars = std::mem::take(&mut self.word);
+        let raw: String = chars.iter().map(|c| c.letter).collect();
+        let text = self.speller.correct(&chars);
+        self.stats.words += 1;
+        out.push(ReadOutput::Word(ReadWord { text, raw, chars }));
+    }
+}
+
+/// Reads a whole stream of events (in time order): the words.
+pub fn read_all(
+    events: &[Event],
+    cfg: ReaderConfig,
+    resolution: Resolution,
+    segmenter: &mut dyn WindowClassifier,
+    classifier: &mut dyn WindowClassifier,
+    speller: &Speller,
+) -> Result<(Vec<ReadWord>, ReaderStats)> {
+    let mut r = StreamReader::new(cfg, resolution, segmenter, classifier, speller)?;
+    let mut out = Vec::new();
+    let mut words = Vec::new();
+    let mut keep = |out: &mut Vec<ReadOutput>| {
+        words.extend(out.drain(..).filter_map(|o| match o {
+            ReadOutput::Word(w) => Some(w),
+            ReadOutput::Char(_) => None,
+        }))
+    };
+    r.push_all(events, &mut out)?;
+    keep(&mut out);
+    r.finish(&mut out)?;
+    keep(&mut out);
+    Ok((words, r.stats.clone()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use encoders::Polarity;
+
+    /// A segmenter that sees a character when the window holds at least `min` events, and a
+    /// classifier that reads the letter from the newest non-empty bin's first column (A + col % 26).
+    struct Count(f32);
+    impl WindowClassifier for Count {
+        fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+            let n: f32 = w.bins().flat_map(|b| b.iter().map(|c| c.count)).sum();
+            Ok(if n >= self.0 { vec![0.0, 1.0] } else { vec![1.0, 0.0] })
+        }
+    }
+    struct Column;
+    impl WindowClassifier for Column {
+        fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+            let col = w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width);
+            let mut p = vec![0.0; 26];
+            p[col % 26] = 1.0;
+            Ok(p)
+        }
+    }
+
+    /// Events at pooled column `col` (pixel 4 col) every 5 ms over `[from, to)` ms.
+    fn burst(col: u16, from_ms: i64, to_ms: i64) -> Vec<Event> {
+        (from_ms..to_ms)
+            .step_by(5)
+            .map(|t| Event { t_us: t * 1000, x: 4 * col, y: 200, polarity: Polarity::On })
+            .collect()
+    }
+
+    fn read(events: Vec<Event>, cfg: ReaderConfig) -> (Vec<ReadWord>, ReaderStats) {
+        let speller = Speller::new(Spell::None);
+        read_all(&events, cfg, Resolution::DVXPLORER, &mut Count(1.0), &mut Column, &speller).unwrap()
+    }
+
+    #[test]
+    fn bursts_become_letters_and_silences_words() {
+        // pooled columns 20 + k read as letter (20 + k) % 26: U, V, W...; 8 mm/s, 10 ms frames
+        let mut ev = burst(20, 0, 100); // U
+        ev.extend(burst(21, 400, 500)); // V, 300 ms later: same word
+        ev.extend(burst(22, 2_000, 2_100)); // W, after more than 1 s of silence: a new word
+        let (words, stats) = read(ev, ReaderConfig::new(8.0, Spell::None));
+        let text: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
+        assert_eq!(text, ["UV", "W"]);
+        assert!(stats.frames_empty > 0 && stats.segmenter_calls > 0);
+        // a character registers once its segment has ended: after its last detection, before the
+        // next burst
+        let u = &words[0].chars[0];
+        assert_eq!(u.t_registered_us, u.t_end_us + 70_000, "{u:?}");
+        assert!(u.t_registered_us < 400_000, "{u:?}");
+    }
+
+    #[test]
+    fn durations_scale_with_speed() {
+        // at 32 mm/s frames are 2.5 ms, windows 50 ms and the word gap 250 ms: 340 ms of silence
+        // between bursts splits words; at 8 mm/s it does not
+        let mut ev = burst(20, 0, 60);
+        ev.extend(burst(21, 400, 460));
+        let (words, _) = read(ev.clone(), ReaderConfig::new(32.0, Spell::None));
+        assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["U", "V"]);
+        let (words, _) = read(ev, ReaderConfig::new(8.0, Spell::None));
+        assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UV"]);
+    }
+
+    #[test]
+    fn events_out_of_order_are_an_error_and_masked_columns_are_dropped() {
+        let mut ev = burst(20, 0, 100);
+        ev.push(Event { t_us: 50_000, x: 80, y: 10, polarity: Polarity::Off });
+        let speller = Speller::new(Spell::None);
+        let e = read_all(
+            &ev,
+            ReaderConfig::new(8.0, Spell::None),
+            Resolution::DVXPLORER,
+            &mut Count(1.0),
+            &mut Column,
+            &speller,
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(e.contains("event 20") && e.contains("back in time"), "{e}");
+        let (words, stats) = read(burst(5, 0, 100), ReaderConfig::new(8.0, Spell::None));
+        assert!(words.is_empty());
+        assert_eq!(stats.events_masked, 20);
+    }
+
+    #[test]
+    fn an_hour_of_stream_is_read_with_bounded_memory() {
+        // every 600 ms a 100 ms burst (letters U..Y by column), a word of five, then 1.5 s of
+        // silence; an hour of it, handed in a chunk of a second at a time as a live sensor would
+        let (speller, mut seg, mut cls) = (Speller::new(Spell::None), Count(1.0), Column);
+        let mut r =
+            StreamReader::new(ReaderConfig::new(8.0, Spell::None), Resolution::DVXPLORER, &mut seg, &mut cls, &speller)
+                .unwrap();
+        let (mut out, mut words, mut peak, mut chunk) = (Vec::new(), 0usize, 0usize, Vec::new());
+        let mut t_ms = 0i64;
+        let word_ms = 5 * 600 + 1500;
+        let mut letters = 0;
+        while t_ms < 3_600_000 {
+            let k = (t_ms % word_ms) / 600;
+            if k < 5 && t_ms % 600 == 0 {
+                chunk.extend(burst(20 + k as u16, t_ms, t_ms + 100));
+                letters += 1;
+            }
+            t_ms += 100;
+            if t_ms % 1000 == 0 {
+                r.push_all(&chunk, &mut out).unwrap();
+                chunk.clear();
+                words += out.drain(..).filter(|o| matches!(o, ReadOutput::Word(w) if w.raw == "UVWXY")).count();
+                peak = peak.max(r.memory_bytes());
+            }
+        }
+        r.push_all(&chunk, &mut out).unwrap();
+        r.finish(&mut out).unwrap();
+        words += out.drain(..).filter(|o| matches!(o, ReadOutput::Word(w) if w.raw == "UVWXY")).count();
+        assert_eq!(r.stats.characters as usize, letters, "every letter of the hour is read");
+        assert_eq!(words, 800, "every word of the hour is read");
+        assert!(peak < 300_000, "the reader held {peak} bytes");
+    }
+
+    #[test]
+    fn streams_read_in_parallel_give_what_they_give_read_one_by_one() {
+        let streams: Vec<Vec<Event>> = (0..6u16)
+            .map(|s| {
+                (0..5i64).flat_map(|k| burst(20 + (s + k as u16) % 7, k * 700 + s as i64 * 13, k * 700 + 120)).collect()
+            })
+            .collect();
+        let one = |ev: &Vec<Event>| read(ev.clone(), ReaderConfig::new(8.0, Spell::None));
+        let sequential: Vec<_> = streams.iter().map(one).collect();
+        let parallel: Vec<_> = std::thread::scope(|sc| {
+            let handles: Vec<_> = streams.iter().map(|ev| sc.spawn(move || one(ev))).collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(sequential, parallel);
+        assert!(sequential.iter().all(|(w, _)| w.len() == 1 && w[0].raw.len() == 5), "{sequential:?}");
+    }
+
+    #[test]
+    fn a_word_without_end_is_given_out_in_pieces() {
+        let mut ev = Vec::new();
+        for k in 0..10 {
+            ev.extend(burst(20 + (k % 3) as u16, k * 600, k * 600 + 100));
+        }
+        let cfg = ReaderConfig { max_word_chars: 4, ..ReaderConfig::new(8.0, Spell::None) };
+        let (words, stats) = read(ev, cfg);
+        assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UVWU", "VWUV", "WU"]);
+        assert_eq!(stats.characters, 10);
+    }
+
+    #[test]
+    fn the_window_is_the_labelers_heat_map() {
+        // the reader's window equals the labeler's heat map of the same span
+        struct Grab(Vec<encoders::heatmap::Heatmap>);
+        impl WindowClassifier for Grab {
+            fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+                self.0.push(w.heatmap());
+                Ok(vec![1.0, 0.0])
+            }
+        }
+        let ev: Vec<Event> = (0..4000)
+            .map(|k| Event {
+                t_us: k * 97,
+                x: ((k * 37) % 640) as u16,
+                y: ((k * 53) % 480) as u16,
+                polarity: if k % 3 == 0 { Polarity::Off } else { Polarity::On },
+            })
+            .collect();
+        let cfg = ReaderConfig::new(8.0, Spell::None);
+        let (mut grab, speller) = (Grab(Vec::new()), Speller::new(Spell::None));
+        read_all(&ev, cfg.clone(), Resolution::DVXPLORER, &mut grab, &mut Column, &speller).unwrap();
+        assert!(grab.0.len() > 10);
+        let l = &cfg.labeler;
+        let enc = encoders::heatmap::HeatmapEncoder::new(
+            encoders::heatmap::HeatmapConfig::new(Resolution::DVXPLORER)
+                .with_pool(l.pool)
+                .with_bin_us(l.bin_us(8.0))
+                .with_mask_cols(l.active_cols.clone()),
+        )
+        .unwrap();
+        for w in &grab.0 {
+            let a = ev.partition_point(|e| e.t_us < w.t_start_us);
+            let b = ev.partition_point(|e| e.t_us < w.t_end_us());
+            assert_eq!(w, &enc.encode(&ev[a..b], w.t_start_us, l.frames));
+        }
+    }
+}

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Word reading (issue #5), SIMULATED data. Beyond the paper, the character classifiers that read
+# words are trained on rows of random words as well (TextBlob's frequent words, none of the EV
+# board's: letters with neighbours, as in words) and on each window shifted by 40 ms either way
+# (a streaming reader queries the classifier on the frames around the aligned one): SAB and UN
+# plus 80 rows of words, 5 scans per row, 8 mm/s, 1.5 mm, seed 1. The segmentation networks
+# (the paper's binary 'character present' network, as an SNN and as a small ResNet) learn from the
+# same scans' windows with the paper's negatives and background from the rest of the scan. Then
+# the paper's speed table for both architectures (docs/words.{md,json}, docs/words_speed.png) and
+# Table I's report (docs/chars.*, which also tests these classifiers). About 60 minutes on two
+# cores; `--report-only` runs the two reports alone (about 15 minutes).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+mkdir -p models docs
+b=target/release/braille
+if [[ "${1:-}" != "--report-only" ]]; then
+  $b train --arch snn --words 80 --trials 5 --jitter-ms 40 --epochs 12 --neuron lif --tau-mem-us 100000 \
+    --tau-out-us 100000 --drop-events 0.3 --seed 1 --out models/snn-words.safetensors \
+    --history docs/snn_words_history.json --force --quiet
+  $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
+    --epochs 15 --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
+    --history docs/resnet_lite_normaug_words_history.json --force --quiet
+  $b train --arch snn --task segment --words 30 --trials 10 --epochs 12 --neuron lif \
+    --tau-mem-us 100000 --tau-out-us 100000 --hidden 64 --pool 4 --drop-events 0.3 --seed 1 \
+    --out models/snn-segment.safetensors --history docs/snn_segment_history.json --force --quiet
+  $b train --arch resnet --task segment --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
+    --epochs 8 --lr 1e-3 --seed 1 --out models/resnet-tiny-segment.safetensors \
+    --history docs/resnet_tiny_segment_history.json --force --quiet
+fi
+$b words-report --trials 30 --out docs
+$b chars-report --models models --out docs --trials 10

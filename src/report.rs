@@ -1,0 +1,270 @@
+//! `braille report`: every results table and figure regenerated into one folder, with an index.
+//! Each part runs as this binary's own command (the same code and output as run by hand):
+//! the simulator's physics checks, the labeling pipeline, a simulated scan as a heat map and an
+//! event raster, Table I and the depth curve, the speed table, the SNN against the ResNet on one
+//! stream (latency histograms, SynOps and energy), and the real iCub results.
+
+use anyhow::{Context, Result, bail};
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The report's folder (Markdown, JSON, PNG).
+    #[arg(long, default_value = "report")]
+    out: PathBuf,
+    /// Small trial counts: the same report in a few minutes, for checking that it runs (its
+    /// figures are too noisy to quote).
+    #[arg(long)]
+    quick: bool,
+}
+
+/// One step: a command of this binary, its stdout kept in `stdout_to` when given.
+struct Step {
+    name: &'static str,
+    args: Vec<String>,
+    stdout_to: Option<&'static str>,
+}
+
+fn run_step(out: &Path, s: &Step) -> Result<f64> {
+    let t = Instant::now();
+    eprintln!("report: {} (braille {})", s.name, s.args.join(" "));
+    let o = Command::new(std::env::current_exe()?)
+        .args(&s.args)
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .with_context(|| format!("running `braille {}`", s.args.join(" ")))?;
+    if !o.status.success() {
+        bail!("report step `{}` failed: braille {}", s.name, s.args.join(" "));
+    }
+    if let Some(f) = s.stdout_to {
+        let p = out.join(f);
+        std::fs::write(&p, &o.stdout).with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(t.elapsed().as_secs_f64())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let out = &args.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let o = out.to_str().context("the report folder's name is not UTF-8")?.to_string();
+    let q = args.quick;
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let scan = format!("{o}/ev_row0_16mm_s.aedat4");
+    let mut steps = vec![
+        Step {
+            name: "simulator physics checks",
+            args: s(&["sim-check", "--trials", if q { "2" } else { "8" }]),
+            stdout_to: Some("sim_check.md"),
+        },
+        Step {
+            name: "simulator physics checks (JSON)",
+            args: s(&["sim-check", "--trials", if q { "2" } else { "8" }, "--json"]),
+            stdout_to: Some("sim_check.json"),
+        },
+        Step {
+            name: "labeling pipeline",
+            args: s(&["label-check", "--trials", if q { "1" } else { "4" }]),
+            stdout_to: Some("label_check.md"),
+        },
+        Step {
+            name: "a simulated scan",
+            args: s(&[
+                "simulate", "--board", "EV", "--row", "0", "--speed", "16", "--seed", "1", "--out", &scan, "--force",
+            ]),
+            stdout_to: None,
+        },
+        Step {
+            name: "heat map and event raster",
+            args: s(&[
+                "plot",
+                &scan,
+                "--out",
+                &format!("{o}/scan_ev_row0.png"),
+                "--title",
+                "SIMULATED EV row 0, 16 mm/s",
+                "--force",
+            ]),
+            stdout_to: None,
+        },
+    ];
+    let mut chars = s(&["chars-report", "--out", &o, "--trials", if q { "1" } else { "10" }]);
+    if q {
+        chars.extend(s(&["--depths", "0.6,1.5"]));
+    }
+    steps.push(Step { name: "Table I and the depth curve", args: chars, stdout_to: None });
+    let mut words = s(&["words-report", "--out", &o, "--trials", if q { "1" } else { "30" }]);
+    if q {
+        words.extend(s(&["--speeds", "16,32"]));
+    }
+    steps.push(Step { name: "the speed table", args: words, stdout_to: None });
+    for arch in ["resnet", "snn"] {
+        steps.push(Step {
+            name: "one stream read by each architecture",
+            args: s(&["read", &scan, "--arch", arch, "--json"]),
+            stdout_to: Some(if arch == "snn" { "read_snn.jsonl" } else { "read_resnet.jsonl" }),
+        });
+    }
+    steps.push(Step { name: "the real iCub results", args: s(&["icub-report", "--out", &o]), stdout_to: None });
+    steps.push(Step {
+        name: "the engine on the peer benchmark",
+        args: s(&["bench", "--json"]),
+        stdout_to: Some("bench.json"),
+    });
+    let started = Instant::now();
+    let mut times = Vec::new();
+    for step in &steps {
+        times.push((step.name, run_step(out, step)?));
+    }
+    std::fs::remove_file(&scan).ok();
+    std::fs::remove_file(crate::simulate::truth_path(Path::new(&scan))).ok();
+    let (lat_md, lat_png) = latency(out)?;
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# braille: the report\n\nRegenerated by `braille report --out {o}{}` in {:.1} min on this machine. Every figure on **simulated** data (the virtual Evetac) says so; the iCub results are real recordings of another sensor.{}\n",
+        if q { " --quick" } else { "" },
+        started.elapsed().as_secs_f64() / 60.0,
+        if q { " **Quick run**: one or two scans per condition, too noisy to quote." } else { "" }
+    );
+    let _ = writeln!(md, "| part | files | minutes |\n| --- | --- | --- |");
+    let files = [
+        "[sim_check.md](sim_check.md)",
+        "sim_check.json",
+        "[label_check.md](label_check.md)",
+        "",
+        "[scan_ev_row0.png](scan_ev_row0.png)",
+        "[chars.md](chars.md), chars_depth.png, chars_confusion_*.png",
+        "[words.md](words.md), words_speed.png",
+        "read_resnet.jsonl",
+        "read_snn.jsonl",
+        "[icub.md](icub.md), icub.png",
+        "bench.json",
+    ];
+    for ((name, t), f) in times.iter().zip(files) {
+        let _ = writeln!(md, "| {name} | {f} | {:.1} |", t / 60.0);
+    }
+    let _ = writeln!(md, "\n## A simulated scan\n\n![heat map and event raster](scan_ev_row0.png)\n");
+    for (title, file) in
+        [("Simulator physics checks", "sim_check.md"), ("Labeling pipeline against the ground truth", "label_check.md")]
+    {
+        let body = std::fs::read_to_string(out.join(file)).unwrap_or_default();
+        let _ = writeln!(md, "## {title} (SIMULATED)\n\n{body}\n");
+    }
+    let _ =
+        writeln!(md, "## SNN against ResNet on one stream (SIMULATED)\n\n{lat_md}\n![per-call latency]({lat_png})\n");
+    let _ = writeln!(
+        md,
+        "## Characters, words and the real sensor\n\n- [Table I and the depth curve](chars.md) (SIMULATED)\n- [The speed table](words.md) (SIMULATED)\n- [iCub Braille, real recordings](icub.md)\n"
+    );
+    let bench = std::fs::read_to_string(out.join("bench.json")).unwrap_or_default();
+    if let Ok(b) = serde_json::from_str::<serde_json::Value>(&bench) {
+        let _ = writeln!(
+            md,
+            "## The event-driven engine on the peer benchmark's network\n\n{:.3} ms per sample, {:.2} ns per synaptic event, {:.3} us per input event (stepped); async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99) (`braille bench --json`; the peers: `bash scripts/peers/compare.sh`).\n",
+            b["ms_per_sample"].as_f64().unwrap_or(f64::NAN),
+            b["ns_per_synop"].as_f64().unwrap_or(f64::NAN),
+            b["us_per_input_event"].as_f64().unwrap_or(f64::NAN),
+            b["async_event_latency_ns_p50"].as_f64().unwrap_or(f64::NAN),
+            b["async_event_latency_ns_p99"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    let p = out.join("index.md");
+    std::fs::write(&p, md).with_context(|| format!("writing {}", p.display()))?;
+    eprintln!("wrote {} ({:.1} min)", p.display(), started.elapsed().as_secs_f64() / 60.0);
+    Ok(())
+}
+
+/// A named line of points with its colour.
+type Series = (String, Vec<(f64, f64)>, RGBColor);
+
+/// The two `braille read --json` summaries of one stream: a table and the latency histograms.
+fn latency(out: &Path) -> Result<(String, &'static str)> {
+    let summary = |f: &str| -> Result<serde_json::Value> {
+        let p = out.join(f);
+        let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+        let last = text.lines().last().with_context(|| format!("{}: empty", p.display()))?;
+        serde_json::from_str(last).with_context(|| format!("{}: the last line is not a summary", p.display()))
+    };
+    let runs = [("resnet", summary("read_resnet.jsonl")?), ("snn", summary("read_snn.jsonl")?)];
+    let mut md = String::from(
+        "The simulated EV row 0 at 16 mm/s, read by each architecture's shipped networks (`braille read FILE --arch A --json`). Per call: the segmentation network runs on every frame, the classifier where a character is present. SynOps count the SNN's synaptic operations; the ResNet's multiply-accumulates are in [chars.md](chars.md).\n\n| architecture | text | stream (s) | read (s) | segmentation p50 / p99 (us) | classifier p50 / p99 (us) | classifier calls | SynOps | peak RSS (MB) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+    );
+    for (arch, v) in &runs {
+        let f = |k: &str| v[k].as_f64().map_or("-".into(), |x| format!("{x:.0}"));
+        let _ = writeln!(
+            md,
+            "| {arch} | {} | {:.1} | {:.2} | {} / {} | {} / {} | {} | {} | {} |",
+            v["text"].as_str().unwrap_or(""),
+            v["stream_s"].as_f64().unwrap_or(f64::NAN),
+            v["read_s"].as_f64().unwrap_or(f64::NAN),
+            f("segmenter_us_p50"),
+            f("segmenter_us_p99"),
+            f("classifier_us_p50"),
+            f("classifier_us_p99"),
+            v["classifier_calls"],
+            match v["segmenter_synops"].as_u64().unwrap_or(0) + v["classifier_synops"].as_u64().unwrap_or(0) {
+                0 => "-".to_string(),
+                n => n.to_string(),
+            },
+            f("peak_rss_mb"),
+        );
+    }
+    let png = "latency.png";
+    let path = out.join(png);
+    crate::plot::register_fonts();
+    let root = BitMapBackend::new(&path, (900, 480)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let series: Vec<Series> = runs
+        .iter()
+        .flat_map(|(arch, v)| {
+            [("segmenter_latency", "segmentation"), ("classifier_latency", "classifier")].into_iter().enumerate().map(
+                move |(j, (key, what))| {
+                    let counts: Vec<f64> = v[key]["counts"]
+                        .as_array()
+                        .map(|a| a.iter().map(|c| c.as_f64().unwrap_or(0.0)).collect())
+                        .unwrap_or_default();
+                    let total: f64 = counts.iter().sum::<f64>().max(1.0);
+                    let pts = counts
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, c)| **c > 0.0)
+                        .map(|(k, c)| (pipeline::classify::Histogram::edge_ns(k) / 1e3, 100.0 * c / total))
+                        .collect();
+                    let color = match (*arch, j) {
+                        ("snn", 0) => RGBColor(230, 120, 120),
+                        ("snn", _) => RGBColor(200, 40, 40),
+                        (_, 0) => RGBColor(120, 160, 220),
+                        _ => RGBColor(30, 80, 180),
+                    };
+                    (format!("{arch}, {what}"), pts, color)
+                },
+            )
+        })
+        .collect();
+    let max_y = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(1.0, f64::max);
+    let mut chart = ChartBuilder::on(&root)
+        .caption("SIMULATED: time per call, EV row 0 at 16 mm/s", ("sans-serif", 20))
+        .margin(14)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d((1.0f64..1e5f64).log_scale(), 0.0..max_y * 1.1)?;
+    chart.configure_mesh().x_desc("microseconds per call (log)").y_desc("share of calls (%)").draw()?;
+    for (name, pts, c) in series {
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok((md, png))
+}

@@ -1,0 +1,202 @@
+//! Reading words from event streams (SIMULATED scans): `braille read` on a file and on standard
+//! input, both SNN runners, `braille eval words`, `braille words-report`, and training the
+//! segmentation networks.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn braille(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_braille")).args(args).output().expect("run braille")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// A simulated scan of a text board at 32 mm/s, written as `name` (its ground truth beside it).
+fn scan(dir: &Path, board: &str, name: &str) -> PathBuf {
+    let out = dir.join(name);
+    let o = braille(&["simulate", "--board", board, "--speed", "32", "--seed", "3", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    out
+}
+
+/// The JSON Lines of `braille read --json`: the words, then the summary.
+fn lines(out: &str) -> (Vec<serde_json::Value>, serde_json::Value) {
+    let mut v: Vec<serde_json::Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let summary = v.pop().unwrap();
+    assert_eq!(summary["summary"], true);
+    (v, summary)
+}
+
+#[test]
+fn read_a_scan_with_both_architectures_and_both_snn_runners() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = scan(dir.path(), "text:HELP WATER", "help.aedat4");
+    let f = f.to_str().unwrap();
+    // the speed comes from the ground truth beside the file
+    let o = braille(&["read", f, "--arch", "snn", "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (words, summary) = lines(&out);
+    assert_eq!(summary["text"], "HELP WATER", "{out}");
+    assert_eq!(summary["speed_mm_s"], 32.0);
+    assert_eq!(words.len(), 2);
+    let c = &words[0]["chars"][0];
+    assert!(c["t_registered_us"].as_i64() > c["t_end_us"].as_i64(), "{c}");
+    assert_eq!(c["probs"].as_array().map(Vec::len), Some(26));
+    // the event-driven engine reads each window from rest: the same words, letter for letter
+    let o = braille(&["read", f, "--arch", "snn", "--json", "--snn-runner", "engine"]);
+    let (engine_out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (engine_words, engine_summary) = lines(&engine_out);
+    assert_eq!(engine_words, words);
+    assert!(engine_summary["classifier_synops"].as_u64() > summary["classifier_synops"].as_u64());
+    // the ResNet reads the same stream
+    let o = braille(&["read", f, "--arch", "resnet", "--spell", "textblob"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("resnet architecture, spelling Textblob"), "{out}");
+    // without ground truth the speed must be given
+    std::fs::remove_file(dir.path().join("help.truth.json")).unwrap();
+    let o = braille(&["read", f]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--speed") && err.contains("help.aedat4"), "{err}");
+}
+
+#[test]
+fn read_standard_input_as_it_arrives() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = scan(dir.path(), "text:STOP", "stop.csv");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_braille"))
+        .args(["read", "-", "--speed", "32", "--json"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let bytes = std::fs::read(&f).unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || {
+        for chunk in bytes.chunks(1 << 16) {
+            stdin.write_all(chunk).unwrap();
+        }
+    });
+    let o = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (_, summary) = lines(&out);
+    assert_eq!(summary["text"], "STOP", "{out}");
+    assert_eq!(summary["data"], "-");
+    // text that is not events: the line is named
+    let mut child = Command::new(env!("CARGO_BIN_EXE_braille"))
+        .args(["read", "-", "--speed", "32"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(b"0,1,2,1\n10,x,2,1\n").unwrap();
+    let o = child.wait_with_output().unwrap();
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("line 2"), "{err}");
+}
+
+#[test]
+fn eval_words_prints_the_papers_metrics() {
+    let o = braille(&["eval", "words", "--arch", "snn", "--speed", "32", "--trials", "1", "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["data"], "simulated (virtual Evetac)");
+    assert_eq!(v["lines"], 2);
+    for key in ["words_per_line", "letters_per_word", "correct_words", "correct_letters"] {
+        let x = v[key].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&x), "{key}: {x}");
+    }
+    // a free-text board works as well, and a bad board is named
+    let o = braille(&["eval", "words", "--board", "text:PULL", "--speed", "32", "--trials", "1"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("SIMULATED TEXT") || out.contains("SIMULATED text"), "{out}");
+    let o = braille(&["eval", "words", "--board", "XYZ", "--trials", "1"]);
+    assert!(!o.status.success() && text(&o).1.contains("XYZ"));
+}
+
+#[test]
+fn words_report_writes_the_speed_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("docs");
+    let o = braille(&["words-report", "--trials", "1", "--speeds", "32", "--out", out_dir.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let md = std::fs::read_to_string(out_dir.join("words.md")).unwrap();
+    assert!(md.contains("SIMULATED") && md.contains("| 32 mm/s | snn | Lexicon |"), "{md}");
+    assert!(md.contains("| 32 mm/s | resnet | None |"), "{md}");
+    assert!(out_dir.join("words_speed.png").exists() && out_dir.join("words.json").exists());
+}
+
+#[test]
+fn train_the_segmentation_networks() {
+    let dir = tempfile::tempdir().unwrap();
+    for (arch, extra) in
+        [("snn", &["--hidden", "8", "--pool", "4"][..]), ("resnet", &["--preset", "tiny", "--pool", "2"])]
+    {
+        let model = dir.path().join(format!("{arch}-segment.safetensors"));
+        let mut args = vec![
+            "train",
+            "--arch",
+            arch,
+            "--task",
+            "segment",
+            "--trials",
+            "1",
+            "--epochs",
+            "1",
+            "--quiet",
+            "--out",
+            model.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = braille(&args);
+        let (_, err) = text(&o);
+        assert!(o.status.success(), "{arch}: {err}");
+        let head = std::fs::read(&model).unwrap();
+        let n = u64::from_le_bytes(head[..8].try_into().unwrap()) as usize;
+        let header = String::from_utf8_lossy(&head[8..8 + n]);
+        assert!(header.contains(r#"[\"background\",\"character\"]"#), "{arch}: {header}");
+    }
+}
+
+#[test]
+fn report_quick_regenerates_every_table_and_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    // a report regenerates in place: the files of an earlier run are replaced
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("scan_ev_row0.png"), b"old").unwrap();
+    let o = braille(&["report", "--quick", "--out", out.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let index = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(index.contains("Quick run") && index.contains("SNN against ResNet on one stream"), "{index}");
+    for f in [
+        "sim_check.md",
+        "label_check.md",
+        "scan_ev_row0.png",
+        "chars.md",
+        "chars_depth.png",
+        "words.md",
+        "words_speed.png",
+        "latency.png",
+        "icub.md",
+        "bench.json",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    assert_ne!(std::fs::read(out.join("scan_ev_row0.png")).unwrap(), b"old");
+    // the scan the report read is not left behind
+    assert!(!out.join("ev_row0_16mm_s.aedat4").exists());
+}
