@@ -47,8 +47,7 @@ fn reading(c: &mut Criterion) {
     group.throughput(Throughput::Elements(s.events.len() as u64));
     for arch in ["snn", "resnet"] {
         let (mut seg, mut cls) = models(arch);
-        let cfg =
-            ReaderConfig { labeler: cls.input().labeler.clone(), ..ReaderConfig::new(SPEED_MM_S, Spell::Lexicon) };
+        let cfg = ReaderConfig { labeler: cls.input().labeler.clone(), ..ReaderConfig::new(SPEED_MM_S) };
         let (words, stats) = read_all(&s.events, cfg.clone(), resolution, &mut seg, &mut cls, &speller).expect("read");
         let text: Vec<String> = words.iter().map(|w| w.text.clone()).collect();
         eprintln!(

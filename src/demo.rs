@@ -236,7 +236,7 @@ fn read_words(out: &Path) -> Result<()> {
         let truth: Vec<&str> = s.truth.row_text.split_whitespace().collect();
         for ((arch, r), ok) in readers.iter_mut().zip(right.iter_mut()) {
             let t = Instant::now();
-            let (words, stats) = r.read(&s.events, sensor.camera.resolution, speed, &speller, Spell::Lexicon)?;
+            let (words, stats) = r.read(&s.events, sensor.camera.resolution, speed, &speller)?;
             let took = t.elapsed().as_secs_f64();
             let read: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
             let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();

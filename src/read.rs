@@ -94,8 +94,8 @@ impl Readers {
         Ok(Readers { segmenter: seg, classifier: cls })
     }
 
-    pub fn config(&self, speed_mm_s: f64, spell: Spell) -> ReaderConfig {
-        ReaderConfig { labeler: self.classifier.input().labeler.clone(), ..ReaderConfig::new(speed_mm_s, spell) }
+    pub fn config(&self, speed_mm_s: f64) -> ReaderConfig {
+        ReaderConfig { labeler: self.classifier.input().labeler.clone(), ..ReaderConfig::new(speed_mm_s) }
     }
 
     /// Reads a whole stream of events in memory (simulated scans): the words and the counters.
@@ -105,9 +105,8 @@ impl Readers {
         resolution: Resolution,
         speed_mm_s: f64,
         speller: &Speller,
-        spell: Spell,
     ) -> Result<(Vec<pipeline::reader::ReadWord>, ReaderStats)> {
-        let cfg = self.config(speed_mm_s, spell);
+        let cfg = self.config(speed_mm_s);
         Ok(pipeline::reader::read_all(events, cfg, resolution, &mut self.segmenter, &mut self.classifier, speller)?)
     }
 }
@@ -198,7 +197,7 @@ pub fn run(args: Args) -> Result<()> {
     let resolution = args.resolution.or(source.info().resolution).unwrap_or(Resolution::DVXPLORER);
     let spell = args.spell.spell();
     let speller = Speller::new(spell);
-    let cfg = readers.config(speed, spell);
+    let cfg = readers.config(speed);
     let started = Instant::now();
     let mut reader = StreamReader::new(cfg, resolution, &mut readers.segmenter, &mut readers.classifier, &speller)?;
     let (mut out, mut text) = (Vec::new(), Vec::<String>::new());

@@ -103,8 +103,7 @@ pub fn read_scans(
                     let (s0, c0, y0) =
                         (r.segmenter.nanos, r.classifier.nanos, r.segmenter.synops + r.classifier.synops);
                     let t = Instant::now();
-                    let (words, stats) =
-                        r.read(&s.events, sensor.camera.resolution, speed_mm_s, &speller, Spell::None)?;
+                    let (words, stats) = r.read(&s.events, sensor.camera.resolution, speed_mm_s, &speller)?;
                     out.push(LineRead {
                         truth: truth.clone(),
                         words,

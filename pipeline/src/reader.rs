@@ -160,7 +160,6 @@ pub struct ReaderConfig {
     pub filter: TemporalFilterConfig,
     /// The segmentation network's probability of "character" above which a frame is a detection.
     pub present_threshold: f32,
-    pub spell: Spell,
     /// A word that reaches this many characters is given out and a new one begun (a stream
     /// without word gaps keeps memory bounded; nothing is dropped).
     #[serde(default = "default_max_word_chars")]
@@ -172,13 +171,12 @@ fn default_max_word_chars() -> usize {
 }
 
 impl ReaderConfig {
-    pub fn new(speed_mm_s: f64, spell: Spell) -> ReaderConfig {
+    pub fn new(speed_mm_s: f64) -> ReaderConfig {
         ReaderConfig {
             labeler: LabelerConfig::default(),
             speed_mm_s,
             filter: TemporalFilterConfig::default(),
             present_threshold: 0.5,
-            spell,
             max_word_chars: default_max_word_chars(),
         }
     }
@@ -563,7 +561,7 @@ mod tests {
         let mut ev = burst(20, 0, 100); // U
         ev.extend(burst(21, 400, 500)); // V, 300 ms later: same word
         ev.extend(burst(22, 2_000, 2_100)); // W, after more than 1 s of silence: a new word
-        let (words, stats) = read(ev, ReaderConfig::new(8.0, Spell::None));
+        let (words, stats) = read(ev, ReaderConfig::new(8.0));
         let text: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
         assert_eq!(text, ["UV", "W"]);
         assert!(stats.frames_empty > 0 && stats.segmenter_calls > 0);
@@ -580,9 +578,9 @@ mod tests {
         // between bursts splits words; at 8 mm/s it does not
         let mut ev = burst(20, 0, 60);
         ev.extend(burst(21, 400, 460));
-        let (words, _) = read(ev.clone(), ReaderConfig::new(32.0, Spell::None));
+        let (words, _) = read(ev.clone(), ReaderConfig::new(32.0));
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["U", "V"]);
-        let (words, _) = read(ev, ReaderConfig::new(8.0, Spell::None));
+        let (words, _) = read(ev, ReaderConfig::new(8.0));
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UV"]);
     }
 
@@ -591,19 +589,12 @@ mod tests {
         let mut ev = burst(20, 0, 100);
         ev.push(Event { t_us: 50_000, x: 80, y: 10, polarity: Polarity::Off });
         let speller = Speller::new(Spell::None);
-        let e = read_all(
-            &ev,
-            ReaderConfig::new(8.0, Spell::None),
-            Resolution::DVXPLORER,
-            &mut Count(1.0),
-            &mut Column,
-            &speller,
-        )
-        .err()
-        .unwrap()
-        .to_string();
+        let e = read_all(&ev, ReaderConfig::new(8.0), Resolution::DVXPLORER, &mut Count(1.0), &mut Column, &speller)
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("event 20") && e.contains("back in time"), "{e}");
-        let (words, stats) = read(burst(5, 0, 100), ReaderConfig::new(8.0, Spell::None));
+        let (words, stats) = read(burst(5, 0, 100), ReaderConfig::new(8.0));
         assert!(words.is_empty());
         assert_eq!(stats.events_masked, 20);
     }
@@ -614,8 +605,7 @@ mod tests {
         // silence; an hour of it, handed in a chunk of a second at a time as a live sensor would
         let (speller, mut seg, mut cls) = (Speller::new(Spell::None), Count(1.0), Column);
         let mut r =
-            StreamReader::new(ReaderConfig::new(8.0, Spell::None), Resolution::DVXPLORER, &mut seg, &mut cls, &speller)
-                .unwrap();
+            StreamReader::new(ReaderConfig::new(8.0), Resolution::DVXPLORER, &mut seg, &mut cls, &speller).unwrap();
         let (mut out, mut words, mut peak, mut chunk) = (Vec::new(), 0usize, 0usize, Vec::new());
         let mut t_ms = 0i64;
         let word_ms = 5 * 600 + 1500;
@@ -649,7 +639,7 @@ mod tests {
                 (0..5i64).flat_map(|k| burst(20 + (s + k as u16) % 7, k * 700 + s as i64 * 13, k * 700 + 120)).collect()
             })
             .collect();
-        let one = |ev: &Vec<Event>| read(ev.clone(), ReaderConfig::new(8.0, Spell::None));
+        let one = |ev: &Vec<Event>| read(ev.clone(), ReaderConfig::new(8.0));
         let sequential: Vec<_> = streams.iter().map(one).collect();
         let parallel: Vec<_> = std::thread::scope(|sc| {
             let handles: Vec<_> = streams.iter().map(|ev| sc.spawn(move || one(ev))).collect();
@@ -665,7 +655,7 @@ mod tests {
         for k in 0..10 {
             ev.extend(burst(20 + (k % 3) as u16, k * 600, k * 600 + 100));
         }
-        let cfg = ReaderConfig { max_word_chars: 4, ..ReaderConfig::new(8.0, Spell::None) };
+        let cfg = ReaderConfig { max_word_chars: 4, ..ReaderConfig::new(8.0) };
         let (words, stats) = read(ev, cfg);
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UVWU", "VWUV", "WU"]);
         assert_eq!(stats.characters, 10);
@@ -689,7 +679,7 @@ mod tests {
                 polarity: if k % 3 == 0 { Polarity::Off } else { Polarity::On },
             })
             .collect();
-        let cfg = ReaderConfig::new(8.0, Spell::None);
+        let cfg = ReaderConfig::new(8.0);
         let (mut grab, speller) = (Grab(Vec::new()), Speller::new(Spell::None));
         read_all(&ev, cfg.clone(), Resolution::DVXPLORER, &mut grab, &mut Column, &speller).unwrap();
         assert!(grab.0.len() > 10);
