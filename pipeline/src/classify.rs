@@ -225,22 +225,14 @@ fn crop_bin(
     scratch: &mut Vec<f32>,
 ) -> Vec<(usize, usize, usize, f32)> {
     let [_, h, w] = input.shape();
-    let p = input.pool.max(1);
-    let plane = height * width;
     scratch.resize(2 * h * w, 0.0);
     let mut touched: Vec<usize> = Vec::new();
     for c in cells {
-        let i = c.input as usize;
-        let (pol, r, col) = (i / plane, (i % plane) / width, i % width);
-        if input.rows.contains(&r) && input.cols.contains(&col) {
-            let (r, col) = ((r - input.rows.start) / p, (col - input.cols.start) / p);
-            if r < h && col < w {
-                let j = (pol * h + r) * w + col;
-                if scratch[j] == 0.0 {
-                    touched.push(j);
-                }
-                scratch[j] += c.count;
+        if let Some(j) = input.crop_cell(c.input, height, width) {
+            if scratch[j] == 0.0 {
+                touched.push(j);
             }
+            scratch[j] += c.count;
         }
     }
     touched.sort_unstable();

@@ -78,22 +78,31 @@ impl CharInput {
                 self.labeler.frames
             )));
         }
-        let p = self.pool.max(1);
-        let cells = w.height * w.width;
         let mut out = vec![0f32; planes * h * wd];
         for (b, bin) in w.bins().enumerate() {
             for c in bin {
-                let i = c.input as usize;
-                let (pol, r, col) = (i / cells, (i % cells) / w.width, i % w.width);
-                if self.rows.contains(&r) && self.cols.contains(&col) {
-                    let (r, col) = ((r - self.rows.start) / p, (col - self.cols.start) / p);
-                    if r < h && col < wd {
-                        out[((b * 2 + pol) * h + r) * wd + col] += c.count;
-                    }
+                if let Some(j) = self.crop_cell(c.input, w.height, w.width) {
+                    out[b * 2 * h * wd + j] += c.count;
                 }
             }
         }
         Ok(out)
+    }
+
+    /// Where a reader's cell (input `polarity * cells + row * width + col` of a `height` x `width`
+    /// grid) falls in one frame of the crop (`(polarity * rows + row) * cols + col`, pooled), or
+    /// `None` outside the crop.
+    #[inline]
+    pub fn crop_cell(&self, input: u32, height: usize, width: usize) -> Option<usize> {
+        let [_, h, w] = self.shape();
+        let p = self.pool.max(1);
+        let i = input as usize;
+        let (pol, r, col) = (i / (height * width), (i % (height * width)) / width, i % width);
+        if !self.rows.contains(&r) || !self.cols.contains(&col) {
+            return None;
+        }
+        let (r, col) = ((r - self.rows.start) / p, (col - self.cols.start) / p);
+        (r < h && col < w).then_some((pol * h + r) * w + col)
     }
 
     /// The cropped counts of an image as a heat map again.
