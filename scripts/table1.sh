@@ -24,4 +24,4 @@ if [[ "${1:-}" != "--report-only" ]]; then
     --tau-out-us 100000 --drop-events 0.3 --seed 1 --out models/snn-chars.safetensors \
     --history docs/snn_chars_history.json --force --quiet
 fi
-target/release/braille chars-report --models models --out docs --trials 10
+target/release/braille chars-report --models models --out docs --trials 30

@@ -17,15 +17,17 @@ pub const DEPTHS_MM: [f64; 7] = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5];
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Folder holding `resnet-lite-{raw,norm,aug,normaug}.safetensors` (`scripts/table1.sh`) and
-    /// `snn-chars.safetensors` (`scripts/train_snn_chars.sh`); missing models are left out.
+    /// Folder holding `resnet-lite-{raw,norm,aug,normaug}.safetensors` and `snn-chars.safetensors`
+    /// (`scripts/table1.sh`), and the `+ words` models (`scripts/words.sh`); missing models are
+    /// left out.
     #[arg(long, default_value = "models")]
     models: PathBuf,
     /// Where to write `chars.md`, `chars.json`, `chars_depth.png` and the confusion PNGs.
     #[arg(long, default_value = "docs")]
     out: PathBuf,
-    /// RAB scans per board row and depth.
-    #[arg(long, default_value_t = 10)]
+    /// RAB scans per board row and depth. 30 (about 720 windows a depth): the same model scored
+    /// 97.9% and 99.1% at 1.5 mm on two sets of 10 scans, too coarse for a 1.5-point comparison.
+    #[arg(long, default_value_t = 30)]
     trials: u64,
     /// Scan seed of the test scans (training used others).
     #[arg(long, default_value_t = 1_000_003)]
@@ -213,16 +215,38 @@ fn markdown(r: &Report) -> Result<String> {
             met(worst.0 >= 0.95)
         )?;
     }
-    if let (Some(n), Some(s)) = (normaug, r.entries.iter().find(|e| e.key == "snn")) {
-        let gaps: Vec<f64> = n.scores.iter().zip(&s.scores).map(|(a, b)| 100.0 * (a.accuracy - b.accuracy)).collect();
-        let worst = gaps.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        writeln!(
+    // The SNN against the ResNet trained the same way: stepped (the trained network exactly) and
+    // async (the same weights in continuous time on the event-driven engine).
+    let pairs =
+        [("normaug", "snn", "both on the paper's protocol"), ("normaug-words", "snn-words", "both also on words")];
+    let find = |key: &str| r.entries.iter().find(|e| e.key == key);
+    let mut snns = Vec::new();
+    for (resnet, snn, protocol) in pairs {
+        let (Some(n), Some(s)) = (find(resnet), find(snn)) else { continue };
+        let worst = |acc: &dyn Fn(&Score) -> Option<f64>| {
+            n.scores
+                .iter()
+                .zip(&s.scores)
+                .map(|(a, b)| acc(b).map(|b| 100.0 * (a.accuracy - b)))
+                .try_fold(f64::NEG_INFINITY, |w, g| g.map(|g| w.max(g)))
+        };
+        let stepped = worst(&|x| Some(x.accuracy)).unwrap_or(f64::NAN);
+        write!(
             md,
-            "- SNN within 1.5 points of the ResNet (NormAug) at every depth: largest shortfall {:.1} points, {}.",
-            worst,
-            met(worst <= 1.5)
+            "- {} within 1.5 points of {} ({protocol}) at every depth: largest shortfall {:.2} points stepped, {}",
+            s.name,
+            n.name,
+            stepped,
+            met(stepped <= 1.5)
         )?;
-        writeln!(md, "\n## The SNN on the event-driven engine\n")?;
+        match worst(&|x| x.accuracy_async) {
+            Some(a) => writeln!(md, " (in async mode, which training never saw: {:.2} points).", a)?,
+            None => writeln!(md, ".")?,
+        }
+        snns.push(s);
+    }
+    for s in snns {
+        writeln!(md, "\n## {}: stepped and async engine, work per window\n", s.name)?;
         writeln!(md, "| depth (mm) | stepped | async | input events / window | synops / window | spikes / window |")?;
         writeln!(md, "| --- | --- | --- | --- | --- | --- |")?;
         for (i, d) in r.depths_mm.iter().enumerate() {
@@ -239,7 +263,7 @@ fn markdown(r: &Report) -> Result<String> {
         }
         writeln!(
             md,
-            "\n`stepped` evaluates thresholds at the 10 ms step boundaries and reproduces the trained network spike for spike; `async` fires the moment a membrane crosses threshold."
+            "\n`stepped` evaluates thresholds at the 10 ms step boundaries and reproduces the trained network spike for spike; `async` runs the same weights in continuous time, firing the moment a membrane crosses threshold (the time-stepped training never saw that)."
         )?;
     }
     writeln!(md, "\n## Letters in words: rows of the EV board (1.5 mm)\n")?;

@@ -91,7 +91,7 @@ pub fn run(args: Args) -> Result<()> {
             stdout_to: None,
         },
     ];
-    let mut chars = s(&["chars-report", "--out", &o, "--trials", if q { "1" } else { "10" }]);
+    let mut chars = s(&["chars-report", "--out", &o, "--trials", if q { "1" } else { "30" }]);
     if q {
         chars.extend(s(&["--depths", "0.6,1.5"]));
     }

@@ -68,6 +68,71 @@ impl BitSet {
     }
 }
 
+/// A convolution's outputs of one step sorted by channel: the positions (and, for identity layers,
+/// values) of channel `ch` are at `ch * plane ..` in order of arrival. Fixed-size, so that adding
+/// one is a store and an increment.
+#[derive(Debug, Clone, Default)]
+struct Buckets {
+    plane: usize,
+    len: Vec<u32>,
+    pos: Vec<u32>,
+    val: Vec<f32>,
+}
+
+impl Buckets {
+    fn new(channels: usize, plane: usize, values: bool) -> Self {
+        Self {
+            plane,
+            len: vec![0; channels],
+            pos: vec![0; channels * plane],
+            val: vec![0.0; if values { channels * plane } else { 0 }],
+        }
+    }
+    /// A spike at `pos` of channel `ch`; each position comes at most once per channel and step.
+    #[inline(always)]
+    fn push(&mut self, ch: usize, pos: u32) {
+        let k = ch * self.plane + self.len[ch] as usize;
+        self.pos[k] = pos;
+        self.len[ch] += 1;
+    }
+    #[inline(always)]
+    fn push_value(&mut self, ch: usize, pos: u32, x: f32) {
+        let k = ch * self.plane + self.len[ch] as usize;
+        self.val[k] = x;
+        self.push(ch, pos);
+    }
+    fn positions(&self, ch: usize) -> &[u32] {
+        &self.pos[ch * self.plane..ch * self.plane + self.len[ch] as usize]
+    }
+    fn values(&self, ch: usize) -> &[f32] {
+        &self.val[ch * self.plane..ch * self.plane + self.len[ch] as usize]
+    }
+    fn clear(&mut self) {
+        self.len.iter_mut().for_each(|n| *n = 0);
+    }
+}
+
+/// Where a convolution's inputs reach. The output positions depend on an input's pixel, not its
+/// channel, so one list per pixel serves every channel (small enough to stay in cache): pixel
+/// `p`'s targets are `targets[offsets[p]..offsets[p + 1]]`, each (output position, weight
+/// offset within the input channel's block of `channel_stride` weights).
+#[derive(Debug, Clone)]
+struct ConvTargets {
+    plane: usize,
+    channel_stride: usize,
+    offsets: Vec<u32>,
+    targets: Vec<(u32, u32)>,
+}
+
+impl ConvTargets {
+    /// Input `i`'s targets and the offset of its channel's weights.
+    #[inline(always)]
+    fn of(&self, i: usize) -> (&[(u32, u32)], usize) {
+        let (c, p) = (i / self.plane, i % self.plane);
+        (&self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize], c * self.channel_stride)
+    }
+}
+
 /// A linear operation laid out for fan-out.
 #[derive(Debug, Clone)]
 enum Fan {
@@ -76,8 +141,8 @@ enum Fan {
         n_out: usize,
         wt: Vec<f32>,
     },
-    /// Weights `[in_c][ky][kx][out_c]`; accumulators `[pos][out_c]`. The targets of input `i`
-    /// are `targets[offsets[i]..offsets[i + 1]]`: (output position, weight offset).
+    /// Weights `[in_c][ky][kx][out_c]`; accumulators `[pos][out_c]`; `map`: the targets of each
+    /// input.
     Conv {
         in_hw: [usize; 2],
         out_c: usize,
@@ -86,8 +151,7 @@ enum Fan {
         stride: [usize; 2],
         padding: [usize; 2],
         wt: Vec<f32>,
-        offsets: Vec<u32>,
-        targets: Vec<(u32, u32)>,
+        map: ConvTargets,
     },
     Pool {
         weight: f32,
@@ -149,7 +213,7 @@ struct LayerState {
     /// Scratch: the slots to evaluate this step.
     order: Vec<u32>,
     /// Scratch (convolutions): this step's spikes (or values) per output channel.
-    by_channel: Vec<Vec<(u32, f32)>>,
+    by_channel: Buckets,
 }
 
 /// One stream's state: membranes, pending inputs, output spikes and counters.
@@ -224,7 +288,7 @@ impl Engine {
                     v: vec![0.0; l.n_out],
                     i: vec![0.0; l.n_out],
                     last: vec![if stepped { -1 } else { t0_us }; last_len],
-                    by_channel: vec![Vec::new(); channels],
+                    by_channel: Buckets::new(channels, if channels > 0 { slots } else { 0 }, l.neurons.is_none()),
                     acc: vec![0.0; l.n_out],
                     rec: vec![0.0; if l.rec_t.is_some() { l.n_out } else { 0 }],
                     touched: BitSet::new(slots),
@@ -376,10 +440,15 @@ impl Engine {
         // Inputs, in ascending order, into layer 0.
         {
             let (c0, s0) = (&self.layers[0], &mut layers[0]);
-            inputs.drain(|i| {
-                let x = std::mem::take(&mut values[i]);
-                stats.synops += fan_in(c0, s0, i, x);
-            });
+            stats.synops += match &c0.fan {
+                Fan::Conv { out_c: 8, wt, map, .. } => conv_inputs::<8>(s0, wt, map, &mut inputs, values),
+                Fan::Conv { out_c: 16, wt, map, .. } => conv_inputs::<16>(s0, wt, map, &mut inputs, values),
+                _ => {
+                    let mut n = 0;
+                    inputs.drain(|i| n += fan_in(c0, s0, i, std::mem::take(&mut values[i])));
+                    n
+                }
+            };
         }
         st.input_set = inputs;
         for k in 0..self.layers.len() {
@@ -395,9 +464,7 @@ impl Engine {
             if let Some(next) = rest.first_mut() {
                 let cn = &self.layers[k + 1];
                 if c.neurons.is_some() {
-                    for &j in &s.spikes {
-                        stats.synops += fan_in(cn, next, j as usize, 1.0);
-                    }
+                    stats.synops += fan_in_spikes(cn, next, &s.spikes);
                 } else {
                     // Identity layer: its values pass on.
                     for (&j, &x) in s.spikes.iter().zip(&s.values) {
@@ -500,30 +567,19 @@ fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
             }
             let s = l.op.out_shape();
             let out_hw = [s[1], s[2]];
-            let mut offsets = Vec::with_capacity(ic * h * w + 1);
+            let mut offsets = Vec::with_capacity(h * w + 1);
             let mut targets = Vec::new();
             offsets.push(0);
-            for c in 0..ic {
-                for y in 0..h {
-                    for x in 0..w {
-                        conv_positions(y, x, *kernel, *stride, *padding, out_hw, |ky, kx, pos| {
-                            targets.push((pos as u32, (((c * kh + ky) * kw + kx) * oc) as u32));
-                        });
-                        offsets.push(targets.len() as u32);
-                    }
+            for y in 0..h {
+                for x in 0..w {
+                    conv_positions(y, x, *kernel, *stride, *padding, out_hw, |ky, kx, pos| {
+                        targets.push((pos as u32, ((ky * kw + kx) * oc) as u32));
+                    });
+                    offsets.push(targets.len() as u32);
                 }
             }
-            Fan::Conv {
-                in_hw: [h, w],
-                out_c: oc,
-                out_hw,
-                kernel: *kernel,
-                stride: *stride,
-                padding: *padding,
-                wt,
-                offsets,
-                targets,
-            }
+            let map = ConvTargets { plane: h * w, channel_stride: kh * kw * oc, offsets, targets };
+            Fan::Conv { in_hw: [h, w], out_c: oc, out_hw, kernel: *kernel, stride: *stride, padding: *padding, wt, map }
         }
         Op::Pool { kind, in_shape, kernel, stride } => {
             let s = l.op.out_shape();
@@ -670,15 +726,22 @@ fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
             s.touched.insert(0);
             *n_out as u64
         }
-        Fan::Conv { out_c, wt, offsets, targets, .. } => {
+        Fan::Conv { out_c, wt, map, .. } => {
             let oc = *out_c;
-            let list = &targets[offsets[i] as usize..offsets[i + 1] as usize];
-            for &(pos, w) in list {
-                let (pos, w) = (pos as usize, w as usize);
-                for (a, &w) in s.acc[pos * oc..(pos + 1) * oc].iter_mut().zip(&wt[w..w + oc]) {
-                    *a += x * w;
+            let (list, wc) = map.of(i);
+            let wt = &wt[wc..];
+            match oc {
+                8 => conv_fan_in::<8>(&mut s.acc, &mut s.touched, wt, list, x),
+                16 => conv_fan_in::<16>(&mut s.acc, &mut s.touched, wt, list, x),
+                _ => {
+                    for &(pos, w) in list {
+                        let (pos, w) = (pos as usize, w as usize);
+                        for (a, &w) in s.acc[pos * oc..(pos + 1) * oc].iter_mut().zip(&wt[w..w + oc]) {
+                            *a += x * w;
+                        }
+                        s.touched.insert(pos);
+                    }
                 }
-                s.touched.insert(pos);
             }
             (list.len() * oc) as u64
         }
@@ -692,6 +755,82 @@ fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
             });
             n
         }
+    }
+}
+
+/// Stepped: [`fan_in`] of spikes (value 1) at the inputs `spikes`, in order; returns synops.
+/// Adding a weight itself is the same number as adding `1 * w`.
+fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) -> u64 {
+    if spikes.is_empty() {
+        return 0;
+    }
+    match &c.fan {
+        Fan::Dense { n_out, wt } => {
+            let n = *n_out;
+            for &i in spikes {
+                let i = i as usize;
+                for (a, &w) in s.acc.iter_mut().zip(&wt[i * n..(i + 1) * n]) {
+                    *a += w;
+                }
+            }
+            s.touched.insert(0);
+            (spikes.len() * n) as u64
+        }
+        Fan::Conv { out_c: 8, wt, map, .. } => conv_spikes::<8>(s, wt, map, spikes),
+        Fan::Conv { out_c: 16, wt, map, .. } => conv_spikes::<16>(s, wt, map, spikes),
+        _ => spikes.iter().map(|&i| fan_in(c, s, i as usize, 1.0)).sum(),
+    }
+}
+
+#[inline(never)]
+fn conv_spikes<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, spikes: &[u32]) -> u64 {
+    let mut n = 0;
+    for &i in spikes {
+        let (list, wc) = map.of(i as usize);
+        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, 1.0);
+        n += list.len();
+    }
+    (n * N) as u64
+}
+
+/// The step's inputs (`set`, values in `values`, both emptied) into a convolution of `N`
+/// channels, in ascending order; returns synops.
+#[inline(never)]
+fn conv_inputs<const N: usize>(
+    s: &mut LayerState,
+    wt: &[f32],
+    map: &ConvTargets,
+    set: &mut BitSet,
+    values: &mut [f32],
+) -> u64 {
+    let mut n = 0;
+    set.drain(|i| {
+        let (list, wc) = map.of(i);
+        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
+        n += list.len();
+    });
+    (n * N) as u64
+}
+
+/// A convolution's fan-in with `N` output channels known at compile time, so that the adds
+/// unroll into whole vector registers; `wt` starts at the input channel's weights. A spike (`x == 1`) adds the weight itself, which is the
+/// same number as `1 * w`.
+#[inline(always)]
+fn conv_fan_in<const N: usize>(acc: &mut [f32], touched: &mut BitSet, wt: &[f32], list: &[(u32, u32)], x: f32) {
+    for &(pos, w) in list {
+        let (pos, w) = (pos as usize, w as usize);
+        let a: &mut [f32; N] = (&mut acc[pos * N..pos * N + N]).try_into().expect("N channels");
+        let w: &[f32; N] = (&wt[w..w + N]).try_into().expect("N weights");
+        if x == 1.0 {
+            for k in 0..N {
+                a[k] += w[k];
+            }
+        } else {
+            for k in 0..N {
+                a[k] += x * w[k];
+            }
+        }
+        touched.insert(pos);
     }
 }
 
@@ -734,19 +873,29 @@ fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Sta
             let oc = *out_c;
             schedule(s, all, plane, &mut order);
             let mut by_channel = std::mem::take(&mut s.by_channel);
-            for &pos in &order {
-                update_position(c, s, pos as usize, oc, t, base, &mut by_channel, stats);
-            }
-            // Canonical order: channel by channel, positions ascending.
-            for (ch, list) in by_channel.iter_mut().enumerate() {
-                for &(pos, x) in list.iter() {
-                    s.spikes.push((ch * plane) as u32 + pos);
-                    if c.neurons.is_none() {
-                        s.values.push(x);
+            // LIF and IF without bias at 8 or 16 channels: one loop compiled for the width.
+            let lanes = c.neurons.filter(|p| p.kind != NeuronKind::CubaLif && c.bias.is_none());
+            let leak = lanes.is_some_and(|p| p.leak_term().to_bits() != 0);
+            match (lanes, oc, leak) {
+                (Some(p), 8, false) => lif_positions::<8, false>(&p, s, &order, t, base, &mut by_channel, stats),
+                (Some(p), 8, true) => lif_positions::<8, true>(&p, s, &order, t, base, &mut by_channel, stats),
+                (Some(p), 16, false) => lif_positions::<16, false>(&p, s, &order, t, base, &mut by_channel, stats),
+                (Some(p), 16, true) => lif_positions::<16, true>(&p, s, &order, t, base, &mut by_channel, stats),
+                _ => {
+                    for &pos in &order {
+                        update_position(c, s, pos as usize, oc, t, base, &mut by_channel, stats);
                     }
                 }
-                list.clear();
             }
+            // Canonical order: channel by channel, positions ascending.
+            for ch in 0..oc {
+                let offset = (ch * plane) as u32;
+                s.spikes.extend(by_channel.positions(ch).iter().map(|&pos| offset + pos));
+                if c.neurons.is_none() {
+                    s.values.extend_from_slice(by_channel.values(ch));
+                }
+            }
+            by_channel.clear();
             s.by_channel = by_channel;
         }
         Fan::Dense { .. } | Fan::Pool { .. } => {
@@ -795,7 +944,7 @@ fn update_position(
     oc: usize,
     t: i64,
     base: i64,
-    out: &mut [Vec<(u32, f32)>],
+    out: &mut Buckets,
     stats: &mut Stats,
 ) {
     let start = pos * oc;
@@ -807,23 +956,24 @@ fn update_position(
                 u += b[ch];
             }
             if u != 0.0 {
-                out[ch].push((pos as u32, u));
+                out.push_value(ch, pos as u32, u);
             }
         }
         return;
     };
     let last = s.last[pos];
     let behind = if last < base {
-        // fresh since the last reset: at rest
+        // fresh since the last reset: zero at the stream's start, then the steps since
         v.iter_mut().for_each(|x| *x = 0.0);
         i.iter_mut().for_each(|x| *x = 0.0);
-        0
+        fresh_steps(p, t, base)
     } else {
         t - last - 1
     };
     stats.neuron_updates += ((behind.max(0) + 1) as usize * oc) as u64;
     s.last[pos] = t;
-    let carry = if p.kind != NeuronKind::CubaLif && c.bias.is_none() && oc <= 64 {
+    let lif = p.kind != NeuronKind::CubaLif && c.bias.is_none();
+    let carry = if lif && oc <= 64 {
         lif_position(p, v, acc, behind, pos as u32, out)
     } else {
         for _ in 0..behind.max(0) {
@@ -839,7 +989,7 @@ fn update_position(
                 u += b[ch];
             }
             if p.step(&mut i[ch], &mut v[ch], u) {
-                out[ch].push((pos as u32, 1.0));
+                out.push(ch, pos as u32);
             }
             let drive = if cuba { p.alpha * i[ch] } else { 0.0 };
             carry |= p.beta * v[ch] + p.leak_term() + drive > p.threshold() || (cuba && i[ch] != 0.0);
@@ -855,14 +1005,7 @@ fn update_position(
 /// vectorises: the same floating-point expressions as [`NeuronParams::step`]. Returns whether the
 /// position must be looked at next step even without input.
 #[inline(always)]
-fn lif_position(
-    p: &NeuronParams,
-    v: &mut [f32],
-    acc: &mut [f32],
-    behind: i64,
-    pos: u32,
-    out: &mut [Vec<(u32, f32)>],
-) -> bool {
+fn lif_position(p: &NeuronParams, v: &mut [f32], acc: &mut [f32], behind: i64, pos: u32, out: &mut Buckets) -> bool {
     let (beta, leak, th, v_reset) = (p.beta, p.leak_term(), p.threshold(), p.v_reset);
     for _ in 0..behind.max(0) {
         for x in v.iter_mut() {
@@ -885,10 +1028,117 @@ fn lif_position(
     }
     while fired != 0 {
         let ch = fired.trailing_zeros() as usize;
-        out[ch].push((pos, 1.0));
+        out.push(ch, pos);
         fired &= fired - 1;
     }
     carry
+}
+
+/// The lanes of `x` above `th`, as bits (`N <= 32`): on x86-64, four lanes a compare.
+#[inline(always)]
+fn above<const N: usize>(x: &[f32; N], th: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if N.is_multiple_of(4) {
+        use std::arch::x86_64::{_mm_cmpgt_ps, _mm_movemask_ps, _mm_set_ps, _mm_set1_ps};
+        let mut m = 0u32;
+        for (k, q) in x.chunks_exact(4).enumerate() {
+            // SAFETY: SSE is part of the x86-64 baseline, so these are always available.
+            let bits = unsafe { _mm_movemask_ps(_mm_cmpgt_ps(_mm_set_ps(q[3], q[2], q[1], q[0]), _mm_set1_ps(th))) };
+            m |= (bits as u32) << (4 * k);
+        }
+        return m;
+    }
+    let mut m = 0u32;
+    for (ch, &v) in x.iter().enumerate() {
+        m |= ((v > th) as u32) << ch;
+    }
+    m
+}
+
+/// [`update_position`] for the positions in `order` of a LIF or IF convolution without bias and
+/// with `N` channels: the neuron parameters stay in registers across positions.
+#[inline(never)]
+fn lif_positions<const N: usize, const LEAK: bool>(
+    p: &NeuronParams,
+    s: &mut LayerState,
+    order: &[u32],
+    t: i64,
+    base: i64,
+    out: &mut Buckets,
+    stats: &mut Stats,
+) {
+    let LayerState { v, acc, last, carry, .. } = s;
+    let mut steps = 0u64;
+    for &pos in order {
+        let k = pos as usize * N;
+        let v: &mut [f32; N] = (&mut v[k..k + N]).try_into().expect("N channels");
+        let acc: &mut [f32; N] = (&mut acc[k..k + N]).try_into().expect("N channels");
+        let l = &mut last[pos as usize];
+        let behind = if *l < base {
+            // fresh since the last reset (a LIF's synaptic current stays unused)
+            v.fill(0.0);
+            fresh_steps(p, t, base)
+        } else {
+            t - *l - 1
+        };
+        *l = t;
+        steps += (behind.max(0) + 1) as u64;
+        if lif_lanes::<N, LEAK>(p, v, acc, behind, pos, out) {
+            carry.insert(pos as usize);
+        }
+    }
+    stats.neuron_updates += steps * N as u64;
+}
+
+/// [`lif_position`] with `N <= 32` channels known at compile time: the loops unroll into whole
+/// vector registers and the spike and carry masks into vector compares.
+///
+/// `LEAK = false` is for a resting level of exactly +0: the terms `+ leak + 0.0` are left out,
+/// which changes nothing but the sign of a membrane at zero (`-0.0` against `+0.0`, equal in
+/// every comparison), and shortens each step's chain of dependent operations by one add.
+#[inline(always)]
+fn lif_lanes<const N: usize, const LEAK: bool>(
+    p: &NeuronParams,
+    v: &mut [f32; N],
+    acc: &mut [f32; N],
+    behind: i64,
+    pos: u32,
+    out: &mut Buckets,
+) -> bool {
+    let (beta, leak, th, v_reset) = (p.beta, p.leak_term(), p.threshold(), p.v_reset);
+    let subtract = p.reset == crate::neuron::Reset::Subtract;
+    for _ in 0..behind.max(0) {
+        for x in v.iter_mut() {
+            *x = if LEAK { beta * *x + leak + 0.0 } else { beta * *x };
+        }
+    }
+    let mut vn = [0.0f32; N];
+    for ch in 0..N {
+        let u = std::mem::take(&mut acc[ch]);
+        vn[ch] = if LEAK { beta * v[ch] + leak + u } else { beta * v[ch] + u };
+    }
+    let mut fired = above(&vn, th);
+    let mut next = [0.0f32; N];
+    for ch in 0..N {
+        let after = if subtract { vn[ch] - th } else { v_reset };
+        v[ch] = if vn[ch] > th { after } else { vn[ch] };
+        next[ch] = if LEAK { beta * v[ch] + leak + 0.0 } else { beta * v[ch] };
+    }
+    let carry = above(&next, th);
+    while fired != 0 {
+        let ch = fired.trailing_zeros() as usize;
+        out.push(ch, pos);
+        fired &= fired - 1;
+    }
+    carry != 0
+}
+
+/// The steps a neuron untouched since its stream's start (step `base`, at zero) must catch up
+/// before step `t`: none when zero is its resting level (nothing changes), else every one, as
+/// the membrane drifts towards a resting level that is not zero.
+#[inline]
+fn fresh_steps(p: &NeuronParams, t: i64, base: i64) -> i64 {
+    if p.leak_term() == 0.0 { 0 } else { t - base }
 }
 
 /// One neuron's update at step `t`: neuron `o` (canonical), accumulator slot `k`.
@@ -923,7 +1173,7 @@ fn update(
     let behind = if s.last[o] < base {
         s.v[o] = 0.0;
         s.i[o] = 0.0;
-        0
+        fresh_steps(p, t, base)
     } else {
         t - s.last[o] - 1
     };

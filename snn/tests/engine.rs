@@ -301,3 +301,42 @@ fn leaky_integrator_readout_equals_dense_in_both_modes() {
     );
     assert!(bad.unwrap_err().to_string().contains("readout"));
 }
+
+#[test]
+fn stepped_equals_dense_with_eight_and_sixteen_channels_leak_subtraction_and_an_identity_conv() {
+    // The engine unrolls convolutions of 8 and 16 channels into whole registers, with a path of
+    // its own for a resting level of exactly zero; this covers the others: a resting level
+    // between zero and threshold, reset by subtraction, IF, and a convolution without neurons.
+    let conv = |in_c: usize, hw: usize, out_c: usize, seed: u64, scale: f32| Op::Conv2d {
+        in_shape: [in_c, hw, hw],
+        out_channels: out_c,
+        kernel: [3, 3],
+        stride: [1, 1],
+        padding: [1, 1],
+        weight: dense_w(in_c * 9, out_c, seed, scale),
+        bias: None,
+    };
+    let mut leaky = NeuronParams::lif(0.8).with_reset(Reset::Subtract);
+    leaky.v_leak = 0.4;
+    let net = Network::new(
+        vec![2, 10, 10],
+        vec![
+            layer(conv(2, 10, 8, 21, 1.6), Some(leaky)),
+            layer(conv(8, 10, 16, 22, 0.5), None),
+            layer(conv(16, 10, 16, 23, 0.4), Some(NeuronParams::integrate_and_fire().with_reset(Reset::Subtract))),
+            layer(
+                Op::Dense { n_in: 1600, n_out: 7, weight: dense_w(1600, 7, 24, 0.3), bias: None },
+                Some(NeuronParams::lif(0.9)),
+            ),
+        ],
+    )
+    .unwrap();
+    for seed in 0..4 {
+        let input = random_input(200 + seed, 30, net.n_inputs(), 0.05);
+        let (reference, _) = assert_same_output(&net, &input, 30);
+        for k in [0, 2] {
+            let n: usize = reference.spikes[k].iter().map(Vec::len).sum();
+            assert!(n > 50, "layer {k} must be active: {n} spikes");
+        }
+    }
+}
