@@ -8,7 +8,7 @@
 # same scans' windows with the paper's negatives and background from the rest of the scan. Then
 # the paper's speed table for both architectures (docs/words.{md,json}, docs/words_speed.png) and
 # Table I's report (docs/chars.*, which also tests these classifiers). About 60 minutes on two
-# cores; `--report-only` runs the two reports alone (about 20 minutes).
+# cores; `--report-only` runs the two reports alone (about 15 minutes).
 #
 # The SNN's recipe was chosen on validation scans, never on the test scans (seed 1000003): RAB,
 # seed 2000003, 30 scans per row. Against the same recipe without time stretch, `--stretch 0.15`
