@@ -121,6 +121,8 @@ struct Report {
     input_events_per_sample: f64,
     synops_per_sample: f64,
     spikes_per_sample: f64,
+    /// Neuron state updates, the steps caught up lazily included.
+    neuron_updates_per_sample: f64,
     ms_per_sample: f64,
     us_per_input_event: f64,
     ns_per_synop: f64,
@@ -190,7 +192,7 @@ pub fn run(args: Args) -> Result<()> {
     let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
     let samples: Vec<Vec<(i64, u32)>> =
         (0..args.samples.max(1)).map(|s| sample_events(1000 + s, net.n_inputs())).collect();
-    let (mut events, mut synops, mut spikes) = (0u64, 0u64, 0u64);
+    let (mut events, mut synops, mut spikes, mut updates) = (0u64, 0u64, 0u64, 0u64);
     let mut times = Vec::new();
     let mut st = engine.state(0);
     for rep in 0..args.repeats.max(1) + 1 {
@@ -205,6 +207,7 @@ pub fn run(args: Args) -> Result<()> {
                 events += st.stats.input_events;
                 synops += st.stats.synops;
                 spikes += st.stats.spikes.iter().sum::<u64>();
+                updates += st.stats.neuron_updates;
             }
         }
         if rep > 0 {
@@ -222,6 +225,7 @@ pub fn run(args: Args) -> Result<()> {
         input_events_per_sample: events as f64 / n,
         synops_per_sample: synops as f64 / n,
         spikes_per_sample: spikes as f64 / n,
+        neuron_updates_per_sample: updates as f64 / n,
         ms_per_sample: per_sample * 1e3,
         us_per_input_event: per_sample * 1e6 / (events as f64 / n),
         ns_per_synop: per_sample * 1e9 / (synops as f64 / n),

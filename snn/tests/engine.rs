@@ -340,3 +340,34 @@ fn stepped_equals_dense_with_eight_and_sixteen_channels_leak_subtraction_and_an_
         }
     }
 }
+
+#[test]
+fn every_neuron_of_eight_and_sixteen_channel_convolutions_firing_at_once_is_kept() {
+    // Each channel of a step keeps its spikes in a bucket of one slot per position; here every
+    // position of every channel fires in the same steps, so every bucket fills to the brim.
+    let conv = |in_c: usize, out_c: usize, w: f32| Op::Conv2d {
+        in_shape: [in_c, 6, 6],
+        out_channels: out_c,
+        kernel: [3, 3],
+        stride: [1, 1],
+        padding: [1, 1],
+        weight: vec![w; in_c * 9 * out_c],
+        bias: None,
+    };
+    let lif = NeuronParams::lif(0.8);
+    let net = Network::new(
+        vec![2, 6, 6],
+        vec![
+            layer(conv(2, 8, 2.0), Some(lif)),
+            layer(conv(8, 16, 1.5), Some(lif)),
+            layer(Op::Dense { n_in: 576, n_out: 5, weight: dense_w(576, 5, 31, 0.2), bias: None }, Some(lif)),
+        ],
+    )
+    .unwrap();
+    let steps = 6;
+    let input = vec![1.0; steps * net.n_inputs()];
+    let (reference, st) = assert_same_output(&net, &input, steps);
+    assert!(reference.spikes[0].iter().all(|s| s.len() == 8 * 36), "every layer-0 neuron fires every step");
+    assert!(reference.spikes[1].iter().all(|s| s.len() == 16 * 36), "every layer-1 neuron fires every step");
+    assert_eq!(st.stats.spikes[0], (steps * 8 * 36) as u64);
+}
