@@ -258,6 +258,14 @@ fn bad_csv_input_names_the_line() {
     assert!(m.contains("at most 8 columns"), "{m}");
     let (_, m) = error_of("neg.csv", b"5,-1,1,1\n", &o);
     assert!(m.contains("(-1, 1) outside"), "{m}");
+    // A file that is not text (here a model file's first bytes) is named as such, not printed.
+    let (_, m) = error_of("model.safetensors", b"\x90\x08\0\0\0\0\0\0{\"__metadata__\":{}}\n", &o);
+    assert!(m.contains("line 1") && m.contains("binary data, not CSV text"), "{m}");
+    assert!(!m.contains("metadata"), "the binary line is not echoed: {m}");
+    // A long field is cut in the message.
+    let long = format!("1,2,3,{}\n", "x".repeat(5000));
+    let (_, m) = error_of("long.csv", long.as_bytes(), &o);
+    assert!(m.contains("`p`") && m.contains("...") && m.len() < 400, "{m}");
 }
 
 #[test]

@@ -157,17 +157,16 @@ impl Sliding {
                             }
                         } else {
                             // `NeuronParams::step` without a synaptic current, its constants
-                            // hoisted: the same operations in the same order
+                            // hoisted: the same operations in the same order, and no branch on
+                            // the spike (which neurons fire varies, so it would mispredict)
                             let (beta, leak, th) = (p.beta, p.leak_term(), p.threshold());
                             let (subtract, v_reset, v_th) = (p.reset == Reset::Subtract, p.v_reset, p.v_th);
                             for ((vj, &u), f) in vk.iter_mut().zip(input).zip(fired.iter_mut()) {
                                 let v_new = beta * *vj + leak + u;
-                                if v_new > th {
-                                    *vj = if subtract { v_new - v_th } else { v_reset };
-                                    *f = 1.0;
-                                } else {
-                                    *vj = v_new;
-                                }
+                                let spike = v_new > th;
+                                let after = if subtract { v_new - v_th } else { v_reset };
+                                *vj = if spike { after } else { v_new };
+                                *f = if spike { 1.0 } else { 0.0 };
                             }
                         }
                         if k == last {

@@ -112,8 +112,23 @@ impl<R: BufRead> Decoder<R> {
         Ok(())
     }
 
+    /// The error for a line of binary data: the file is not CSV text.
+    fn binary(&self) -> Error {
+        Error::Unsupported {
+            path: self.path.clone(),
+            what: format!(
+                "at {}: binary data, not CSV text (this is not an event file: AEDAT 4.0 and NumPy files are recognised by their first bytes, anything else is read as CSV)",
+                self.at()
+            ),
+        }
+    }
+
     fn header(&self) -> Result<Columns> {
+        if is_binary(trim(&self.line)) {
+            return Err(self.binary());
+        }
         let text = String::from_utf8_lossy(trim(&self.line)).into_owned();
+        let found = shown(trim(&self.line));
         let names: Vec<String> = text.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
         let find = |aliases: &[&str]| names.iter().position(|n| aliases.contains(&n.as_str()));
         let missing = |field: &str| Error::Parse {
@@ -121,7 +136,7 @@ impl<R: BufRead> Decoder<R> {
             at: self.at(),
             field: field.into(),
             expected: "a header naming the columns t_us, x, y and p".into(),
-            found: text.clone(),
+            found: found.clone(),
         };
         let columns = Columns {
             t: find(&["t_us", "t", "timestamp", "ts"]).ok_or_else(|| missing("t_us"))?,
@@ -136,7 +151,7 @@ impl<R: BufRead> Decoder<R> {
                 at: self.at(),
                 field: "header".into(),
                 expected: format!("at most {MAX_COLUMNS} columns"),
-                found: text.clone(),
+                found,
             });
         }
         Ok(columns)
@@ -146,6 +161,9 @@ impl<R: BufRead> Decoder<R> {
     fn parse_line(&mut self) -> Result<()> {
         let columns = self.columns.unwrap_or(DEFAULT_COLUMNS);
         let line = trim(&self.line);
+        if is_binary(line) {
+            return Err(self.binary());
+        }
         let mut fields: [&[u8]; MAX_COLUMNS] = [&[]; MAX_COLUMNS];
         let mut n = 0;
         for f in line.split(|&b| b == b',') {
@@ -160,7 +178,7 @@ impl<R: BufRead> Decoder<R> {
                 at: self.at(),
                 field: "line".into(),
                 expected: format!("{} comma-separated fields", columns.count),
-                found: String::from_utf8_lossy(line).into_owned(),
+                found: shown(line),
             });
         }
         let get = |name: &str, i: usize| -> Result<i64> {
@@ -169,7 +187,7 @@ impl<R: BufRead> Decoder<R> {
                 at: Location::Line(self.line_no),
                 field: name.into(),
                 expected: if name == "t_us" { "an integer number of microseconds".into() } else { "an integer".into() },
-                found: String::from_utf8_lossy(fields[i]).into_owned(),
+                found: shown(fields[i]),
             })
         };
         let t_us = get("t_us", columns.t)?;
@@ -184,7 +202,7 @@ impl<R: BufRead> Decoder<R> {
                     at: self.at(),
                     field: "p".into(),
                     expected: "1 (ON) or 0 / -1 (OFF)".into(),
-                    found: String::from_utf8_lossy(other).into_owned(),
+                    found: shown(other),
                 });
             }
         };
@@ -260,4 +278,20 @@ mod tests {
             assert_eq!(parse_int(bad), None, "{:?}", String::from_utf8_lossy(bad));
         }
     }
+}
+
+/// How a piece of a line appears in an error: cut at 80 characters.
+fn shown(bytes: &[u8]) -> String {
+    const MAX_CHARS: usize = 80;
+    let text = String::from_utf8_lossy(bytes);
+    let mut cut: String = text.chars().take(MAX_CHARS).collect();
+    if text.chars().count() > MAX_CHARS {
+        cut.push_str("...");
+    }
+    cut
+}
+
+/// Whether a line is binary data rather than text (not UTF-8, or control characters in it).
+fn is_binary(line: &[u8]) -> bool {
+    std::str::from_utf8(line).map_or(true, |t| t.chars().any(|c| c.is_control() && c != '\t' && c != '\r'))
 }
