@@ -185,8 +185,8 @@ fn plot(rows: &[Row], path: &std::path::Path) -> Result<()> {
         };
         let bars = [
             ("our SNN", 100.0 * r.accuracy_stepped),
-            ("peers RSNN", b.recurrent_snn),
-            ("peers FF SNN", mid(b.feedforward_snn)),
+            ("peer RSNN", b.recurrent_snn),
+            ("peer FF", mid(b.feedforward_snn)),
             ("ridge", b.ridge),
             ("LSTM", mid(b.lstm)),
         ];
