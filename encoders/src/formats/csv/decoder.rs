@@ -266,20 +266,6 @@ fn parse_int(b: &[u8]) -> Option<i64> {
     Some(if neg { -v } else { v })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::parse_int;
-
-    #[test]
-    fn integers_parse_and_everything_else_is_rejected() {
-        assert_eq!(parse_int(b"123"), Some(123));
-        assert_eq!(parse_int(b"-7"), Some(-7));
-        for bad in [&b""[..], b"-", b"1.5", b"NaN", b"1e3", b"abc", b"99999999999999999999"] {
-            assert_eq!(parse_int(bad), None, "{:?}", String::from_utf8_lossy(bad));
-        }
-    }
-}
-
 /// How a piece of a line appears in an error: cut at 80 characters.
 fn shown(bytes: &[u8]) -> String {
     const MAX_CHARS: usize = 80;
@@ -294,4 +280,18 @@ fn shown(bytes: &[u8]) -> String {
 /// Whether a line is binary data rather than text (not UTF-8, or control characters in it).
 fn is_binary(line: &[u8]) -> bool {
     std::str::from_utf8(line).map_or(true, |t| t.chars().any(|c| c.is_control() && c != '\t' && c != '\r'))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_int;
+
+    #[test]
+    fn integers_parse_and_everything_else_is_rejected() {
+        assert_eq!(parse_int(b"123"), Some(123));
+        assert_eq!(parse_int(b"-7"), Some(-7));
+        for bad in [&b""[..], b"-", b"1.5", b"NaN", b"1e3", b"abc", b"99999999999999999999"] {
+            assert_eq!(parse_int(bad), None, "{:?}", String::from_utf8_lossy(bad));
+        }
+    }
 }
