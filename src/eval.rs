@@ -9,11 +9,14 @@ use serde::Serialize;
 use snn::engine::{Engine, Mode};
 use snn::model_file::{Readout, SnnConfig, SnnModel};
 use snn::network::Network;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SplitArg {
     Train,
+    /// The validation hold-out of the train split that `braille train` kept with the same
+    /// `--val-fraction` and `--val-seed`.
+    Validation,
     Test,
     All,
 }
@@ -34,6 +37,12 @@ pub struct Args {
     data: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "test")]
     split: SplitArg,
+    /// `--split validation`: the share of the train split held out (as `braille train --val-fraction`).
+    #[arg(long, default_value_t = 0.1)]
+    val_fraction: f64,
+    /// `--split validation`: the hold-out's seed (as `braille train --val-seed`, by default its `--seed`).
+    #[arg(long, default_value_t = 1)]
+    val_seed: u64,
     /// The model file.
     #[arg(long, required = true)]
     model: Option<PathBuf>,
@@ -44,6 +53,10 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// Also write each sample's truth, prediction and readout (CSV: the split's samples in file
+    /// order), for confusion analysis or combining models.
+    #[arg(long)]
+    predictions: Option<PathBuf>,
 }
 
 #[derive(clap::Subcommand)]
@@ -65,6 +78,10 @@ pub struct Scored {
     pub input_events_per_sample: f64,
     /// `[truth][predicted]` counts.
     pub confusion: Vec<Vec<u32>>,
+    /// Per sample: the predicted class and the readout it was taken from (max membranes or
+    /// spike counts).
+    #[serde(skip)]
+    pub predictions: Vec<(usize, Vec<f32>)>,
 }
 
 /// Runs every sample through the event-driven engine (stepped mode) and scores the readout.
@@ -75,18 +92,18 @@ pub fn snn_accuracy(network: &Network, config: &SnnConfig, set: &SpikeSet) -> Re
 pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mode: Mode) -> Result<Scored> {
     let engine = Engine::new(network, config.dt_us, mode)?;
     let n_out = engine.n_outputs();
-    let results: Vec<(usize, u64, u64, u64)> = set
+    let results: Vec<(Vec<f32>, u64, u64, u64)> = set
         .trains
         .par_iter()
         .map_init(
             || engine.state(0),
-            |st, train| -> Result<(usize, u64, u64, u64)> {
+            |st, train| -> Result<(Vec<f32>, u64, u64, u64)> {
                 engine.run_train(st, train)?;
-                let pred = match config.readout {
-                    Readout::MaxMembrane => argmax(st.output_v_max().iter().copied()),
-                    Readout::SpikeCount => argmax(st.output_counts(n_out).into_iter().map(|c| c as f32)),
+                let readout = match config.readout {
+                    Readout::MaxMembrane => st.output_v_max().to_vec(),
+                    Readout::SpikeCount => st.output_counts(n_out).into_iter().map(|c| c as f32).collect(),
                 };
-                Ok((pred, st.stats.synops, st.stats.spikes.iter().sum(), st.stats.input_events))
+                Ok((readout, st.stats.synops, st.stats.spikes.iter().sum(), st.stats.input_events))
             },
         )
         .collect::<Result<_>>()?;
@@ -96,11 +113,14 @@ pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mo
     let (mut synops, mut spikes) = (0u64, 0u64);
     // sensor events (a step's several events at one input reach the engine as one weighted input)
     let inputs: u64 = set.trains.iter().map(|t| t.total()).sum();
-    for (&(pred, s, z, _), &label) in results.iter().zip(&set.labels) {
+    let mut predictions = Vec::with_capacity(results.len());
+    for ((readout, s, z, _), &label) in results.into_iter().zip(&set.labels) {
+        let pred = argmax(readout.iter().copied());
         confusion[label][pred] += 1;
         correct += usize::from(pred == label);
         synops += s;
         spikes += z;
+        predictions.push((pred, readout));
     }
     let n = set.len().max(1) as f64;
     Ok(Scored {
@@ -111,6 +131,7 @@ pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mo
         spikes_per_sample: spikes as f64 / n,
         input_events_per_sample: inputs as f64 / n,
         confusion,
+        predictions,
     })
 }
 
@@ -153,11 +174,19 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", model_path.display()))?;
     let data = Dataset::load(&data_dir, encoding.period_us)?;
     let split = match args.split {
-        SplitArg::Train => Some(Split::Train),
+        SplitArg::Train | SplitArg::Validation => Some(Split::Train),
         SplitArg::Test => Some(Split::Test),
         SplitArg::All => None,
     };
-    let set = encoding.encode(&data, split)?;
+    let mut set = encoding.encode(&data, split)?;
+    if args.split == SplitArg::Validation {
+        anyhow::ensure!(
+            args.val_fraction > 0.0 && args.val_fraction < 1.0,
+            "--val-fraction must lie between 0 and 1, got {}",
+            args.val_fraction
+        );
+        set = set.stratified_split(args.val_fraction, args.val_seed).1;
+    }
     let mode = match args.mode {
         ModeArg::Stepped => Mode::Stepped,
         ModeArg::Async => Mode::Async,
@@ -167,6 +196,7 @@ pub fn run(args: Args) -> Result<()> {
         data: data_dir.display().to_string(),
         split: match args.split {
             SplitArg::Train => "train",
+            SplitArg::Validation => "validation",
             SplitArg::Test => "test",
             SplitArg::All => "all",
         },
@@ -182,6 +212,9 @@ pub fn run(args: Args) -> Result<()> {
         spikes_per_sample: s.spikes_per_sample,
         input_events_per_sample: s.input_events_per_sample,
     };
+    if let Some(path) = &args.predictions {
+        write_predictions(path, &model.classes, &set.labels, &s.predictions)?;
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -198,4 +231,31 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Per sample: `index,truth,predicted,` and one readout column per class.
+fn write_predictions(
+    path: &Path,
+    classes: &[String],
+    labels: &[usize],
+    predictions: &[(usize, Vec<f32>)],
+) -> Result<()> {
+    use std::fmt::Write as _;
+    // a class name with a comma, quote or line break is quoted (RFC 4180)
+    let field = |s: &str| {
+        if s.contains([',', '"', '\n', '\r']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+    };
+    let mut out = String::from("index,truth,predicted");
+    for c in classes {
+        write!(out, ",{}", field(&format!("readout_{c}")))?;
+    }
+    out.push('\n');
+    for (k, (&label, (pred, readout))) in labels.iter().zip(predictions).enumerate() {
+        write!(out, "{k},{},{}", field(&classes[label]), field(&classes[*pred]))?;
+        for v in readout {
+            write!(out, ",{v}")?;
+        }
+        out.push('\n');
+    }
+    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
 }

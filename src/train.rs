@@ -178,6 +178,10 @@ pub struct Args {
     patience: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Seed of the validation hold-out alone (default: --seed), so that models trained with other
+    /// seeds are compared, or their predictions combined, on one hold-out none of them trained on.
+    #[arg(long)]
+    val_seed: Option<u64>,
     /// Model file to write.
     #[arg(long)]
     out: PathBuf,
@@ -330,7 +334,7 @@ pub fn run(args: Args) -> Result<()> {
     let all_train = encoding.encode(&data, Some(Split::Train))?;
     let test = encoding.encode(&data, Some(Split::Test))?;
     let (train, val) = if args.val_fraction > 0.0 {
-        all_train.stratified_split(args.val_fraction, args.seed)
+        all_train.stratified_split(args.val_fraction, args.val_seed.unwrap_or(args.seed))
     } else {
         (all_train.clone(), all_train.subset(&[]))
     };
@@ -357,22 +361,19 @@ pub fn run(args: Args) -> Result<()> {
         100.0 * scored.accuracy,
         scored.n
     );
+    let mut extra = serde_json::json!({
+        "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
+        "test_accuracy": scored.accuracy,
+    });
+    if let Some(v) = args.val_seed {
+        extra["val_seed"] = v.into();
+    }
     let model = SnnModel {
         config,
         network,
         preprocess: serde_json::to_value(&encoding)?,
         classes: data.classes.clone(),
-        provenance: provenance(
-            &args,
-            &cfg,
-            surrogate,
-            &outcome,
-            train_seconds,
-            serde_json::json!({
-                "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
-                "test_accuracy": scored.accuracy,
-            }),
-        ),
+        provenance: provenance(&args, &cfg, surrogate, &outcome, train_seconds, extra),
     };
     save(&args, &model, &outcome.history)
 }

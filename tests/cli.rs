@@ -248,19 +248,78 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
     let model = dir.path().join("snn.safetensors");
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
     let m = model.to_str().unwrap();
-    let args = ["train", "--data", data.to_str().unwrap(), "--epochs", "1", "--hidden", "16", "--quiet", "--out", m];
+    let args = [
+        "train",
+        "--data",
+        data.to_str().unwrap(),
+        "--epochs",
+        "1",
+        "--hidden",
+        "16",
+        "--val-seed",
+        "3",
+        "--quiet",
+        "--out",
+        m,
+    ];
     let o = braille(&args);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("test accuracy on the event-driven engine"), "{err}");
+    // `eval --split validation` scores the hold-out that training kept (here by --val-seed 3)
+    let val_train = err.split("(validation ").nth(1).and_then(|s| s.split('%').next()).unwrap().to_string();
+    let o = braille(&[
+        "eval",
+        "--data",
+        data.to_str().unwrap(),
+        "--split",
+        "validation",
+        "--val-seed",
+        "3",
+        "--model",
+        m,
+        "--json",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!((v["n"].as_u64(), v["split"].as_str()), (Some(432), Some("validation")));
+    assert_eq!(format!("{:.1}", 100.0 * v["accuracy"].as_f64().unwrap()), val_train);
     // no overwrite without --force
     let o = braille(&args);
     assert!(!o.status.success() && text(&o).1.contains("--force"));
-    let o = braille(&["eval", "--data", data.to_str().unwrap(), "--split", "test", "--model", m, "--json"]);
+    let csv = dir.path().join("predictions.csv");
+    let o = braille(&[
+        "eval",
+        "--data",
+        data.to_str().unwrap(),
+        "--split",
+        "test",
+        "--model",
+        m,
+        "--json",
+        "--predictions",
+        csv.to_str().unwrap(),
+    ]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["n"], 1080);
+    // a row per sample: truth, prediction and the 27 readouts, the prediction their largest
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!((header.len(), header[3]), (30, "readout_Space"));
+    let mut right = 0;
+    for (k, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!((f.len(), f[0]), (30, k.to_string().as_str()));
+        let readout: Vec<f32> = f[3..].iter().map(|x| x.parse().unwrap()).collect();
+        let top = readout.iter().enumerate().fold(0, |b, (i, &x)| if x > readout[b] { i } else { b });
+        assert_eq!(header[3 + top], format!("readout_{}", f[2]));
+        right += usize::from(f[1] == f[2]);
+    }
+    assert_eq!(right as u64, v["correct"].as_u64().unwrap());
     let acc = v["accuracy"].as_f64().unwrap();
     // 27 classes: one epoch of a small network is already well above chance (3.7%)
     assert!(acc > 0.08 && acc <= 1.0, "accuracy {acc}");
