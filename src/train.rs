@@ -166,6 +166,21 @@ pub struct Args {
     /// Augmentation: time stretched by a factor in 1 +- this, per training sample.
     #[arg(long, default_value_t = 0.0)]
     stretch: f64,
+    /// Augmentation: each input event moved by a whole number of steps drawn uniformly within
+    /// +- this many microseconds (0: off).
+    #[arg(long, default_value_t = 0)]
+    event_jitter_us: i64,
+    /// Decoupled weight decay (AdamW), per unit of learning rate (0: plain Adam).
+    #[arg(long, default_value_t = 0.0)]
+    weight_decay: f64,
+    /// Stochastic weight averaging: the mean weights of the last this many epochs compete with
+    /// each epoch's on validation (0: off).
+    #[arg(long, default_value_t = 0)]
+    average_epochs: usize,
+    /// Neuron dropout in training: each hidden spiking neuron silenced with this probability for
+    /// a whole sample (0: off).
+    #[arg(long, default_value_t = 0.0)]
+    dropout: f64,
     #[arg(long, default_value_t = 32)]
     batch_size: usize,
     #[arg(long, default_value_t = 2e-3)]
@@ -303,8 +318,15 @@ pub fn run(args: Args) -> Result<()> {
         lr: args.lr,
         seed: args.seed,
         patience: args.patience,
-        augment: learn::train::Augment { drop_events: args.drop_events, stretch: args.stretch },
+        augment: learn::train::Augment {
+            drop_events: args.drop_events,
+            stretch: args.stretch,
+            event_jitter_us: args.event_jitter_us,
+        },
         clip_norm: args.clip_norm,
+        weight_decay: args.weight_decay,
+        average_epochs: args.average_epochs,
+        dropout: args.dropout,
         ..TrainConfig::default()
     };
     let data_dir = match (args.arch, &args.data) {
@@ -354,13 +376,12 @@ pub fn run(args: Args) -> Result<()> {
     let spec = network_spec(&args, encoding.n_inputs(), data.classes.len())?;
     let (outcome, network, config, surrogate, train_seconds) = fit(&args, spec, &train, &val, &cfg, &mut bars)?;
     let scored = crate::eval::snn_accuracy(&network, &config, &test)?;
-    eprintln!(
-        "best epoch {} (validation {:.1}%); test accuracy on the event-driven engine: {:.2}% of {}",
-        outcome.best_epoch,
-        100.0 * outcome.best_val_accuracy,
-        100.0 * scored.accuracy,
-        scored.n
-    );
+    let kept = if val.is_empty() {
+        format!("kept epoch {} (no validation set)", outcome.best_epoch)
+    } else {
+        format!("best epoch {} (validation {:.1}%)", outcome.best_epoch, 100.0 * outcome.best_val_accuracy)
+    };
+    eprintln!("{kept}; test accuracy on the event-driven engine: {:.2}% of {}", 100.0 * scored.accuracy, scored.n);
     let mut extra = serde_json::json!({
         "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
         "test_accuracy": scored.accuracy,
@@ -493,6 +514,15 @@ fn fit(
     let started = std::time::Instant::now();
     let outcome = learn::train::train(&twin, &init, train, val, cfg, observer)?;
     let seconds = started.elapsed().as_secs_f64();
+    if let Some((accuracy, chosen)) = outcome.average {
+        let n = cfg.average_epochs.min(outcome.history.len());
+        if val.is_empty() {
+            eprintln!("weights averaged over the last {n} epochs: taken (no validation set)");
+        } else {
+            let verdict = if chosen { "chosen" } else { "not chosen" };
+            eprintln!("weights averaged over the last {n} epochs: validation {:.1}%, {verdict}", 100.0 * accuracy);
+        }
+    }
     let network = spec.build(outcome.weights.clone())?;
     Ok((outcome, network, SnnConfig { network: spec, dt_us: args.dt_us, readout }, surrogate, seconds))
 }

@@ -17,7 +17,7 @@
 use burn::module::{Module, Param};
 use burn::tensor::module::{avg_pool2d, conv2d};
 use burn::tensor::ops::{AvgPoolOptions, ConvOptions};
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Distribution, Tensor, TensorData};
 use snn::model_file::Readout;
 use snn::network::{Network, PoolKind};
 use snn::neuron::{NeuronKind, NeuronParams, Reset, Surrogate};
@@ -179,6 +179,13 @@ impl SnnTwin {
 
     /// Runs `input`: one `[batch, n_inputs]` tensor per step.
     pub fn forward(&self, params: &SnnParams, input: &[Tensor<2>]) -> Forward {
+        self.forward_dropout(params, input, 0.0)
+    }
+
+    /// [`Self::forward`] in training with neuron dropout: each hidden spiking neuron is silenced
+    /// with probability `dropout` for a whole sample (the same neurons at every step), the others'
+    /// spikes scaled by `1 / (1 - dropout)`; drawn from the device's seeded generator.
+    pub fn forward_dropout(&self, params: &SnnParams, input: &[Tensor<2>], dropout: f64) -> Forward {
         let steps = input.len();
         let n_layers = self.spec.layers.len();
         let batch = input.first().map_or(0, |x| x.dims()[0]);
@@ -189,6 +196,7 @@ impl SnnTwin {
         let mut prev: Vec<Option<Tensor<2>>> = vec![None; n_layers];
         let mut counts: Vec<Option<Tensor<2>>> = vec![None; n_layers];
         let mut out_v: Vec<Tensor<2>> = Vec::new();
+        let mut masks: Vec<Option<Tensor<2>>> = vec![None; n_layers];
         for x_t in input {
             let mut x = x_t.clone();
             for (k, ((l, s), p)) in self.spec.layers.iter().zip(&self.shapes).zip(&params.layers).enumerate() {
@@ -236,7 +244,15 @@ impl SnnTwin {
                 if l.recurrent {
                     prev[k] = Some(z.clone());
                 }
-                x = z;
+                x = if dropout > 0.0 && k + 1 < n_layers {
+                    let mask = masks[k].get_or_insert_with(|| {
+                        Tensor::<2>::random([batch, n], Distribution::Bernoulli(1.0 - dropout), &device)
+                            / (1.0 - dropout) as f32
+                    });
+                    z * mask.clone()
+                } else {
+                    z
+                };
             }
         }
         let logits = match self.readout {

@@ -6,7 +6,7 @@ use crate::snn::{SnnParams, SnnTwin};
 use burn::module::Module;
 use burn::nn::loss::CrossEntropyLossConfig;
 use burn::optim::grad_clipping::GradientClippingConfig;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::{AdamConfig, AdamWConfig, GradientsParams};
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -30,6 +30,16 @@ pub struct TrainConfig {
     /// Clip the gradient's norm to this (0: no clipping).
     #[serde(default)]
     pub clip_norm: f64,
+    /// Decoupled weight decay (AdamW) per unit of learning rate; 0: plain Adam.
+    #[serde(default)]
+    pub weight_decay: f64,
+    /// Stochastic weight averaging: the mean of the weights of the last this many epochs is a
+    /// candidate beside each epoch's own, chosen on validation like them (without validation: taken) (0: off).
+    #[serde(default)]
+    pub average_epochs: usize,
+    /// Each hidden spiking neuron is silenced with this probability for a whole training sample.
+    #[serde(default)]
+    pub dropout: f64,
 }
 
 /// Training-time augmentation of input spike trains, drawn per sample from the training seed.
@@ -40,6 +50,9 @@ pub struct Augment {
     /// Time is stretched by a factor drawn uniformly in `1 +- stretch` (the finger sliding a
     /// little faster or slower).
     pub stretch: f64,
+    /// Each input event is moved by a whole number of steps drawn uniformly within +- this.
+    #[serde(default)]
+    pub event_jitter_us: i64,
 }
 
 impl TrainConfig {
@@ -63,6 +76,9 @@ impl Default for TrainConfig {
             patience: 0,
             augment: Augment::default(),
             clip_norm: 0.0,
+            weight_decay: 0.0,
+            average_epochs: 0,
+            dropout: 0.0,
         }
     }
 }
@@ -98,6 +114,9 @@ pub struct Outcome {
     pub weights: Vec<LayerWeights>,
     pub best_epoch: usize,
     pub best_val_accuracy: f64,
+    /// Validation accuracy of the averaged weights (with `average_epochs`), and whether they
+    /// were chosen (then `best_epoch` is the last epoch of the average).
+    pub average: Option<(f64, bool)>,
     pub history: Vec<EpochReport>,
 }
 
@@ -115,6 +134,10 @@ fn batch_input_augmented(
     use rand::Rng;
     let (b, n) = (idx.len(), set.n_inputs);
     let mut dense = vec![0f32; set.steps * b * n];
+    let jitter_steps = match &augment {
+        Some((a, _)) if set.dt_us > 0 => (a.event_jitter_us / set.dt_us).max(0),
+        _ => 0,
+    };
     for (j, &s) in idx.iter().enumerate() {
         let train = &set.trains[s];
         let factor = match &mut augment {
@@ -134,7 +157,17 @@ fn batch_input_augmented(
                 {
                     c = (0..c as u32).filter(|_| !rng.random_bool(a.drop_events)).count() as f32;
                 }
-                dense[(to * b + j) * n + i as usize] += c;
+                match &mut augment {
+                    Some((_, rng)) if jitter_steps > 0 => {
+                        for _ in 0..c as u32 {
+                            let t = to as i64 + rng.random_range(-jitter_steps..=jitter_steps);
+                            if (0..set.steps as i64).contains(&t) {
+                                dense[(t as usize * b + j) * n + i as usize] += 1.0;
+                            }
+                        }
+                    }
+                    _ => dense[(to * b + j) * n + i as usize] += c,
+                }
             }
         }
     }
@@ -184,20 +217,31 @@ pub fn train(
     if train.is_empty() || cfg.batch_size == 0 || cfg.epochs == 0 {
         return Err(snn::Error::Input("training needs samples, a batch size and epochs".into()));
     }
+    if !(0.0..1.0).contains(&cfg.dropout)
+        || !(0.0..=f64::MAX).contains(&cfg.weight_decay)
+        || cfg.augment.event_jitter_us < 0
+    {
+        return Err(snn::Error::Input(format!(
+            "dropout {} must lie in [0, 1), weight decay {} and event jitter {} us must not be negative",
+            cfg.dropout, cfg.weight_decay, cfg.augment.event_jitter_us
+        )));
+    }
     let device = Device::flex().autodiff();
     device.seed(cfg.seed);
     let mut params = SnnParams::from_weights(&twin.spec, init, &device)?;
-    let mut adam = AdamConfig::new();
-    if cfg.clip_norm > 0.0 {
-        adam = adam.with_grad_clipping(Some(GradientClippingConfig::Norm(cfg.clip_norm as f32)));
-    }
-    let mut optim = adam.init();
+    let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
+    let mut optim = if cfg.weight_decay > 0.0 {
+        AdamWConfig::new().with_weight_decay(cfg.weight_decay as f32).with_grad_clipping(clipping).init()
+    } else {
+        AdamConfig::new().with_grad_clipping(clipping).init()
+    };
     let loss_fn = CrossEntropyLossConfig::new().init(&device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
     let mut best = (init.to_vec(), 0usize, -1.0f64);
     let mut best_loss = f64::INFINITY;
     let mut history = Vec::new();
     let mut order: Vec<usize> = (0..train.len()).collect();
+    let mut sum: Option<(Vec<LayerWeights>, usize)> = None;
     for epoch in 1..=cfg.epochs {
         let start = Instant::now();
         let lr = cfg.lr_at(epoch);
@@ -207,7 +251,7 @@ pub fn train(
         let (mut loss_sum, mut hits) = (0.0, 0usize);
         for idx in batches {
             let input = batch_input_augmented(train, idx, &device, Some((&cfg.augment, &mut rng)));
-            let out = twin.forward(&params, &input);
+            let out = twin.forward_dropout(&params, &input, cfg.dropout);
             let h = correct(&out.logits, train, idx);
             let loss = loss_fn.forward(out.logits, targets(train, idx, &device));
             let l = loss.clone().into_scalar::<f32>() as f64;
@@ -238,10 +282,101 @@ pub fn train(
             best = (inference.weights(&twin.spec)?, epoch, score);
             best_loss = loss;
         }
+        if cfg.average_epochs > 0 && epoch + cfg.average_epochs > cfg.epochs {
+            let w = inference.weights(&twin.spec)?;
+            match &mut sum {
+                None => sum = Some((w, 1)),
+                Some((s, n)) => {
+                    add_weights(s, &w);
+                    *n += 1;
+                }
+            }
+        }
         history.push(report);
         if cfg.patience > 0 && epoch - best.1 >= cfg.patience {
             break;
         }
     }
-    Ok(Outcome { weights: best.0, best_epoch: best.1, best_val_accuracy: best.2, history })
+    let mut average = None;
+    if let Some((mut mean, n)) = sum {
+        scale_weights(&mut mean, 1.0 / n as f32);
+        let last = history.len();
+        // without a validation set the average is what was asked for
+        let (accuracy, chosen) = if val.is_empty() {
+            (f64::NAN, true)
+        } else {
+            let (loss, accuracy, _) =
+                evaluate(twin, &SnnParams::from_weights(&twin.spec, &mean, &Device::flex())?, val, 64);
+            (accuracy, accuracy > best.2 || (accuracy == best.2 && loss < best_loss))
+        };
+        average = Some((accuracy, chosen));
+        if chosen {
+            best = (mean, last, accuracy);
+        }
+    }
+    // without a validation set there is no validation accuracy (the score was the epoch)
+    let best_val_accuracy = if val.is_empty() { f64::NAN } else { best.2 };
+    Ok(Outcome { weights: best.0, best_epoch: best.1, best_val_accuracy, average, history })
+}
+
+fn add_weights(sum: &mut [LayerWeights], w: &[LayerWeights]) {
+    fn add(a: &mut [f32], b: &[f32]) {
+        a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+    }
+    for (s, w) in sum.iter_mut().zip(w) {
+        add(&mut s.weight, &w.weight);
+        for (a, b) in
+            [(&mut s.bias, &w.bias), (&mut s.recurrent, &w.recurrent), (&mut s.recurrent_bias, &w.recurrent_bias)]
+        {
+            if let (Some(a), Some(b)) = (a.as_mut(), b.as_ref()) {
+                add(a, b);
+            }
+        }
+    }
+}
+
+fn scale_weights(w: &mut [LayerWeights], k: f32) {
+    for l in w {
+        l.weight.iter_mut().for_each(|x| *x *= k);
+        for v in [&mut l.bias, &mut l.recurrent, &mut l.recurrent_bias].into_iter().flatten() {
+            v.iter_mut().for_each(|x| *x *= k);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use encoders::spike_train::SpikeTrain;
+
+    #[test]
+    fn event_jitter_moves_each_event_within_its_bound_and_keeps_them_all() {
+        // 50 events on input 1 at step 10 of 20, steps of 1 ms, jitter +- 2 ms
+        let mut offsets = vec![0u32; 11];
+        offsets.extend(std::iter::repeat_n(1u32, 10));
+        let train = SpikeTrain { t_start_us: 0, dt_us: 1_000, n_inputs: 3, offsets, inputs: vec![1], counts: vec![50] };
+        let set = SpikeSet {
+            n_inputs: 3,
+            steps: 20,
+            dt_us: 1_000,
+            classes: vec!["a".into()],
+            trains: vec![train],
+            labels: vec![0],
+            dropped_events: 0,
+        };
+        let augment = Augment { event_jitter_us: 2_000, ..Augment::default() };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let steps = batch_input_augmented(&set, &[0], &Device::flex(), Some((&augment, &mut rng)));
+        let per_step: Vec<Vec<f32>> =
+            steps.iter().map(|t| t.to_data().convert::<f32>().try_to_vec::<f32>().unwrap()).collect();
+        let on_input_1: Vec<f32> = per_step.iter().map(|s| s[1]).collect();
+        assert_eq!(on_input_1.iter().sum::<f32>(), 50.0, "no event lost: {on_input_1:?}");
+        assert!(per_step.iter().all(|s| s[0] == 0.0 && s[2] == 0.0), "events stay on their input");
+        for (k, &c) in on_input_1.iter().enumerate() {
+            assert!(c == 0.0 || (8..=12).contains(&k), "step {k} is beyond the jitter: {on_input_1:?}");
+        }
+        assert!(on_input_1.iter().filter(|&&c| c > 0.0).count() >= 4, "events spread: {on_input_1:?}");
+        let plain = batch_input(&set, &[0], &Device::flex());
+        assert_eq!(plain[10].to_data().convert::<f32>().try_to_vec::<f32>().unwrap(), vec![0.0, 50.0, 0.0]);
+    }
 }

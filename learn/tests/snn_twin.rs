@@ -130,25 +130,7 @@ fn toy_set(n: usize, seed: u64) -> SpikeSet {
 
 #[test]
 fn training_learns_and_repeats_exactly() {
-    let spec = NetworkSpec {
-        input_shape: vec![8],
-        layers: vec![
-            LayerSpec {
-                op: OpSpec::Dense { n_out: 16 },
-                neurons: lif(0.9),
-                recurrent: true,
-                bias: false,
-                recurrent_bias: false,
-            },
-            LayerSpec {
-                op: OpSpec::Dense { n_out: 2 },
-                neurons: Some(NeuronParams::leaky_integrator(0.9)),
-                recurrent: false,
-                bias: false,
-                recurrent_bias: false,
-            },
-        ],
-    };
+    let spec = small_spec(true);
     let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
     let cfg = TrainConfig { epochs: 6, batch_size: 8, lr: 1e-2, seed: 3, ..TrainConfig::default() };
     let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
@@ -164,4 +146,86 @@ fn training_learns_and_repeats_exactly() {
         a.history.iter().map(|h| h.train_loss).collect::<Vec<_>>(),
         b.history.iter().map(|h| h.train_loss).collect::<Vec<_>>()
     );
+}
+
+/// 8 inputs -> 16 LIF (recurrent or not) -> 2 leaky integrators.
+fn small_spec(recurrent: bool) -> NetworkSpec {
+    NetworkSpec {
+        input_shape: vec![8],
+        layers: vec![
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 16 },
+                neurons: lif(0.9),
+                recurrent,
+                bias: false,
+                recurrent_bias: false,
+            },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 2 },
+                neurons: Some(NeuronParams::leaky_integrator(0.9)),
+                recurrent: false,
+                bias: false,
+                recurrent_bias: false,
+            },
+        ],
+    }
+}
+
+fn values(t: Tensor<2>) -> Vec<f32> {
+    t.to_data().convert::<f32>().try_to_vec::<f32>().unwrap()
+}
+
+#[test]
+fn neuron_dropout_is_seeded_off_at_zero_and_silences_all_at_one() {
+    let spec = small_spec(false);
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
+    let device = Device::flex();
+    let params = SnnParams::from_weights(&spec, &spec.init(4, 3.0).unwrap(), &device).unwrap();
+    let set = toy_set(8, 9);
+    let input = learn::train::batch_input(&set, &(0..8).collect::<Vec<_>>(), &device);
+    let plain = values(twin.forward(&params, &input).logits);
+    assert!(plain.iter().any(|&v| v > 0.0), "the test needs readout activity: {plain:?}");
+    assert_eq!(values(twin.forward_dropout(&params, &input, 0.0).logits), plain);
+    let dropped = |seed: u64, p: f64| {
+        device.seed(seed);
+        values(twin.forward_dropout(&params, &input, p).logits)
+    };
+    assert_eq!(dropped(1, 0.5), dropped(1, 0.5), "the same seed silences the same neurons");
+    assert_ne!(dropped(1, 0.5), plain, "half the hidden neurons silenced changes the readout");
+    assert!(dropped(2, 1.0 - 1e-9).iter().all(|&v| v == 0.0), "no hidden neuron left, no readout input");
+}
+
+#[test]
+fn weight_averaging_and_weight_decay() {
+    let spec = small_spec(false);
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
+    let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
+    let init = spec.init(3, 1.0).unwrap();
+    let base = TrainConfig { epochs: 4, batch_size: 8, lr: 1e-2, seed: 3, ..TrainConfig::default() };
+    let plain = train(&twin, &init, &train_set, &val, &base, &mut Silent).unwrap();
+    assert_eq!(plain.average, None);
+    // averaging watches training without changing it; over one epoch it is that epoch's weights
+    let one = train(&twin, &init, &train_set, &val, &TrainConfig { average_epochs: 1, ..base.clone() }, &mut Silent);
+    let one = one.unwrap();
+    let losses = |h: &[learn::train::EpochReport]| h.iter().map(|e| (e.train_loss, e.val_loss)).collect::<Vec<_>>();
+    assert_eq!(losses(&one.history), losses(&plain.history));
+    let (accuracy, _) = one.average.unwrap();
+    assert_eq!(accuracy, one.history.last().unwrap().val_accuracy);
+    let all = train(&twin, &init, &train_set, &val, &TrainConfig { average_epochs: 4, ..base.clone() }, &mut Silent);
+    let (accuracy, chosen) = all.unwrap().average.unwrap();
+    assert!((0.0..=1.0).contains(&accuracy));
+    if chosen {
+        assert!(accuracy >= plain.best_val_accuracy);
+    }
+    // decoupled weight decay pulls the weights towards zero
+    let norm = |w: &[snn::spec::LayerWeights]| w.iter().flat_map(|l| &l.weight).map(|x| x * x).sum::<f32>();
+    let last = |cfg: TrainConfig| {
+        let no_val = toy_set(0, 2);
+        train(&twin, &init, &train_set, &no_val, &cfg, &mut Silent).unwrap().weights
+    };
+    let decayed = last(TrainConfig { weight_decay: 5.0, ..base.clone() });
+    assert!(norm(&decayed) < 0.5 * norm(&last(base.clone())), "{} vs {}", norm(&decayed), norm(&last(base.clone())));
+    for bad in [TrainConfig { dropout: 1.0, ..base.clone() }, TrainConfig { weight_decay: -1.0, ..base.clone() }] {
+        assert!(train(&twin, &init, &train_set, &val, &bad, &mut Silent).is_err());
+    }
 }
