@@ -33,8 +33,9 @@ pub struct TrainConfig {
     /// Decoupled weight decay (AdamW) per unit of learning rate; 0: plain Adam.
     #[serde(default)]
     pub weight_decay: f64,
-    /// Stochastic weight averaging: the mean of the weights of the last this many epochs is a
-    /// candidate beside each epoch's own, chosen on validation like them (without validation: taken) (0: off).
+    /// Stochastic weight averaging (0: off): the mean of the weights of the last this many epochs
+    /// is a candidate beside each epoch's own, chosen on validation like them; without a
+    /// validation set it is taken.
     #[serde(default)]
     pub average_epochs: usize,
     /// Each hidden spiking neuron is silenced with this probability for a whole training sample.
@@ -50,7 +51,8 @@ pub struct Augment {
     /// Time is stretched by a factor drawn uniformly in `1 +- stretch` (the finger sliding a
     /// little faster or slower).
     pub stretch: f64,
-    /// Each input event is moved by a whole number of steps drawn uniformly within +- this.
+    /// Each input event is moved by a whole number of steps drawn uniformly within +- this (an
+    /// event moved outside the sample's steps is left out of that training pass).
     #[serde(default)]
     pub event_jitter_us: i64,
 }
