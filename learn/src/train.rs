@@ -280,18 +280,22 @@ pub fn train(
         // The best validation accuracy, ties going to the lower validation loss; without a
         // validation set the last epoch is kept.
         let (score, loss) = if val.is_empty() { (epoch as f64, 0.0) } else { (val_accuracy, val_loss) };
-        if score > best.2 || (score == best.2 && loss < best_loss) {
-            best = (inference.weights(&twin.spec)?, epoch, score);
-            best_loss = loss;
-        }
-        if cfg.average_epochs > 0 && epoch + cfg.average_epochs > cfg.epochs {
+        let improved = score > best.2 || (score == best.2 && loss < best_loss);
+        let averaged = cfg.average_epochs > 0 && epoch + cfg.average_epochs > cfg.epochs;
+        if improved || averaged {
             let w = inference.weights(&twin.spec)?;
-            match &mut sum {
-                None => sum = Some((w, 1)),
-                Some((s, n)) => {
-                    add_weights(s, &w);
-                    *n += 1;
+            if averaged {
+                match &mut sum {
+                    None => sum = Some((w.clone(), 1)),
+                    Some((s, n)) => {
+                        add_weights(s, &w);
+                        *n += 1;
+                    }
                 }
+            }
+            if improved {
+                best = (w, epoch, score);
+                best_loss = loss;
             }
         }
         history.push(report);
@@ -321,28 +325,27 @@ pub fn train(
     Ok(Outcome { weights: best.0, best_epoch: best.1, best_val_accuracy, average, history })
 }
 
+/// A layer's tensors: the weight, then the bias and recurrent tensors it has.
+fn tensors_mut(l: &mut LayerWeights) -> impl Iterator<Item = &mut Vec<f32>> {
+    std::iter::once(&mut l.weight).chain([&mut l.bias, &mut l.recurrent, &mut l.recurrent_bias].into_iter().flatten())
+}
+
+fn tensors(l: &LayerWeights) -> impl Iterator<Item = &Vec<f32>> {
+    std::iter::once(&l.weight).chain([&l.bias, &l.recurrent, &l.recurrent_bias].into_iter().flatten())
+}
+
+/// `sum += w`, tensor by tensor (both of one spec).
 fn add_weights(sum: &mut [LayerWeights], w: &[LayerWeights]) {
-    fn add(a: &mut [f32], b: &[f32]) {
-        a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-    }
     for (s, w) in sum.iter_mut().zip(w) {
-        add(&mut s.weight, &w.weight);
-        for (a, b) in
-            [(&mut s.bias, &w.bias), (&mut s.recurrent, &w.recurrent), (&mut s.recurrent_bias, &w.recurrent_bias)]
-        {
-            if let (Some(a), Some(b)) = (a.as_mut(), b.as_ref()) {
-                add(a, b);
-            }
+        for (a, b) in tensors_mut(s).zip(tensors(w)) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
         }
     }
 }
 
 fn scale_weights(w: &mut [LayerWeights], k: f32) {
-    for l in w {
-        l.weight.iter_mut().for_each(|x| *x *= k);
-        for v in [&mut l.bias, &mut l.recurrent, &mut l.recurrent_bias].into_iter().flatten() {
-            v.iter_mut().for_each(|x| *x *= k);
-        }
+    for t in w.iter_mut().flat_map(tensors_mut) {
+        t.iter_mut().for_each(|x| *x *= k);
     }
 }
 
