@@ -6,6 +6,7 @@ mod chars;
 mod chars_report;
 mod convert;
 mod demo;
+mod ensemble;
 mod eval;
 mod icub_report;
 mod info;
@@ -80,6 +81,9 @@ enum Command {
     Export(nir_cli::ExportArgs),
     /// Import a NIR graph into a model file the engine runs.
     Import(nir_cli::ImportArgs),
+    /// Merge trained SNNs of one architecture into one network: the members side by side, their
+    /// readouts summed at every step.
+    Ensemble(ensemble::Args),
     /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
     /// AEDAT4, read back, and binned into heat maps.
     Demo(demo::Args),
@@ -105,6 +109,7 @@ fn main() -> ExitCode {
         Command::WordsReport(a) => words::report(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
+        Command::Ensemble(a) => ensemble::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

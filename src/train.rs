@@ -158,6 +158,10 @@ pub struct Args {
     /// Weight scale at initialisation (times PyTorch's 1/sqrt(fan_in)).
     #[arg(long, default_value_t = 1.0)]
     init_gain: f32,
+    /// With --recurrent: the recurrent weights' scale at initialisation (default: --init-gain; 0
+    /// starts the network feed-forward and lets training grow the recurrence).
+    #[arg(long)]
+    recurrent_init_gain: Option<f32>,
     #[arg(long, default_value_t = 60)]
     epochs: usize,
     /// Augmentation: probability of dropping each input event in training.
@@ -277,6 +281,9 @@ fn network_spec(args: &Args, n_inputs: usize, n_classes: usize) -> Result<Networ
     .discretise(dt, Discretisation::Exact);
     if args.hidden.is_empty() || args.hidden.contains(&0) {
         bail!("--hidden needs positive layer sizes");
+    }
+    if args.recurrent_init_gain.is_some() && !args.recurrent {
+        bail!("--recurrent-init-gain needs --recurrent");
     }
     let mut layers: Vec<LayerSpec> = args
         .hidden
@@ -510,7 +517,8 @@ fn fit(
     let (surrogate, readout) = surrogate_and_readout(args);
     let mut twin = SnnTwin::new(spec.clone(), surrogate, readout)?;
     twin.clamped_readout_gradient = args.readout_gradient == ReadoutGradientArg::Clamped;
-    let init = spec.init(args.seed, args.init_gain)?;
+    let init =
+        spec.init_with_recurrent_gain(args.seed, args.init_gain, args.recurrent_init_gain.unwrap_or(args.init_gain))?;
     let started = std::time::Instant::now();
     let outcome = learn::train::train(&twin, &init, train, val, cfg, observer)?;
     let seconds = started.elapsed().as_secs_f64();
@@ -541,6 +549,7 @@ fn provenance(
         "surrogate": format!("{surrogate:?}"),
         "readout_gradient": format!("{:?}", args.readout_gradient),
         "init_gain": args.init_gain,
+        "recurrent_init_gain": args.recurrent_init_gain.unwrap_or(args.init_gain),
         "best_epoch": outcome.best_epoch,
         "val_accuracy": outcome.best_val_accuracy,
         "train_seconds": seconds,

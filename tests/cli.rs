@@ -288,6 +288,19 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
     // no overwrite without --force
     let o = braille(&args);
     assert!(!o.status.success() && text(&o).1.contains("--force"));
+    // a recurrent scale without recurrence is refused before training
+    let other = dir.path().join("other.safetensors");
+    let o = braille(&[
+        "train",
+        "--data",
+        data.to_str().unwrap(),
+        "--recurrent-init-gain",
+        "0",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success() && text(&o).1.contains("--recurrent-init-gain needs --recurrent"), "{:?}", text(&o));
+    assert!(!other.exists());
     let csv = dir.path().join("predictions.csv");
     let o = braille(&[
         "eval",
@@ -323,6 +336,28 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
     let acc = v["accuracy"].as_f64().unwrap();
     // 27 classes: one epoch of a small network is already well above chance (3.7%)
     assert!(acc > 0.08 && acc <= 1.0, "accuracy {acc}");
+    // an ensemble of the model with itself: every readout doubled, the same answers
+    let twice = dir.path().join("twice.safetensors");
+    let o = braille(&["ensemble", "--model", m, "--model", m, "--out", twice.to_str().unwrap()]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = braille(&[
+        "eval",
+        "--data",
+        data.to_str().unwrap(),
+        "--split",
+        "test",
+        "--model",
+        twice.to_str().unwrap(),
+        "--json",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let w: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(w["correct"], v["correct"]);
+    let (s2, s1) = (w["spikes_per_sample"].as_f64().unwrap(), v["spikes_per_sample"].as_f64().unwrap());
+    assert!((s2 - 2.0 * s1).abs() <= 1e-9 * s2 && s1 > 0.0, "{s2} vs twice {s1}");
+    let o = braille(&["ensemble", "--model", m, "--out", twice.to_str().unwrap(), "--force"]);
+    assert!(!o.status.success() && text(&o).1.contains("two or more"), "{:?}", text(&o));
     // a file that is not a model: the file is named
     let bogus = dir.path().join("bogus.safetensors");
     std::fs::write(&bogus, b"not a model").unwrap();
