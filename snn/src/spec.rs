@@ -374,6 +374,11 @@ mod tests {
                 dense(3, NeuronParams::leaky_integrator(0.95), false),
             ],
         };
+        // a recurrent scale of zero leaves the tensors drawn after the recurrent ones in place
+        let (plain, quiet) = (spec.init(5, 1.0).unwrap(), spec.init_with_recurrent_gain(5, 1.0, 0.0).unwrap());
+        assert!(
+            quiet[1..] == plain[1..] && quiet[0].weight == plain[0].weight && quiet[0].recurrent != plain[0].recurrent
+        );
         let mut members: Vec<Vec<LayerWeights>> = (1..=3).map(|seed| spec.init(seed, 2.0).unwrap()).collect();
         for (j, w) in members.iter_mut().enumerate() {
             for (k, l) in w.iter_mut().enumerate() {
