@@ -56,10 +56,7 @@ pub fn run(args: Args) -> Result<()> {
         classes: first.classes.clone(),
         provenance,
     };
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    model.save(&args.out, args.force)?;
+    crate::train::save_model(&model, &args.out, args.force)?;
     eprintln!("wrote {} ({} members)", args.out.display(), members.len());
     Ok(())
 }

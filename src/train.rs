@@ -494,15 +494,20 @@ fn surrogate_and_readout(args: &Args) -> (Surrogate, Readout) {
 
 /// Writes the model and, when asked, the training history.
 fn save(args: &Args, model: &SnnModel, history: &[EpochReport]) -> Result<()> {
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    model.save(&args.out, args.force)?;
+    save_model(model, &args.out, args.force)?;
     if let Some(h) = &args.history {
         crate::simulate::write_json(h, &history, args.force)?;
     }
     eprintln!("wrote {} (peak RSS {:.0} MB)", args.out.display(), crate::bench::peak_rss_mb().unwrap_or(f64::NAN));
     Ok(())
+}
+
+/// Writes an SNN model file, creating its folder; an existing file is kept unless `force`.
+pub(crate) fn save_model(model: &SnnModel, out: &std::path::Path, force: bool) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    Ok(model.save(out, force)?)
 }
 
 /// Trains `spec` from the seeded initialisation; the best checkpoint as an engine network.

@@ -340,16 +340,8 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
     let twice = dir.path().join("twice.safetensors");
     let o = braille(&["ensemble", "--model", m, "--model", m, "--out", twice.to_str().unwrap()]);
     assert!(o.status.success(), "{:?}", text(&o));
-    let o = braille(&[
-        "eval",
-        "--data",
-        data.to_str().unwrap(),
-        "--split",
-        "test",
-        "--model",
-        twice.to_str().unwrap(),
-        "--json",
-    ]);
+    let t = twice.to_str().unwrap();
+    let o = braille(&["eval", "--data", data.to_str().unwrap(), "--split", "test", "--model", t, "--json"]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let w: serde_json::Value = serde_json::from_str(&out).unwrap();
