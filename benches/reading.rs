@@ -6,8 +6,8 @@
 //! and what was read once before measuring.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use pipeline::classify::{SnnRunner, WindowModel};
-use pipeline::reader::{ReaderConfig, Spell, Speller, read_all};
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::{Spell, Speller, read_all};
 use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
 use std::hint::black_box;
 use std::path::Path;
@@ -23,18 +23,14 @@ fn scan() -> sim::Scan {
     sim::simulate(&board, &sensor, &cfg).expect("simulated scan")
 }
 
-fn models(arch: &str) -> (WindowModel, WindowModel) {
+/// The shipped reader of an architecture, loaded by the one model loader.
+fn models(arch: &str) -> ReaderModels {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    match arch {
-        "snn" => (
-            WindowModel::load_snn(&root.join("snn-segment.safetensors"), SnnRunner::Sliding).expect("SNN segmenter"),
-            WindowModel::load_snn(&root.join("snn-words.safetensors"), SnnRunner::Sliding).expect("SNN classifier"),
-        ),
-        _ => (
-            WindowModel::load_resnet(&root.join("resnet-tiny-segment.safetensors")).expect("ResNet segmenter"),
-            WindowModel::load_resnet(&root.join("resnet-lite-normaug-words.safetensors")).expect("ResNet classifier"),
-        ),
-    }
+    let (s, c) = match arch {
+        "snn" => ("snn-segment.safetensors", "snn-words.safetensors"),
+        _ => ("resnet-tiny-segment.safetensors", "resnet-lite-normaug-words.safetensors"),
+    };
+    ReaderModels::load(&root.join(s), &root.join(c), SnnRunner::Sliding).expect("shipped models")
 }
 
 fn reading(c: &mut Criterion) {
@@ -46,9 +42,10 @@ fn reading(c: &mut Criterion) {
     group.sample_size(10);
     group.throughput(Throughput::Elements(s.events.len() as u64));
     for arch in ["snn", "resnet"] {
-        let (mut seg, mut cls) = models(arch);
-        let cfg = ReaderConfig { labeler: cls.input().labeler.clone(), ..ReaderConfig::new(SPEED_MM_S) };
-        let (words, stats) = read_all(&s.events, cfg.clone(), resolution, &mut seg, &mut cls, &speller).expect("read");
+        let m = models(arch);
+        let cfg = m.config(SPEED_MM_S);
+        let r = read_all(&s.events, cfg.clone(), resolution, &m.segmenter, &m.classifier, &speller).expect("read");
+        let (words, stats) = (r.words, r.stats);
         let text: Vec<String> = words.iter().map(|w| w.text.clone()).collect();
         eprintln!(
             "SIMULATED EV row 0 at {SPEED_MM_S} mm/s: {:.2} s of stream, {} events, {} frames; {arch} read {:?} ({} classifier calls); 1% of the duration is {:.1} ms",
@@ -62,7 +59,10 @@ fn reading(c: &mut Criterion) {
         group.bench_function(format!("ev_row_32mm_s_{arch}"), |b| {
             b.iter(|| {
                 black_box(
-                    read_all(&s.events, cfg.clone(), resolution, &mut seg, &mut cls, &speller).expect("read").0.len(),
+                    read_all(&s.events, cfg.clone(), resolution, &m.segmenter, &m.classifier, &speller)
+                        .expect("read")
+                        .words
+                        .len(),
                 )
             })
         });

@@ -20,8 +20,7 @@ if [[ "${1:-}" != "--report-only" ]]; then
   # The SNN: 2560 inputs (the 64x80 crop pooled 2x2, ON and OFF) -> 256 LIF -> 26 leaky
   # integrators, 10 ms steps; events dropped with probability 0.3 in training (a shallower press
   # gives fewer events).
-  target/release/braille train --arch snn --trials 40 --epochs 30 --neuron lif --tau-mem-us 100000 \
-    --tau-out-us 100000 --drop-events 0.3 --seed 1 --out models/snn-chars.safetensors \
+  target/release/braille train --arch snn --recipe chars --out models/snn-chars.safetensors \
     --history docs/snn_chars_history.json --force --quiet
 fi
 target/release/braille chars-report --models models --out docs --trials 30

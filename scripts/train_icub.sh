@@ -11,7 +11,7 @@ mkdir -p models docs
 # 24 inputs -> 256 CubaLIF (tau_mem 500 ms, tau_syn 200 ms, reset by subtraction) -> 27 LI readout
 # (max membrane); Adam 2e-3 with cosine decay; the command's defaults. Seed 2 had the best
 # validation accuracy of the eight runs in the README (two configurations, seeds 1-4).
-$b train --data data/icub_braille/raw1350 --seed 2 \
+$b train --data data/icub_braille/raw1350 --recipe raw1350 \
   --out models/snn-raw1350.safetensors --history docs/icub_raw1350_history.json --force --quiet
 # th10: the released events (sigma-delta threshold 10), the same network with faster neurons
 # (tau_mem 100 ms, tau_syn 50 ms), a recurrent hidden layer whose recurrent weights start at
@@ -23,8 +23,6 @@ $b train --data data/icub_braille/raw1350 --seed 2 \
 # epochs). The shipped model is then trained on the whole training split (--val-fraction 0) for
 # those 100 epochs, its weights averaged over the last 30 (stochastic weight averaging); seed 2,
 # fixed before the run.
-$b train --data data/icub_braille/th10 --epochs 100 --seed 2 --val-fraction 0 --average-epochs 30 --bias \
-  --lr 1e-3 --clip-norm 1 --init-gain 0.5 --recurrent --recurrent-init-gain 0 --dropout 0.2 \
-  --tau-mem-us 100000 --tau-syn-us 50000 --tau-out-us 500000 \
+$b train --data data/icub_braille/th10 --recipe th10 \
   --out models/snn-th10.safetensors --history docs/icub_th10_history.json --force --quiet
 $b icub-report --out docs

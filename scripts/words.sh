@@ -20,15 +20,12 @@ cargo build --release --quiet
 mkdir -p models docs
 b=target/release/braille
 if [[ "${1:-}" != "--report-only" ]]; then
-  $b train --arch snn --words 80 --trials 5 --jitter-ms 40 --epochs 12 --neuron lif --tau-mem-us 100000 \
-    --tau-out-us 100000 --drop-events 0.3 --stretch 0.15 --seed 1 --out models/snn-words.safetensors \
+  $b train --arch snn --recipe words --out models/snn-words.safetensors \
     --history docs/snn_words_history.json --force --quiet
   $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
     --epochs 15 --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
     --history docs/resnet_lite_normaug_words_history.json --force --quiet
-  $b train --arch snn --task segment --words 30 --trials 10 --epochs 12 --neuron lif \
-    --tau-mem-us 100000 --tau-out-us 100000 --hidden 64 --pool 4 --drop-events 0.3 --seed 1 \
-    --out models/snn-segment.safetensors --history docs/snn_segment_history.json --force --quiet
+  $b train --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/snn_segment_history.json --force --quiet
   $b train --arch resnet --task segment --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
     --epochs 8 --lr 1e-3 --seed 1 --out models/resnet-tiny-segment.safetensors \
     --history docs/resnet_tiny_segment_history.json --force --quiet

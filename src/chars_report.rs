@@ -2,18 +2,12 @@
 //! on SIMULATED scans of the RAB board at 8 mm/s, with the SNN beside the ResNet on the same
 //! windows, and confusion matrices. Markdown, JSON and PNG.
 
-use crate::chars::{CharInput, CharModel, Score, build, build_many};
-use crate::train::ArchArg;
-use anyhow::{Context, Result, bail};
-use pipeline::chars::{CharSetSpec, Task};
+use crate::charts::{LineChart, Series, Target};
+use crate::common::Bar;
+use anyhow::{Context, Result};
+use experiments::reports::chars::{CharsReport, chars_report, markdown};
 use plotters::prelude::*;
-use serde::Serialize;
-use sim::BoardKind;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// The paper's test depths, in mm.
-pub const DEPTHS_MM: [f64; 7] = [0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5];
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -37,378 +31,57 @@ pub struct Args {
     depths: Vec<f64>,
 }
 
-#[derive(Serialize)]
-struct Entry {
-    key: &'static str,
-    name: String,
-    arch: &'static str,
-    model: String,
-    /// ResNet: multiply-accumulates per window.
-    macs: Option<u64>,
-    /// One score per depth, in the order of `depths_mm`.
-    scores: Vec<Score>,
-}
-
-#[derive(Serialize)]
-struct Report {
-    data: &'static str,
-    board: &'static str,
-    speed_mm_s: f64,
-    trials: u64,
-    seed: u64,
-    depths_mm: Vec<f64>,
-    windows: Vec<usize>,
-    entries: Vec<Entry>,
-    /// Word rows: the EV board at 1.5 mm, per speed in `ev_speeds_mm_s`, one score per entry.
-    ev_speeds_mm_s: Vec<f64>,
-    ev: Vec<Vec<Score>>,
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let depths = if args.depths.is_empty() { DEPTHS_MM.to_vec() } else { args.depths.clone() };
-    // (key, name, file, arch); the words models go beyond the paper's training protocol
-    let known = [
-        ("raw", "ResNet lite Raw", "resnet-lite-raw", ArchArg::Resnet),
-        ("norm", "ResNet lite Norm", "resnet-lite-norm", ArchArg::Resnet),
-        ("aug", "ResNet lite Aug", "resnet-lite-aug", ArchArg::Resnet),
-        ("normaug", "ResNet lite NormAug", "resnet-lite-normaug", ArchArg::Resnet),
-        ("snn", "SNN (event-driven engine)", "snn-chars", ArchArg::Snn),
-        ("normaug-words", "ResNet lite NormAug + words", "resnet-lite-normaug-words", ArchArg::Resnet),
-        ("snn-words", "SNN + words", "snn-words", ArchArg::Snn),
-    ];
-    let mut models = Vec::new();
-    for (key, name, file, arch) in known {
-        let p = args.models.join(format!("{file}.safetensors"));
-        if p.exists() {
-            models.push((key, name.to_string(), CharModel::load(arch, &p)?, p));
-        }
-    }
-    if models.is_empty() {
-        bail!("{}: no character models (run scripts/table1.sh)", args.models.display());
-    }
-    let mut entries: Vec<Entry> = models
-        .iter()
-        .map(|(key, name, m, p)| Entry {
-            key,
-            name: name.clone(),
-            arch: m.arch(),
-            model: p.display().to_string(),
-            macs: match m {
-                CharModel::Resnet(r) => Some(r.config.macs()),
-                CharModel::Snn { .. } => None,
-            },
-            scores: vec![],
-        })
-        .collect();
-    let chars: Vec<&CharModel> = models.iter().map(|m| &m.2).collect();
-    let mut windows = Vec::new();
-    for &depth in &depths {
-        let spec = CharSetSpec {
-            boards: vec![BoardKind::Rab],
-            speed_mm_s: 8.0,
-            depth_mm: depth,
-            trials: args.trials,
-            seed: args.seed,
-            task: Task::Chars,
-            jitter_ms: 0.0,
-        };
-        let (scores, n) = score_all(&spec, &chars)?;
-        for (e, s) in entries.iter_mut().zip(scores) {
-            eprintln!("SIMULATED RAB {depth} mm: {}: {:.2}% of {}", e.name, 100.0 * s.accuracy, s.n);
-            e.scores.push(s);
-        }
-        windows.push(n);
-    }
-    // Word rows: letters at the cell spacing of words, with neighbours in view.
-    let ev_speeds = vec![8.0, 16.0];
-    let mut ev = Vec::new();
-    for &speed in &ev_speeds {
-        let spec = CharSetSpec {
-            boards: vec![BoardKind::Ev],
-            speed_mm_s: speed,
-            depth_mm: 1.5,
-            trials: args.trials,
-            seed: args.seed,
-            task: Task::Chars,
-            jitter_ms: 0.0,
-        };
-        let (row, _) = score_all(&spec, &chars)?;
-        for (e, s) in entries.iter().zip(&row) {
-            eprintln!("SIMULATED EV {speed} mm/s: {}: {:.2}% of {}", e.name, 100.0 * s.accuracy, s.n);
-        }
-        ev.push(row);
-    }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let report = Report {
-        data: "simulated (virtual Evetac)",
-        board: "RAB",
-        speed_mm_s: 8.0,
-        trials: args.trials,
-        seed: args.seed,
-        depths_mm: depths.clone(),
-        windows,
-        entries,
-        ev_speeds_mm_s: ev_speeds,
-        ev,
-    };
-    let md = markdown(&report)?;
-    std::fs::write(args.out.join("chars.md"), &md)?;
-    std::fs::write(args.out.join("chars.json"), serde_json::to_string_pretty(&report)? + "\n")?;
-    plot_depth(&report, &args.out.join("chars_depth.png"))?;
-    let at = depths.iter().position(|&d| d == 1.5).unwrap_or(depths.len() - 1);
-    for e in report.entries.iter().filter(|e| ["normaug", "snn"].contains(&e.key)) {
-        let file = format!("chars_confusion_{}.png", e.key);
-        let title = format!("{}: RAB {} mm, SIMULATED (rows truth, columns predicted)", e.name, depths[at]);
-        plot_confusion(&e.scores[at].confusion, &title, &args.out.join(file))?;
-    }
+    let report = chars_report(&args.models, &args.depths, args.trials, args.seed, &Bar::default())?;
+    let md = write(&report, &args.out)?;
     print!("{md}");
     Ok(())
 }
 
-fn markdown(r: &Report) -> Result<String> {
-    let mut md = String::new();
-    let at = r.depths_mm.iter().position(|&d| d == 1.5).unwrap_or(r.depths_mm.len() - 1);
-    writeln!(md, "# Character recognition on SIMULATED scans (virtual Evetac)\n")?;
-    writeln!(
-        md,
-        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`); the `+ words` models come from `bash scripts/words.sh`. Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows, with shifted windows). Test: {} scans per row of the RAB board at 8 mm/s, seed {}, {} windows per depth; every model sees the same windows. All data simulated.\n",
-        r.trials,
-        r.seed,
-        r.windows.get(at).copied().unwrap_or(0)
-    )?;
-    writeln!(md, "## Table I: RAB at {} mm\n", r.depths_mm[at])?;
-    writeln!(md, "| model | accuracy | macro F1 | loss |")?;
-    writeln!(md, "| --- | --- | --- | --- |")?;
-    for e in &r.entries {
-        let s = &e.scores[at];
-        writeln!(md, "| {} | {:.2}% | {:.3} | {:.3} |", e.name, 100.0 * s.accuracy, s.macro_f1, s.loss)?;
+/// The report's files in `out`; its Markdown.
+pub fn write(report: &CharsReport, out: &Path) -> Result<String> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let md = markdown(report)?;
+    std::fs::write(out.join("chars.md"), &md)?;
+    std::fs::write(out.join("chars.json"), serde_json::to_string_pretty(report)? + "\n")?;
+    plot_depth(report, &out.join("chars_depth.png"))?;
+    let at = report.table_depth();
+    for e in report.entries.iter().filter(|e| ["normaug", "snn"].contains(&e.key)) {
+        let file = format!("chars_confusion_{}.png", e.key);
+        let title = format!("{}: RAB {} mm, SIMULATED (rows truth, columns predicted)", e.name, report.depths_mm[at]);
+        plot_confusion(&e.scores[at].confusion, &title, &out.join(file))?;
     }
-    writeln!(md, "\nThe paper (real Evetac recordings): NormAug 99.54%.\n")?;
-    writeln!(md, "## Accuracy against depth (RAB, 8 mm/s)\n")?;
-    write!(md, "| depth (mm) | windows |")?;
-    for e in &r.entries {
-        write!(md, " {} |", e.name)?;
-    }
-    writeln!(md)?;
-    writeln!(md, "|{}", " --- |".repeat(2 + r.entries.len()))?;
-    for (i, d) in r.depths_mm.iter().enumerate() {
-        write!(md, "| {d} | {} |", r.windows[i])?;
-        for e in &r.entries {
-            write!(md, " {:.1}% |", 100.0 * e.scores[i].accuracy)?;
-        }
-        writeln!(md)?;
-    }
-    // targets
-    writeln!(md, "\n## Targets\n")?;
-    let normaug = r.entries.iter().find(|e| e.key == "normaug");
-    if let Some(n) = normaug {
-        let a = n.scores[at].accuracy;
-        writeln!(md, "- NormAug at 1.5 mm at least 99.5%: {:.2}%, {}.", 100.0 * a, met(a >= 0.995))?;
-        let from = r.depths_mm.iter().enumerate().filter(|(_, d)| **d >= 0.6 - 1e-9);
-        let worst =
-            from.map(|(i, d)| (n.scores[i].accuracy, *d)).fold((1.0, 0.0), |w, x| if x.0 < w.0 { x } else { w });
-        writeln!(
-            md,
-            "- NormAug at least 95% at every depth from 0.6 mm: lowest {:.1}% (at {} mm), {}.",
-            100.0 * worst.0,
-            worst.1,
-            met(worst.0 >= 0.95)
-        )?;
-    }
-    // The SNN against the ResNet trained the same way: stepped (the trained network exactly) and
-    // async (the same weights in continuous time on the event-driven engine).
-    let pairs =
-        [("normaug", "snn", "both on the paper's protocol"), ("normaug-words", "snn-words", "both also on words")];
-    let find = |key: &str| r.entries.iter().find(|e| e.key == key);
-    let mut snns = Vec::new();
-    for (resnet, snn, protocol) in pairs {
-        let (Some(n), Some(s)) = (find(resnet), find(snn)) else { continue };
-        let worst = |acc: &dyn Fn(&Score) -> Option<f64>| {
-            n.scores
-                .iter()
-                .zip(&s.scores)
-                .map(|(a, b)| acc(b).map(|b| 100.0 * (a.accuracy - b)))
-                .try_fold(f64::NEG_INFINITY, |w, g| g.map(|g| w.max(g)))
-        };
-        let stepped = worst(&|x| Some(x.accuracy)).unwrap_or(f64::NAN);
-        write!(
-            md,
-            "- {} within 1.5 points of {} ({protocol}) at every depth: largest shortfall {:.2} points stepped, {}",
-            s.name,
-            n.name,
-            stepped,
-            met(stepped <= 1.5)
-        )?;
-        match worst(&|x| x.accuracy_async) {
-            Some(a) => writeln!(md, " (in async mode, which training never saw: {:.2} points).", a)?,
-            None => writeln!(md, ".")?,
-        }
-        snns.push(s);
-    }
-    for s in snns {
-        writeln!(md, "\n## {}: stepped and async engine, work per window\n", s.name)?;
-        writeln!(md, "| depth (mm) | stepped | async | input events / window | synops / window | spikes / window |")?;
-        writeln!(md, "| --- | --- | --- | --- | --- | --- |")?;
-        for (i, d) in r.depths_mm.iter().enumerate() {
-            let x = &s.scores[i];
-            writeln!(
-                md,
-                "| {d} | {:.1}% | {} | {:.0} | {:.0} | {:.0} |",
-                100.0 * x.accuracy,
-                x.accuracy_async.map_or("n/a".into(), |a| format!("{:.1}%", 100.0 * a)),
-                x.input_events_per_sample.unwrap_or(0.0),
-                x.synops_per_sample.unwrap_or(0.0),
-                x.spikes_per_sample.unwrap_or(0.0)
-            )?;
-        }
-        writeln!(
-            md,
-            "\n`stepped` evaluates thresholds at the 10 ms step boundaries and reproduces the trained network spike for spike; `async` runs the same weights in continuous time, firing the moment a membrane crosses threshold (the time-stepped training never saw that)."
-        )?;
-    }
-    writeln!(md, "\n## Letters in words: rows of the EV board (1.5 mm)\n")?;
-    writeln!(
-        md,
-        "Letters at the 6 mm cell spacing of words, so that a window also holds the neighbours' dots; the paper's training boards (SAB, UN) spread their letters over the row. `+ words` models were also trained on 80 rows of random words (TextBlob's frequent words, none of EV's; `--words 80`) and on every window shifted by 40 ms either way (`--jitter-ms 40`, as a streaming reader meets them), beyond the paper's protocol (`scripts/words.sh`).\n"
-    )?;
-    write!(md, "| model |")?;
-    for v in &r.ev_speeds_mm_s {
-        write!(md, " EV, {v} mm/s |")?;
-    }
-    writeln!(md)?;
-    writeln!(md, "|{}", " --- |".repeat(1 + r.ev_speeds_mm_s.len()))?;
-    for (k, e) in r.entries.iter().enumerate() {
-        write!(md, "| {} |", e.name)?;
-        for row in &r.ev {
-            write!(md, " {:.1}% ({}) |", 100.0 * row[k].accuracy, row[k].n)?;
-        }
-        writeln!(md)?;
-    }
-    energy_section(&mut md, r, at)?;
-    writeln!(
-        md,
-        "\nFigures: `chars_depth.png` (accuracy against depth), `chars_confusion_normaug.png`, `chars_confusion_snn.png`."
-    )?;
     Ok(md)
 }
 
-/// Energy per window from operation counts: the SNN's SynOps on the engine, the ResNet's MACs.
-fn energy_section(md: &mut String, r: &Report, at: usize) -> Result<()> {
-    use snn::energy::{CMOS45_MAC, SYNOP_ENERGIES};
-    writeln!(md, "\n## Energy per window (estimate, RAB {} mm)\n", r.depths_mm[at])?;
-    writeln!(
-        md,
-        "Operation counts times published energies per operation (`snn::energy`): synaptic and arithmetic work only, no neuron updates, routing, memory traffic or static power. Sources below the table.\n"
-    )?;
-    writeln!(md, "| model | operations / window | platform | energy / window |")?;
-    writeln!(md, "| --- | --- | --- | --- |")?;
-    let mut shown_resnet = false;
-    for e in &r.entries {
-        let s = &e.scores[at];
-        match (e.arch, s.synops_per_sample) {
-            ("snn", Some(synops)) => {
-                for op in SYNOP_ENERGIES {
-                    writeln!(
-                        md,
-                        "| {} | {:.0} SynOps | {} ({} pJ per {}) | {:.1} uJ |",
-                        e.name,
-                        synops,
-                        op.platform,
-                        op.pj_per_op,
-                        op.operation,
-                        op.nanojoules(synops) / 1e3
-                    )?;
-                }
-            }
-            _ if !shown_resnet => {
-                if let Some(macs) = e.macs {
-                    shown_resnet = true;
-                    writeln!(
-                        md,
-                        "| ResNet lite (every configuration) | {:.0} MACs | {} ({} pJ per {}) | {:.1} uJ |",
-                        macs as f64,
-                        CMOS45_MAC.platform,
-                        CMOS45_MAC.pj_per_op,
-                        CMOS45_MAC.operation,
-                        CMOS45_MAC.nanojoules(macs as f64) / 1e3
-                    )?;
-                }
-            }
-            _ => {}
-        }
+fn plot_depth(r: &CharsReport, path: &Path) -> Result<()> {
+    let series: Vec<Series> = r
+        .entries
+        .iter()
+        .map(|e| Series {
+            name: e.name.clone(),
+            points: r.depths_mm.iter().zip(&e.scores).map(|(&d, s)| (d, 100.0 * s.accuracy)).collect(),
+            emphasis: e.arch == snn::model_file::Arch::Snn,
+        })
+        .collect();
+    let lo = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(100.0f64, f64::min).min(90.0);
+    LineChart {
+        title: "SIMULATED: accuracy against depth, RAB at 8 mm/s",
+        x_desc: "indentation depth (mm)",
+        y_desc: "accuracy (%)",
+        x: 0.1..1.6,
+        y: (lo - 2.0).max(0.0)..100.5,
+        x_log10: false,
+        series,
+        targets: vec![Target { label: "target: 95% from 0.6 mm".into(), y: 95.0 }],
+        legend: SeriesLabelPosition::LowerRight,
+        size: (900, 520),
     }
-    writeln!(md)?;
-    let mut sources: Vec<&str> = SYNOP_ENERGIES.iter().map(|o| o.source).chain([CMOS45_MAC.source]).collect();
-    sources.dedup();
-    for src in sources {
-        writeln!(md, "- {src}")?;
-    }
-    Ok(())
-}
-
-/// Every model on the windows of `spec`, simulated and labelled once (models that label
-/// differently get their own scans of the same seeds); the scores and the window count.
-fn score_all(spec: &CharSetSpec, models: &[&CharModel]) -> Result<(Vec<Score>, usize)> {
-    let inputs: Vec<&CharInput> = models.iter().map(|m| m.input()).collect();
-    let sets = if inputs.iter().all(|i| i.labeler == inputs[0].labeler) {
-        build_many(spec, &inputs)?.0
-    } else {
-        inputs.iter().map(|i| Ok(build(spec, i)?.0)).collect::<Result<_>>()?
-    };
-    let scores: Vec<Score> = models.iter().zip(&sets).map(|(m, set)| m.score(set)).collect::<Result<_>>()?;
-    let n = scores.first().map_or(0, |s| s.n);
-    if scores.iter().any(|s| s.n != n) {
-        bail!("the models saw different window counts");
-    }
-    Ok((scores, n))
-}
-
-fn met(ok: bool) -> &'static str {
-    if ok { "met" } else { "**not met**" }
-}
-
-fn plot_depth(r: &Report, path: &Path) -> Result<()> {
-    crate::plot::register_fonts();
-    let root = BitMapBackend::new(path, (900, 520)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let lo =
-        r.entries.iter().flat_map(|e| e.scores.iter().map(|s| 100.0 * s.accuracy)).fold(100.0f64, f64::min).min(90.0);
-    let mut chart = ChartBuilder::on(&root)
-        .caption("SIMULATED: accuracy against depth, RAB at 8 mm/s", ("sans-serif", 20))
-        .margin(14)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0.1f64..1.6f64, (lo - 2.0).max(0.0)..100.5f64)?;
-    chart.configure_mesh().x_desc("indentation depth (mm)").y_desc("accuracy (%)").draw()?;
-    let colors = [
-        RGBColor(120, 120, 120),
-        RGBColor(60, 120, 200),
-        RGBColor(230, 150, 30),
-        RGBColor(30, 30, 30),
-        RGBColor(200, 40, 40),
-    ];
-    for (i, e) in r.entries.iter().enumerate() {
-        let c = colors[i % colors.len()];
-        let pts: Vec<(f64, f64)> = r.depths_mm.iter().zip(&e.scores).map(|(&d, s)| (d, 100.0 * s.accuracy)).collect();
-        chart
-            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
-            .label(e.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
-    }
-    chart.draw_series(std::iter::once(PathElement::new(vec![(0.55, 95.0), (1.6, 95.0)], BLACK.stroke_width(1))))?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()?;
-    root.present().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    Ok(())
+    .draw(path)
 }
 
 fn plot_confusion(confusion: &[Vec<u32>], title: &str, path: &Path) -> Result<()> {
-    crate::plot::register_fonts();
+    crate::charts::register_fonts();
     let k = confusion.len();
     let root = BitMapBackend::new(path, (760, 760)).into_drawing_area();
     root.fill(&WHITE)?;

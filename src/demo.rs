@@ -32,7 +32,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let data = args.data.clone().unwrap_or_else(|| crate::repo_path("data/icub_braille/raw1350"));
+    let data = args.data.clone().unwrap_or_else(|| crate::common::repo_path("data/icub_braille/raw1350"));
     let out = args.out.clone().unwrap_or_else(|| std::env::temp_dir().join("braille-demo"));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     println!("braille demo\n");
@@ -150,7 +150,7 @@ fn read_letters(
     classes: &[String],
     threshold: f32,
 ) -> Result<()> {
-    let path = crate::repo_path("models/snn-raw1350.safetensors");
+    let path = crate::common::repo_path("models/snn-raw1350.safetensors");
     let model = snn::model_file::SnnModel::load(&path)?;
     let enc: learn::data::TactileEncoding = serde_json::from_value(model.preprocess.clone())
         .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", path.display()))?;
@@ -177,7 +177,7 @@ fn read_letters(
         engine.reset(&mut state, 0);
         engine.run_train(&mut state, &encoder.encode(&letter, 0, enc.steps))?;
         synops += state.stats.synops;
-        let best = crate::eval::argmax(state.output_v_max().iter().copied());
+        let best = experiments::scoring::argmax(state.output_v_max().iter().copied());
         read.push(match classes.get(best).map(String::as_str) {
             Some("Space") => ' ',
             Some(c) => c.chars().next().unwrap_or('?'),
@@ -202,19 +202,23 @@ fn read_letters(
 /// The main job: both rows of the paper's EV board scanned at 16 mm/s by the virtual Evetac
 /// (SIMULATED), each read from its raw events by both architectures.
 fn read_words(out: &Path) -> Result<()> {
-    use crate::read::{Readers, SnnRunnerArg};
-    use crate::train::ArchArg;
+    use pipeline::classify::{ReaderModels, SnnRunner};
     use pipeline::reader::{Spell, Speller};
+    use snn::model_file::Arch;
     let kind = BoardKind::Ev;
     let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(&kind))?;
-    let sensor = crate::simulate::sensor(encoders::Resolution::DVXPLORER, 1)?;
+    let sensor = experiments::datasets::sensor(encoders::Resolution::DVXPLORER, 1)?;
     let speed = 16.0;
     println!(
         "Reading Braille words from raw events (SIMULATED: virtual Evetac scans, not recordings).\nThe EV board at {speed} mm/s, 1.5 mm deep; each scan is read by the segmentation network on every\n10 ms frame (scaled with speed), the character classifier where a character is present, the\ntemporal filter and the lexicon decoder. Both architectures read identical streams.\n"
     );
-    let mut readers = [ArchArg::Resnet, ArchArg::Snn]
+    let models = crate::common::repo_path("models");
+    let readers = [Arch::Resnet, Arch::Snn]
         .into_iter()
-        .map(|a| Ok((a, Readers::load(a, None, None, SnnRunnerArg::Sliding.runner())?)))
+        .map(|a| {
+            let (s, c) = experiments::words::default_models(a, &models);
+            Ok((a, ReaderModels::load(&s, &c, SnnRunner::Sliding)?))
+        })
         .collect::<Result<Vec<_>>>()?;
     let speller = Speller::new(Spell::Lexicon);
     let mut right = vec![(0usize, 0usize); readers.len()];
@@ -224,8 +228,8 @@ fn read_words(out: &Path) -> Result<()> {
         let s = sim::simulate(&board, &sensor, &scan)?;
         let sim_s = t.elapsed().as_secs_f64();
         let path = out.join(format!("ev_row{row}_16mm_s.aedat4"));
-        crate::simulate::write_events(&path, &s.events, sensor.camera.resolution, true)?;
-        crate::simulate::write_json(&crate::simulate::truth_path(&path), &s.truth, true)?;
+        crate::common::write_events(&path, &s.events, sensor.camera.resolution, true)?;
+        experiments::write_json(&crate::common::truth_path(&path), &s.truth, true)?;
         let duration = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
         println!(
             "row {row}: truth {:?}: {} events, {duration:.1} s of stream (simulated in {sim_s:.1} s, written to {})",
@@ -234,9 +238,10 @@ fn read_words(out: &Path) -> Result<()> {
             path.display()
         );
         let truth: Vec<&str> = s.truth.row_text.split_whitespace().collect();
-        for ((arch, r), ok) in readers.iter_mut().zip(right.iter_mut()) {
+        for ((arch, r), ok) in readers.iter().zip(right.iter_mut()) {
             let t = Instant::now();
-            let (words, stats) = r.read(&s.events, sensor.camera.resolution, speed, &speller)?;
+            let got = r.read(&s.events, sensor.camera.resolution, speed, &speller)?;
+            let (words, stats) = (got.words, got.stats);
             let took = t.elapsed().as_secs_f64();
             let read: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
             let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
@@ -245,7 +250,7 @@ fn read_words(out: &Path) -> Result<()> {
             ok.1 += truth.len();
             println!(
                 "  {:<6} read {:?} (letters as registered: {:?}): {hits}/{} words right, in {:.2} s = {:.1}% of the stream's duration ({} frames, classifier on {})",
-                crate::words::arch_name(*arch),
+                arch,
                 read.join(" "),
                 raw.join(" "),
                 truth.len(),
@@ -257,7 +262,7 @@ fn read_words(out: &Path) -> Result<()> {
         }
     }
     for ((arch, _), (hits, n)) in readers.iter().zip(&right) {
-        println!("{}: {hits}/{n} words right on the two rows (SIMULATED).", crate::words::arch_name(*arch));
+        println!("{arch}: {hits}/{n} words right on the two rows (SIMULATED).");
     }
     println!(
         "Read a file yourself: braille read {} --arch snn\nThe speed table (8-32 mm/s, 30 scans per row): docs/words.md.\n",

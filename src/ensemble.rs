@@ -56,7 +56,7 @@ pub fn run(args: Args) -> Result<()> {
         classes: first.classes.clone(),
         provenance,
     };
-    crate::train::save_model(&model, &args.out, args.force)?;
+    experiments::train::save_model(&model, &args.out, args.force)?;
     eprintln!("wrote {} ({} members)", args.out.display(), members.len());
     Ok(())
 }

@@ -1,15 +1,19 @@
-//! `braille eval`: a trained model's accuracy on a dataset folder's split, run by the
-//! event-driven engine.
+//! `braille eval`: a trained model's accuracy: on a dataset folder's split (the SNN on the
+//! event-driven engine), on simulated character windows (`eval chars`), or reading words from
+//! simulated scans (`eval words`).
 
-use anyhow::{Context, Result};
-use encoders::dataset::{Dataset, Split};
-use learn::data::{SpikeSet, TactileEncoding};
-use rayon::prelude::*;
+use crate::common::Bar;
+use anyhow::Result;
+use experiments::datasets::{CharSetSpec, Task};
+use experiments::tactile::SplitChoice;
+use experiments::words::WordsSpec;
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::Spell;
 use serde::Serialize;
-use snn::engine::{Engine, Mode};
-use snn::model_file::{Readout, SnnConfig, SnnModel};
-use snn::network::Network;
-use std::path::{Path, PathBuf};
+use sim::BoardKind;
+use snn::engine::Mode;
+use snn::model_file::Arch;
+use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SplitArg {
@@ -19,12 +23,6 @@ pub enum SplitArg {
     Validation,
     Test,
     All,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ModeArg {
-    Stepped,
-    Async,
 }
 
 #[derive(clap::Args)]
@@ -49,7 +47,7 @@ pub struct Args {
     /// Engine mode: `stepped` reproduces the trained network exactly; `async` fires at threshold
     /// crossings (LIF and IF layers only).
     #[arg(long, value_enum, default_value = "stepped")]
-    mode: ModeArg,
+    mode: Mode,
     /// Print JSON.
     #[arg(long)]
     json: bool,
@@ -62,88 +60,9 @@ pub struct Args {
 #[derive(clap::Subcommand)]
 pub enum What {
     /// A character classifier on simulated scans of a board (SIMULATED data).
-    Chars(crate::chars::EvalCharsArgs),
+    Chars(CharsArgs),
     /// Word reading on simulated scans of a board: the paper's four conditional metrics (SIMULATED data).
-    Words(crate::words::EvalWordsArgs),
-}
-
-/// Accuracy and work of an SNN on a set of spike trains.
-#[derive(Debug, Clone, Serialize)]
-pub struct Scored {
-    pub accuracy: f64,
-    pub n: usize,
-    pub correct: usize,
-    pub synops_per_sample: f64,
-    pub spikes_per_sample: f64,
-    pub input_events_per_sample: f64,
-    /// `[truth][predicted]` counts.
-    pub confusion: Vec<Vec<u32>>,
-    /// Per sample: the predicted class and the readout it was taken from (max membranes or
-    /// spike counts).
-    #[serde(skip)]
-    pub predictions: Vec<(usize, Vec<f32>)>,
-}
-
-/// Runs every sample through the event-driven engine (stepped mode) and scores the readout.
-pub fn snn_accuracy(network: &Network, config: &SnnConfig, set: &SpikeSet) -> Result<Scored> {
-    snn_accuracy_in(network, config, set, Mode::Stepped)
-}
-
-pub fn snn_accuracy_in(network: &Network, config: &SnnConfig, set: &SpikeSet, mode: Mode) -> Result<Scored> {
-    let engine = Engine::new(network, config.dt_us, mode)?;
-    let n_out = engine.n_outputs();
-    let results: Vec<(Vec<f32>, u64, u64, u64)> = set
-        .trains
-        .par_iter()
-        .map_init(
-            || engine.state(0),
-            |st, train| -> Result<(Vec<f32>, u64, u64, u64)> {
-                engine.run_train(st, train)?;
-                let readout = match config.readout {
-                    Readout::MaxMembrane => st.output_v_max().to_vec(),
-                    Readout::SpikeCount => st.output_counts(n_out).into_iter().map(|c| c as f32).collect(),
-                };
-                Ok((readout, st.stats.synops, st.stats.spikes.iter().sum(), st.stats.input_events))
-            },
-        )
-        .collect::<Result<_>>()?;
-    let k = set.classes.len().max(n_out);
-    let mut confusion = vec![vec![0u32; k]; k];
-    let mut correct = 0;
-    let (mut synops, mut spikes) = (0u64, 0u64);
-    // sensor events (a step's several events at one input reach the engine as one weighted input)
-    let inputs: u64 = set.trains.iter().map(|t| t.total()).sum();
-    let mut predictions = Vec::with_capacity(results.len());
-    for ((readout, s, z, _), &label) in results.into_iter().zip(&set.labels) {
-        let pred = argmax(readout.iter().copied());
-        confusion[label][pred] += 1;
-        correct += usize::from(pred == label);
-        synops += s;
-        spikes += z;
-        predictions.push((pred, readout));
-    }
-    let n = set.len().max(1) as f64;
-    Ok(Scored {
-        accuracy: correct as f64 / n,
-        n: set.len(),
-        correct,
-        synops_per_sample: synops as f64 / n,
-        spikes_per_sample: spikes as f64 / n,
-        input_events_per_sample: inputs as f64 / n,
-        confusion,
-        predictions,
-    })
-}
-
-/// The index of the largest value; the first on ties (as burn's argmax).
-pub fn argmax(v: impl Iterator<Item = f32>) -> usize {
-    let mut best = (0, f32::NEG_INFINITY);
-    for (i, x) in v.enumerate() {
-        if x > best.1 {
-            best = (i, x);
-        }
-    }
-    best.0
+    Words(WordsArgs),
 }
 
 #[derive(Serialize)]
@@ -151,7 +70,7 @@ struct Report<'a> {
     data: String,
     split: &'a str,
     model: String,
-    mode: &'a str,
+    mode: &'static str,
     accuracy: f64,
     n: usize,
     correct: usize,
@@ -162,46 +81,28 @@ struct Report<'a> {
 
 pub fn run(args: Args) -> Result<()> {
     match args.what {
-        Some(What::Chars(a)) => return crate::chars::eval(a),
-        Some(What::Words(a)) => return crate::words::eval(a),
+        Some(What::Chars(a)) => return chars(a),
+        Some(What::Words(a)) => return words(a),
         None => {}
     }
     let (Some(data_dir), Some(model_path)) = (args.data.clone(), args.model.clone()) else {
         anyhow::bail!("eval needs --data DIR and --model PATH, or the `chars` or `words` subcommand");
     };
-    let model = SnnModel::load(&model_path)?;
-    let encoding: TactileEncoding = serde_json::from_value(model.preprocess.clone())
-        .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", model_path.display()))?;
-    let data = Dataset::load(&data_dir, encoding.period_us)?;
+    let model = pipeline::models::load_snn(&model_path)?;
+    let encoding = experiments::tactile::encoding_of(&model, &model_path)?;
     let split = match args.split {
-        SplitArg::Train | SplitArg::Validation => Some(Split::Train),
-        SplitArg::Test => Some(Split::Test),
-        SplitArg::All => None,
+        SplitArg::Train => SplitChoice::Train,
+        SplitArg::Validation => SplitChoice::Validation { fraction: args.val_fraction, seed: args.val_seed },
+        SplitArg::Test => SplitChoice::Test,
+        SplitArg::All => SplitChoice::All,
     };
-    let mut set = encoding.encode(&data, split)?;
-    if args.split == SplitArg::Validation {
-        anyhow::ensure!(
-            args.val_fraction > 0.0 && args.val_fraction < 1.0,
-            "--val-fraction must lie between 0 and 1, got {}",
-            args.val_fraction
-        );
-        set = set.stratified_split(args.val_fraction, args.val_seed).1;
-    }
-    let mode = match args.mode {
-        ModeArg::Stepped => Mode::Stepped,
-        ModeArg::Async => Mode::Async,
-    };
-    let s = snn_accuracy_in(&model.network, &model.config, &set, mode)?;
+    let set = experiments::tactile::load_split(&data_dir, &encoding, split)?;
+    let s = experiments::tactile::snn_accuracy(&model.network, &model.config, &set, args.mode)?;
     let report = Report {
         data: data_dir.display().to_string(),
-        split: match args.split {
-            SplitArg::Train => "train",
-            SplitArg::Validation => "validation",
-            SplitArg::Test => "test",
-            SplitArg::All => "all",
-        },
+        split: split.name(),
         model: model_path.display().to_string(),
-        mode: match mode {
+        mode: match args.mode {
             Mode::Stepped => "stepped",
             Mode::Async => "async",
         },
@@ -213,7 +114,8 @@ pub fn run(args: Args) -> Result<()> {
         input_events_per_sample: s.input_events_per_sample,
     };
     if let Some(path) = &args.predictions {
-        write_predictions(path, &model.classes, &set.labels, &s.predictions)?;
+        let csv = experiments::tactile::predictions_csv(&model.classes, &set.labels, &s.predictions);
+        std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -233,29 +135,142 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Per sample: `index,truth,predicted,` and one readout column per class.
-fn write_predictions(
-    path: &Path,
-    classes: &[String],
-    labels: &[usize],
-    predictions: &[(usize, Vec<f32>)],
-) -> Result<()> {
-    use std::fmt::Write as _;
-    // a class name with a comma, quote or line break is quoted (RFC 4180)
-    let field = |s: &str| {
-        if s.contains([',', '"', '\n', '\r']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+#[derive(clap::Args)]
+pub struct CharsArgs {
+    #[arg(long, value_enum, default_value = "resnet")]
+    arch: Arch,
+    /// The model file [default: the architecture's shipped model, models/resnet-lite-normaug.safetensors
+    /// or models/snn-chars.safetensors].
+    #[arg(long)]
+    model: Option<PathBuf>,
+    #[arg(long, default_value = "RAB")]
+    board: BoardKind,
+    #[arg(long, default_value_t = 8.0)]
+    speed: f64,
+    #[arg(long, default_value_t = 1.5)]
+    depth: f64,
+    /// Scans per board row.
+    #[arg(long, default_value_t = 4)]
+    trials: u64,
+    /// Scan seed (training used seeds from its own; the default keeps test scans apart).
+    #[arg(long, default_value_t = 1_000_003)]
+    seed: u64,
+    #[arg(long)]
+    json: bool,
+}
+
+fn chars(args: CharsArgs) -> Result<()> {
+    let path = args.model.clone().unwrap_or_else(|| experiments::chars::default_path(args.arch));
+    let spec = CharSetSpec {
+        boards: vec![args.board.clone()],
+        speed_mm_s: args.speed,
+        depth_mm: args.depth,
+        trials: args.trials,
+        seed: args.seed,
+        task: Task::Chars,
+        jitter_ms: 0.0,
     };
-    let mut out = String::from("index,truth,predicted");
-    for c in classes {
-        write!(out, ",{}", field(&format!("readout_{c}")))?;
+    let r = experiments::chars::eval(&path, &spec, &Bar::default())?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped): {} accuracy {:.2}%, macro F1 {:.3}, loss {:.3}{}",
+            r.board,
+            r.speed_mm_s,
+            r.depth_mm,
+            r.score.n,
+            r.scans,
+            r.skipped_scans,
+            r.arch,
+            100.0 * r.score.accuracy,
+            r.score.macro_f1,
+            r.score.loss,
+            r.score.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a))
+        );
     }
-    out.push('\n');
-    for (k, (&label, (pred, readout))) in labels.iter().zip(predictions).enumerate() {
-        write!(out, "{k},{},{}", field(&classes[label]), field(&classes[*pred]))?;
-        for v in readout {
-            write!(out, ",{v}")?;
-        }
-        out.push('\n');
+    Ok(())
+}
+
+#[derive(clap::Args)]
+pub struct WordsArgs {
+    #[arg(long, value_enum, default_value = "snn")]
+    arch: Arch,
+    /// Board: SAB, UN, RAB, EV, or text:"ANY WORDS" (`/` starts a new row).
+    #[arg(long, default_value = "EV")]
+    board: BoardKind,
+    #[arg(long, default_value_t = 16.0)]
+    speed: f64,
+    #[arg(long, default_value_t = 1.5)]
+    depth: f64,
+    /// Scans per board row.
+    #[arg(long, default_value_t = 30)]
+    trials: u64,
+    #[arg(long, value_enum, default_value = "lexicon")]
+    spell: Spell,
+    /// Scan seed (training used others).
+    #[arg(long, default_value_t = 1_000_003)]
+    seed: u64,
+    #[arg(long, value_enum, default_value = "sliding")]
+    snn_runner: SnnRunner,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct WordsReport<'a> {
+    data: &'static str,
+    board: String,
+    spell: Spell,
+    words_per_line: f64,
+    letters_per_word: f64,
+    correct_words: f64,
+    correct_letters: f64,
+    #[serde(flatten)]
+    score: &'a experiments::words::WordsScore,
+}
+
+fn words(args: WordsArgs) -> Result<()> {
+    let (s, c) = experiments::words::default_models(args.arch, &crate::common::repo_path("models"));
+    let readers = ReaderModels::load(&s, &c, args.snn_runner)?;
+    let spec = WordsSpec {
+        board: args.board.clone(),
+        speed_mm_s: args.speed,
+        depth_mm: args.depth,
+        trials: args.trials,
+        seed: args.seed,
+    };
+    let lines = experiments::words::read_scans(&spec, &[&readers], &Bar::default())?;
+    let s = experiments::words::score(args.arch, 0, &lines, args.speed, args.depth);
+    let m = s.by_spell.iter().find(|b| b.spell == args.spell).expect("every spelling is scored");
+    let r = WordsReport {
+        data: "simulated (virtual Evetac)",
+        board: args.board.name(),
+        spell: args.spell,
+        words_per_line: m.words_per_line,
+        letters_per_word: m.letters_per_word,
+        correct_words: m.correct_words,
+        correct_letters: m.correct_letters,
+        score: &s,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "SIMULATED {} at {} mm/s, {} mm, {} lines, {} architecture, spelling {:?}: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            r.board,
+            args.speed,
+            args.depth,
+            s.lines,
+            s.arch,
+            args.spell,
+            r.words_per_line,
+            r.letters_per_word,
+            r.correct_words,
+            r.correct_letters,
+            s.stream_s,
+            s.read_s
+        );
     }
-    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
+    Ok(())
 }

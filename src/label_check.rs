@@ -2,10 +2,6 @@
 //! fresh simulated scans.
 
 use anyhow::Result;
-use pipeline::labeling::{LabelerConfig, label, score};
-use rayon::prelude::*;
-use serde::Serialize;
-use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -19,64 +15,8 @@ pub struct Args {
     json: bool,
 }
 
-#[derive(Serialize)]
-struct Row {
-    board: String,
-    speed_mm_s: f64,
-    depth_mm: f64,
-    scans: usize,
-    characters: usize,
-    correct: usize,
-    accuracy: f64,
-    count_matched: usize,
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let sensor = crate::simulate::sensor(encoders::Resolution::DVXPLORER, 1)?;
-    let cfg = LabelerConfig::default();
-    // The paper's training boards at its training condition, the test board over depth, and
-    // every board kind over speed.
-    let mut conditions: Vec<(BoardKind, f64, f64)> = vec![(BoardKind::Sab, 8.0, 1.5), (BoardKind::Un, 8.0, 1.5)];
-    conditions.extend([0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5].map(|d| (BoardKind::Rab, 8.0, d)));
-    conditions.extend([16.0, 24.0, 32.0].map(|v| (BoardKind::Rab, v, 1.5)));
-    conditions.extend([8.0, 16.0, 24.0, 32.0].map(|v| (BoardKind::Ev, v, 1.5)));
-    let rows: Vec<Result<Row>> = conditions
-        .par_iter()
-        .map(|(kind, speed, depth)| {
-            let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(kind))?;
-            let (mut chars, mut correct, mut matched, mut scans) = (0, 0, 0, 0);
-            for row in 0..board.rows.len() {
-                for trial in 0..args.trials {
-                    let scan = ScanConfig {
-                        speed_mm_s: *speed,
-                        depth_mm: *depth,
-                        row,
-                        seed: crate::simulate::trial_seed(args.seed, row, trial),
-                        ..ScanConfig::default()
-                    };
-                    let s = sim::simulate(&board, &sensor, &scan)?;
-                    let n = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).count();
-                    let l = label(&s.events, sensor.camera.resolution, *speed, n, &cfg)?;
-                    let sc = score(&l, &s.truth, &cfg);
-                    chars += sc.expected;
-                    correct += sc.correct;
-                    matched += l.count_matched as usize;
-                    scans += 1;
-                }
-            }
-            Ok(Row {
-                board: kind.name(),
-                speed_mm_s: *speed,
-                depth_mm: *depth,
-                scans,
-                characters: chars,
-                correct,
-                accuracy: correct as f64 / chars.max(1) as f64,
-                count_matched: matched,
-            })
-        })
-        .collect();
-    let rows = rows.into_iter().collect::<Result<Vec<_>>>()?;
+    let rows = experiments::labeling::label_check(args.trials, args.seed)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());

@@ -2,8 +2,9 @@
 //! streams; `demo` shows what works on built-in defaults.
 
 mod bench;
-mod chars;
 mod chars_report;
+mod charts;
+mod common;
 mod convert;
 mod demo;
 mod ensemble;
@@ -18,17 +19,10 @@ mod report;
 mod sim_check;
 mod simulate;
 mod train;
-mod words;
+mod words_report;
 
 use clap::{Parser, Subcommand};
-use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-
-/// A file of the repository: from the working directory, else from where the binary was built.
-pub fn repo_path(rel: &str) -> PathBuf {
-    let local = PathBuf::from(rel);
-    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
-}
 
 #[derive(Parser)]
 #[command(
@@ -59,7 +53,7 @@ enum Command {
     /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
     Bench(bench::Args),
     /// Train a classifier (the SNN on a tactile dataset folder) and save it as a model file.
-    Train(train::Args),
+    Train(Box<train::Args>),
     /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
     /// engine), or `eval chars` on simulated scans of a board.
     Eval(eval::Args),
@@ -73,7 +67,7 @@ enum Command {
     Read(read::Args),
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-32 mm/s, with and
     /// without spelling (Markdown, JSON, PNG).
-    WordsReport(words::ReportArgs),
+    WordsReport(words_report::Args),
     /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
     /// PNG); `--quick` for a fast check that it all runs.
     Report(report::Args),
@@ -100,13 +94,13 @@ fn main() -> ExitCode {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::LabelCheck(a) => label_check::run(a),
-        Command::Train(a) => train::run(a),
+        Command::Train(a) => train::run(*a),
         Command::Eval(a) => eval::run(a),
         Command::IcubReport(a) => icub_report::run(a),
         Command::CharsReport(a) => chars_report::run(a),
         Command::Read(a) => read::run(a),
         Command::Report(a) => report::run(a),
-        Command::WordsReport(a) => words::report(a),
+        Command::WordsReport(a) => words_report::run(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
         Command::Ensemble(a) => ensemble::run(a),

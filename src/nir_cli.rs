@@ -23,7 +23,7 @@ pub enum TargetArg {
 #[derive(clap::Args)]
 pub struct ExportArgs {
     #[arg(long, value_enum, default_value = "snn")]
-    arch: crate::train::ArchArg,
+    arch: snn::model_file::Arch,
     /// The model file [default: models/snn-raw1350.safetensors].
     #[arg(long)]
     model: Option<PathBuf>,
@@ -79,7 +79,7 @@ fn target(t: TargetArg) -> Target {
 }
 
 pub fn export(args: ExportArgs) -> Result<()> {
-    if args.arch != crate::train::ArchArg::Snn {
+    if args.arch != snn::model_file::Arch::Snn {
         bail!("only SNNs export to NIR; a ResNet is not a spiking network");
     }
     let path = args.model.unwrap_or_else(|| PathBuf::from("models/snn-raw1350.safetensors"));

@@ -5,7 +5,6 @@ use anyhow::{Context, Result, bail};
 use encoders::Polarity;
 use encoders::formats::{self, OpenOptions};
 use plotters::prelude::*;
-use plotters::style::{FontStyle, register_font};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -29,11 +28,6 @@ pub struct Args {
     title: String,
     #[arg(long)]
     force: bool,
-}
-
-pub fn register_fonts() {
-    static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
-    let _ = register_font("sans-serif", FontStyle::Normal, FONT);
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -74,7 +68,7 @@ pub fn run(args: Args) -> Result<()> {
         if e.polarity == Polarity::On { cell.0 += 1 } else { cell.1 += 1 }
     }
 
-    register_fonts();
+    crate::charts::register_fonts();
     let root = BitMapBackend::new(&args.out, (1200, 900)).into_drawing_area();
     root.fill(&WHITE)?;
     let title = if args.title.is_empty() { args.file.display().to_string() } else { args.title.clone() };

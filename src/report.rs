@@ -120,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
         times.push((step.name, run_step(out, step)?));
     }
     std::fs::remove_file(&scan).ok();
-    std::fs::remove_file(crate::simulate::truth_path(Path::new(&scan))).ok();
+    std::fs::remove_file(crate::common::truth_path(Path::new(&scan))).ok();
     let (lat_md, lat_png) = latency(out)?;
     let mut md = String::new();
     let _ = writeln!(
@@ -215,7 +215,7 @@ fn latency(out: &Path) -> Result<(String, &'static str)> {
     }
     let png = "latency.png";
     let path = out.join(png);
-    crate::plot::register_fonts();
+    crate::charts::register_fonts();
     let root = BitMapBackend::new(&path, (900, 480)).into_drawing_area();
     root.fill(&WHITE)?;
     let series: Vec<Series> = runs

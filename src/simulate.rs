@@ -1,17 +1,16 @@
 //! `braille simulate`: scans of Braille boards by the virtual Evetac, written as event files with
 //! their ground truth.
 
+use crate::common::{truth_path, write_events};
 use anyhow::{Context, Result, bail};
-use encoders::formats::aedat4::{self, EncoderOptions};
-use encoders::formats::{self, AtomicFile, EventSink, Format};
+use encoders::Resolution;
+use encoders::formats::Format;
 use encoders::stats::StreamStats;
-use encoders::{Event, Resolution};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
-use sim::board::stable_hash;
-use sim::{Board, BoardGeometry, BoardKind, CameraConfig, Direction, GelConfig, ScanConfig, Sensor};
-use std::path::{Path, PathBuf};
+use sim::{Board, BoardGeometry, BoardKind, Direction, ScanConfig};
+use std::path::PathBuf;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum DirectionArg {
@@ -84,44 +83,10 @@ struct Summary {
     files: Vec<FileSummary>,
 }
 
-/// The seed of one trial of one row.
-pub fn trial_seed(seed: u64, row: usize, trial: u64) -> u64 {
-    stable_hash(&format!("{seed}/{row}/{trial}"))
-}
-
-/// Writes events to `path` in the format of its extension.
-pub fn write_events(path: &Path, events: &[Event], resolution: Resolution, force: bool) -> Result<()> {
-    let mut sink: Box<dyn EventSink> = match Format::for_output(path)? {
-        Format::Aedat4 => {
-            let file = AtomicFile::create(path, force)?;
-            let opts =
-                EncoderOptions { source: "braille simulate (virtual Evetac)".into(), ..EncoderOptions::default() };
-            Box::new(aedat4::Encoder::new(file, Some(resolution), opts)?)
-        }
-        _ => formats::create(path, Some(resolution), force)?,
-    };
-    sink.write(events)?;
-    sink.finish()?;
-    Ok(())
-}
-
-pub fn write_json(path: &Path, value: &impl Serialize, force: bool) -> Result<()> {
-    let mut f = AtomicFile::create(path, force)?;
-    serde_json::to_writer_pretty(&mut f, value)?;
-    std::io::Write::write_all(&mut f, b"\n")?;
-    f.commit()?;
-    Ok(())
-}
-
-pub fn sensor(resolution: Resolution, seed: u64) -> Result<Sensor> {
-    let camera = CameraConfig { resolution, ..CameraConfig::default() };
-    Ok(Sensor::new(camera, GelConfig::default(), seed)?)
-}
-
 pub fn run(args: Args) -> Result<()> {
     let board_seed = args.board_seed.unwrap_or_else(|| Board::default_seed(&args.board));
     let board = Board::new(args.board.clone(), BoardGeometry::default(), board_seed)?;
-    let sensor = sensor(args.resolution, args.sensor_seed)?;
+    let sensor = experiments::datasets::sensor(args.resolution, args.sensor_seed)?;
     let rows: Vec<usize> = match args.row {
         Some(r) if r >= board.rows.len() => {
             bail!("--row {r}: the board has {} rows (0..{})", board.rows.len(), board.rows.len() - 1)
@@ -157,7 +122,7 @@ pub fn run(args: Args) -> Result<()> {
                 depth_mm: args.depth,
                 row,
                 direction,
-                seed: trial_seed(args.seed, row, trial),
+                seed: experiments::datasets::trial_seed(args.seed, row, trial),
                 ..ScanConfig::default()
             };
             let s = sim::simulate(&board, &sensor, &scan)?;
@@ -168,7 +133,7 @@ pub fn run(args: Args) -> Result<()> {
             };
             let truth_path = truth_path(&events_path);
             write_events(&events_path, &s.events, args.resolution, args.force)?;
-            write_json(&truth_path, &s.truth, args.force)?;
+            experiments::write_json(&truth_path, &s.truth, args.force)?;
             let mut stats = StreamStats::default();
             stats.add(&s.events);
             bar.inc(1);
@@ -228,10 +193,4 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// `scan.aedat4` -> `scan.truth.json`.
-pub fn truth_path(events: &Path) -> PathBuf {
-    let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    events.with_file_name(format!("{stem}.truth.json"))
 }

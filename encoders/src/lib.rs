@@ -20,6 +20,7 @@
 //! assert_eq!(map.get(1, 0, 10, 25), 1.0); // bin 1, OFF
 //! ```
 
+pub mod braille;
 pub mod dataset;
 pub mod error;
 pub mod event;

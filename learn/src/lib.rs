@@ -1,9 +1,18 @@
-//! Dense-tensor training on burn (CPU `flex` backend with autodiff): the SNN's time-stepped twin
-//! trained by backpropagation through time with surrogate gradients ([`snn`], [`train`]), and the
-//! labelled spike trains it learns from ([`data`]). Trained SNNs leave as [`::snn::network::Network`]s
-//! for the event-driven engine.
+//! Dense-tensor networks on burn (CPU `flex` backend): the paper's ResNet baseline ([`resnet`]:
+//! inference always, training with the `train` feature), and with `train` the SNN's time-stepped
+//! twin trained by backpropagation through time with surrogate gradients ([`snn`], [`train`]);
+//! the labelled spike trains they learn from ([`data`]). Trained SNNs leave as
+//! [`::snn::network::Network`]s for the event-driven engine.
+//!
+//! Without the `train` feature (default on) burn's autodiff and optimisers are not compiled:
+//! readers that only run a trained ResNet depend on this crate with `default-features = false`.
 
 pub mod data;
+pub mod error;
 pub mod resnet;
+#[cfg(feature = "train")]
 pub mod snn;
+#[cfg(feature = "train")]
 pub mod train;
+
+pub use error::{Error, Result};

@@ -4,6 +4,7 @@
 //! ReLU and dropout. `paper` is ResNet-34's stages (3, 4, 6, 3 blocks of 64 to 512 channels);
 //! `lite` is narrower and shallower for two CPU cores.
 
+use crate::error::{Error, Result};
 use burn::module::Module;
 use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::nn::pool::{AdaptiveAvgPool2d, AdaptiveAvgPool2dConfig, MaxPool2d, MaxPool2dConfig};
@@ -209,12 +210,12 @@ mod tests {
         assert_eq!(cfg2.macs(), 6272 + 1152 + (4 * 8 * 9) + (8 * 8 * 9) + (4 * 8) + 8 * 3);
     }
 
-    use burn::nn::loss::CrossEntropyLossConfig;
-    use burn::optim::{AdamConfig, GradientsParams};
-    use burn::tensor::{Int, TensorData};
-
+    #[cfg(feature = "train")]
     #[test]
     fn shapes_and_one_step_of_learning() {
+        use burn::nn::loss::CrossEntropyLossConfig;
+        use burn::optim::{AdamConfig, GradientsParams};
+        use burn::tensor::{Int, TensorData};
         let device = Device::flex().autodiff();
         device.seed(1);
         let cfg = ResnetConfig::lite([4, 24, 32], 3);
@@ -246,7 +247,7 @@ mod tests {
         let (a, b) = (trained.forward(probe.clone()).into_data(), again.forward(probe).into_data());
         assert_eq!(a, b);
         let other = ResnetConfig { stem_channels: 8, ..cfg.clone() };
-        let e = from_tensors(&other, &tensors).err().unwrap_or_default();
+        let e = from_tensors(&other, &tensors).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("do not fit"), "{e}");
         // the paper's configuration builds and runs too
         let paper = ResnetConfig::paper([4, 24, 32], 26).init(&Device::flex());
@@ -326,6 +327,7 @@ pub fn evaluate(model: &Resnet, set: &ImageSet, batch_size: usize) -> (f64, f64,
 
 /// Trains a ResNet: Adam, seeded shuffling and initialisation, `augment` applied to each training
 /// image each time it is drawn, the best validation epoch kept.
+#[cfg(feature = "train")]
 pub fn train(
     cfg: &ResnetConfig,
     train_set: &ImageSet,
@@ -393,16 +395,16 @@ pub fn train(
 }
 
 /// The model's tensors by their dotted field names (burn's safetensors naming).
-pub fn to_tensors(model: &Resnet) -> std::result::Result<Vec<::snn::model_file::NamedTensor>, String> {
+pub fn to_tensors(model: &Resnet) -> Result<Vec<::snn::model_file::NamedTensor>> {
     use burn::store::{ModuleSnapshot, SafetensorsStore};
     let mut store = SafetensorsStore::from_bytes(None);
-    model.save_into(&mut store).map_err(|e| e.to_string())?;
-    let bytes = store.get_bytes().map_err(|e| e.to_string())?;
-    let st = safetensors::SafeTensors::deserialize(&bytes).map_err(|e| e.to_string())?;
+    model.save_into(&mut store).map_err(|e| Error::Store(e.to_string()))?;
+    let bytes = store.get_bytes().map_err(|e| Error::Store(e.to_string()))?;
+    let st = safetensors::SafeTensors::deserialize(&bytes)?;
     let mut out = Vec::new();
     for (name, view) in st.tensors() {
         if view.dtype() != safetensors::Dtype::F32 {
-            return Err(format!("tensor `{name}` is {:?}, not F32", view.dtype()));
+            return Err(Error::Tensors(format!("tensor `{name}` is {:?}, not F32", view.dtype())));
         }
         let data = view.data().chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         out.push(::snn::model_file::NamedTensor { name, shape: view.shape().to_vec(), data });
@@ -412,10 +414,7 @@ pub fn to_tensors(model: &Resnet) -> std::result::Result<Vec<::snn::model_file::
 }
 
 /// A model of `cfg` holding `tensors`; every tensor must be used and none missing.
-pub fn from_tensors(
-    cfg: &ResnetConfig,
-    tensors: &[::snn::model_file::NamedTensor],
-) -> std::result::Result<Resnet, String> {
+pub fn from_tensors(cfg: &ResnetConfig, tensors: &[::snn::model_file::NamedTensor]) -> Result<Resnet> {
     use burn::store::{ModuleSnapshot, SafetensorsStore};
     let bytes: Vec<(String, Vec<u8>, Vec<usize>)> = tensors
         .iter()
@@ -426,21 +425,20 @@ pub fn from_tensors(
         .map(|(n, b, s)| {
             safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b).map(|v| (n.clone(), v))
         })
-        .collect::<std::result::Result<Vec<_>, _>>()
-        .map_err(|e| e.to_string())?;
-    let st = safetensors::serialize(views, None).map_err(|e| e.to_string())?;
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let st = safetensors::serialize(views, None)?;
     let mut model = cfg.init(&Device::flex());
     let r = model
         .load_from(&mut SafetensorsStore::from_bytes(Some(st)))
-        .map_err(|e| format!("tensors do not fit the config: {e}"))?;
+        .map_err(|e| Error::Tensors(format!("tensors do not fit the config: {e}")))?;
     if !r.errors.is_empty() || !r.missing.is_empty() || !r.unused.is_empty() {
-        return Err(format!(
+        return Err(Error::Tensors(format!(
             "tensors do not fit the config: {} errors ({}), missing {:?}, unused {:?}",
             r.errors.len(),
             r.errors.first().map_or(String::new(), |e| format!("{e:?}")),
             r.missing.iter().map(|m| &m.0).collect::<Vec<_>>(),
             r.unused
-        ));
+        )));
     }
     Ok(model.valid())
 }

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 /// The paper's four input configurations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Preprocess {
     /// Counts as they are.
     Raw,
@@ -23,6 +24,7 @@ pub enum Preprocess {
     Aug,
     /// Centring, normalisation and augmentation (in training).
     #[default]
+    #[cfg_attr(feature = "clap", value(name = "normaug"))]
     NormAug,
 }
 

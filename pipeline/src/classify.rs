@@ -5,17 +5,20 @@
 
 use crate::error::{Error, Result};
 use crate::input::CharInput;
+use crate::models::Model;
 use crate::reader::{Window, WindowClassifier};
 use learn::resnet::Resnet;
 use serde::{Deserialize, Serialize};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::{Readout, SnnModel};
 use snn::sliding::{RunScratch, Sliding};
+use std::path::Path;
 use std::time::Instant;
 
 /// How the SNN reads a window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SnnRunner {
     /// The first layer's synaptic currents are computed once per frame and shared by the
     /// overlapping windows (`snn::sliding`); exactly the trained network's output.
@@ -35,38 +38,53 @@ struct BinCache {
     currents: Vec<(i64, Vec<f32>)>,
 }
 
+/// What a loaded model runs: shared by every stream (nothing here changes while reading).
 #[allow(clippy::large_enum_variant)] // one per model: the size does not matter
 enum Runner {
-    Resnet {
-        model: Resnet,
-        input: CharInput,
-    },
-    Engine {
-        model: SnnModel,
-        input: CharInput,
-        engine: Engine,
-        state: EngineState,
-    },
-    Sliding {
-        model: SnnModel,
-        input: CharInput,
-        net: Sliding,
-        bins: std::collections::VecDeque<BinCache>,
-        scratch: Vec<f32>,
-        run: RunScratch,
-    },
+    Resnet { model: Resnet, input: CharInput },
+    Engine { model: SnnModel, input: CharInput, engine: Engine },
+    Sliding { model: SnnModel, input: CharInput, net: Sliding },
 }
 
-/// A trained network that reads windows, with its work counted.
+/// A trained network that reads windows. It holds parameters only: it is shared (`&self`,
+/// `Send + Sync`) by any number of streams, each with its own [`WindowState`].
 pub struct WindowModel {
     runner: Runner,
     classes: Vec<String>,
+}
+
+/// What one stream keeps of one model between windows: the engine's neuron state or the sliding
+/// runner's per-bin cache, and the work counted.
+pub struct WindowState {
+    kind: StateKind,
+    pub stats: CallStats,
+}
+
+#[allow(clippy::large_enum_variant)] // one per stream and model
+enum StateKind {
+    None,
+    Engine(EngineState),
+    Sliding { bins: std::collections::VecDeque<BinCache>, scratch: Vec<f32>, run: RunScratch },
+}
+
+/// A model's work on one stream.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CallStats {
     /// Windows read, synaptic operations (SNN), time spent.
     pub calls: u64,
     pub synops: u64,
     pub nanos: u64,
     /// The time of each call (bounded memory).
     pub latency: Histogram,
+}
+
+impl CallStats {
+    pub fn merge(&mut self, other: &CallStats) {
+        self.calls += other.calls;
+        self.synops += other.synops;
+        self.nanos += other.nanos;
+        self.latency.merge(&other.latency);
+    }
 }
 
 /// Durations in logarithmic buckets (four per octave, 1 ns to about 4 s): percentiles within 19%,
@@ -126,14 +144,7 @@ impl Histogram {
 impl WindowModel {
     /// A ResNet (in evaluation mode) whose input is made as `input` says.
     pub fn resnet(model: Resnet, input: CharInput, classes: Vec<String>) -> WindowModel {
-        WindowModel {
-            runner: Runner::Resnet { model, input },
-            classes,
-            calls: 0,
-            synops: 0,
-            nanos: 0,
-            latency: Histogram::default(),
-        }
+        WindowModel { runner: Runner::Resnet { model, input }, classes }
     }
 
     /// An SNN whose input spikes are made as `input` says.
@@ -145,56 +156,30 @@ impl WindowModel {
                 model.network.n_inputs()
             )));
         }
-        let net_err = |e: snn::Error| Error::Config(e.to_string());
         let classes = model.classes.clone();
         let runner = match runner {
             SnnRunner::Engine => {
-                let engine = Engine::new(&model.network, model.config.dt_us, Mode::Stepped).map_err(net_err)?;
-                let state = engine.state(0);
-                Runner::Engine { model, input, engine, state }
+                let engine = Engine::new(&model.network, model.config.dt_us, Mode::Stepped)?;
+                Runner::Engine { model, input, engine }
             }
-            SnnRunner::Sliding => Runner::Sliding {
-                net: Sliding::new(&model.network).map_err(net_err)?,
-                model,
-                input,
-                bins: Default::default(),
-                scratch: Vec::new(),
-                run: RunScratch::default(),
-            },
+            SnnRunner::Sliding => Runner::Sliding { net: Sliding::new(&model.network)?, model, input },
         };
-        Ok(WindowModel { runner, classes, calls: 0, synops: 0, nanos: 0, latency: Histogram::default() })
+        Ok(WindowModel { runner, classes })
     }
 
-    /// A ResNet model file (`braille train --arch resnet`).
-    pub fn load_resnet(path: &std::path::Path) -> Result<WindowModel> {
-        let bad = |what: String| Error::Config(format!("{}: {what}", path.display()));
-        let f = snn::model_file::ModelFile::read(path, snn::model_file::Arch::Resnet)
-            .map_err(|e| Error::Config(e.to_string()))?;
-        let config: learn::resnet::ResnetConfig =
-            serde_json::from_value(f.config.clone()).map_err(|e| bad(format!("header `config`: {e}")))?;
-        let input: CharInput =
-            serde_json::from_value(f.preprocess.clone()).map_err(|e| bad(format!("header `preprocess`: {e}")))?;
-        if input.shape() != config.input {
-            return Err(bad(format!(
-                "the preprocessing gives {:?}, the network takes {:?}",
-                input.shape(),
-                config.input
-            )));
+    /// A loaded model that reads character windows (`path` names it in errors).
+    pub fn from_model(model: Model, path: &Path, runner: SnnRunner) -> Result<WindowModel> {
+        let input = model.char_input(path)?;
+        match model {
+            Model::Resnet(m) => Ok(WindowModel::resnet(m.model, m.input, m.classes)),
+            Model::Snn(m) => WindowModel::snn(m, input, runner)
+                .map_err(|e| Error::Model { path: path.to_path_buf(), what: e.to_string() }),
         }
-        if f.classes.len() != config.classes {
-            return Err(bad(format!("{} class names for a network of {} outputs", f.classes.len(), config.classes)));
-        }
-        let model = learn::resnet::from_tensors(&config, &f.tensors).map_err(bad)?;
-        Ok(WindowModel::resnet(model, input, f.classes))
     }
 
-    /// An SNN model file trained on simulated windows (`braille train --arch snn` without `--data`).
-    pub fn load_snn(path: &std::path::Path, runner: SnnRunner) -> Result<WindowModel> {
-        let bad = |what: String| Error::Config(format!("{}: {what}", path.display()));
-        let model = SnnModel::load(path).map_err(|e| Error::Config(e.to_string()))?;
-        let input: CharInput = serde_json::from_value(model.preprocess.clone())
-            .map_err(|e| bad(format!("header `preprocess` is not a character-window input: {e}")))?;
-        WindowModel::snn(model, input, runner).map_err(|e| bad(e.to_string()))
+    /// A model file of either architecture trained on character windows.
+    pub fn load(path: &Path, runner: SnnRunner) -> Result<WindowModel> {
+        WindowModel::from_model(crate::models::load(path)?, path, runner)
     }
 
     pub fn classes(&self) -> &[String] {
@@ -204,6 +189,14 @@ impl WindowModel {
     pub fn input(&self) -> &CharInput {
         match &self.runner {
             Runner::Resnet { input, .. } | Runner::Engine { input, .. } | Runner::Sliding { input, .. } => input,
+        }
+    }
+
+    /// The architecture behind it.
+    pub fn arch(&self) -> snn::model_file::Arch {
+        match self.runner {
+            Runner::Resnet { .. } => snn::model_file::Arch::Resnet,
+            Runner::Engine { .. } | Runner::Sliding { .. } => snn::model_file::Arch::Snn,
         }
     }
 }
@@ -246,9 +239,12 @@ fn crop_bin(
 }
 
 impl WindowModel {
-    fn sliding(&mut self, w: &Window) -> Result<Vec<f32>> {
-        let Runner::Sliding { model, input, net, bins, scratch, run } = &mut self.runner else {
+    fn sliding(&self, st: &mut WindowState, w: &Window) -> Result<Vec<f32>> {
+        let Runner::Sliding { model, input, net } = &self.runner else {
             unreachable!("called for the sliding runner only")
+        };
+        let StateKind::Sliding { bins, scratch, run } = &mut st.kind else {
+            return Err(Error::Config("a window state of another model".into()));
         };
         let [_, h, wd] = input.shape();
         let n = w.n_bins();
@@ -292,7 +288,7 @@ impl WindowModel {
                 }
                 active.sort_unstable_by_key(|a| a.0);
                 let mut cur = Vec::new();
-                self.synops += net.currents(&active, &mut cur).map_err(|e| Error::Config(e.to_string()))?;
+                st.stats.synops += net.currents(&active, &mut cur)?;
                 b.currents.push((shift, cur));
             }
         }
@@ -301,7 +297,7 @@ impl WindowModel {
             .map(|b| b.currents.iter().find(|c| c.0 == shift).map(|c| c.1.as_slice()).unwrap_or(&[]))
             .collect();
         let out = net.run_with(&steps, run);
-        self.synops += out.synops;
+        st.stats.synops += out.synops;
         Ok(match model.config.readout {
             Readout::MaxMembrane => softmax(&out.v_max),
             Readout::SpikeCount => softmax(&out.counts.iter().map(|&c| c as f32).collect::<Vec<_>>()),
@@ -310,25 +306,32 @@ impl WindowModel {
 }
 
 impl WindowClassifier for WindowModel {
-    fn start_stream(&mut self) {
-        if let Runner::Sliding { bins, .. } = &mut self.runner {
-            bins.clear();
-        }
+    type State = WindowState;
+
+    fn new_state(&self) -> WindowState {
+        let kind = match &self.runner {
+            Runner::Resnet { .. } => StateKind::None,
+            Runner::Engine { engine, .. } => StateKind::Engine(engine.state(0)),
+            Runner::Sliding { .. } => {
+                StateKind::Sliding { bins: Default::default(), scratch: Vec::new(), run: RunScratch::default() }
+            }
+        };
+        WindowState { kind, stats: CallStats::default() }
     }
 
-    fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+    fn classify(&self, st: &mut WindowState, w: &Window) -> Result<Vec<f32>> {
         let t = Instant::now();
-        let p = match &mut self.runner {
-            Runner::Resnet { model, input } => {
+        let p = match (&self.runner, &mut st.kind) {
+            (Runner::Resnet { model, input }, _) => {
                 let image = input.crop_window(w)?;
                 let x = input.prepare(&image, None);
                 learn::resnet::probabilities(model, input.shape(), &[&x]).remove(0)
             }
-            Runner::Engine { model, input, engine, state } => {
+            (Runner::Engine { model, input, engine }, StateKind::Engine(state)) => {
                 let image = input.crop_window(w)?;
                 let train = input.spikes(&image, model.config.dt_us);
-                engine.run_train(state, &train).map_err(|e| Error::Config(e.to_string()))?;
-                self.synops += state.stats.synops;
+                engine.run_train(state, &train)?;
+                st.stats.synops += state.stats.synops;
                 match model.config.readout {
                     Readout::MaxMembrane => softmax(state.output_v_max()),
                     Readout::SpikeCount => {
@@ -338,13 +341,75 @@ impl WindowClassifier for WindowModel {
                     }
                 }
             }
-            Runner::Sliding { .. } => self.sliding(w)?,
+            (Runner::Sliding { .. }, _) => self.sliding(st, w)?,
+            (Runner::Engine { .. }, _) => return Err(Error::Config("a window state of another model".into())),
         };
         let ns = t.elapsed().as_nanos() as u64;
-        self.calls += 1;
-        self.nanos += ns;
-        self.latency.add(ns);
+        st.stats.calls += 1;
+        st.stats.nanos += ns;
+        st.stats.latency.add(ns);
         Ok(p)
+    }
+}
+
+/// The two networks of one reader: the segmentation network and the character classifier,
+/// loaded once and checked to fit each other. Shared by every stream read with them.
+pub struct ReaderModels {
+    pub segmenter: WindowModel,
+    pub classifier: WindowModel,
+}
+
+impl ReaderModels {
+    /// Loads and checks the pair (either architecture, as each file's header says).
+    pub fn load(segmenter: &Path, classifier: &Path, runner: SnnRunner) -> Result<ReaderModels> {
+        let seg = WindowModel::load(segmenter, runner)?;
+        let cls = WindowModel::load(classifier, runner)?;
+        let bad = |path: &Path, what: String| Error::Model { path: path.to_path_buf(), what };
+        if seg.classes() != ["background", "character"] {
+            return Err(bad(segmenter, format!("not a segmentation network (classes {:?})", seg.classes())));
+        }
+        if cls.classes().len() != 26 {
+            return Err(bad(classifier, format!("not a 26-letter character classifier (classes {:?})", cls.classes())));
+        }
+        if seg.input().labeler != cls.input().labeler {
+            return Err(bad(classifier, format!("windows its input unlike {}", segmenter.display())));
+        }
+        Ok(ReaderModels { segmenter: seg, classifier: cls })
+    }
+
+    /// The reader's configuration at `speed_mm_s`, with the models' windowing.
+    pub fn config(&self, speed_mm_s: f64) -> crate::reader::ReaderConfig {
+        crate::reader::ReaderConfig {
+            labeler: self.classifier.input().labeler.clone(),
+            ..crate::reader::ReaderConfig::new(speed_mm_s)
+        }
+    }
+
+    /// Reads a whole stream of events in memory.
+    pub fn read(
+        &self,
+        events: &[encoders::Event],
+        resolution: encoders::Resolution,
+        speed_mm_s: f64,
+        speller: &crate::reader::Speller,
+    ) -> Result<crate::reader::ReadAll<WindowState, WindowState>> {
+        crate::reader::read_all(events, self.config(speed_mm_s), resolution, &self.segmenter, &self.classifier, speller)
+    }
+
+    /// A streaming reader of one stream.
+    pub fn stream<'m>(
+        &'m self,
+        speed_mm_s: f64,
+        resolution: encoders::Resolution,
+        speller: &'m crate::reader::Speller,
+    ) -> Result<crate::reader::StreamReader<'m>> {
+        crate::reader::StreamReader::new(
+            self.config(speed_mm_s),
+            resolution,
+            &self.segmenter,
+            &self.classifier,
+            speller,
+        )
     }
 }
 

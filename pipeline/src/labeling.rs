@@ -247,52 +247,6 @@ pub fn window_heatmap(
     Ok(hm.encode(&events[a..b], start, cfg.frames))
 }
 
-/// How the labeler did against the simulator's ground truth.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LabelingScore {
-    pub expected: usize,
-    pub found: usize,
-    /// Windows whose character is the one the truth puts there.
-    pub correct: usize,
-    /// `correct / expected`.
-    pub accuracy: f64,
-}
-
-/// The time (s) at which a board position `x_mm` crosses pooled column `col` of the image, given
-/// the time `t_center_s` it crosses the image centre (forward scan: content moves to lower x).
-fn time_at_column(t_center_s: f64, col: f64, pool: u16, truth: &sim::ScanTruth) -> f64 {
-    let x_px = col * pool as f64;
-    let dx_mm = (x_px - truth.resolution.width as f64 / 2.0) * truth.pitch_mm;
-    let sign = match truth.scan.direction {
-        sim::Direction::Forward => 1.0,
-        sim::Direction::Reverse => -1.0,
-    };
-    t_center_s - sign * dx_mm / truth.scan.speed_mm_s
-}
-
-/// Scores windows against the truth: the `i`-th window must belong to the `i`-th printed
-/// character, meaning its `t_max` lies within half a dot-column lag of the time that character's
-/// last column crosses the start window.
-pub fn score(labeling: &Labeling, truth: &sim::ScanTruth, cfg: &LabelerConfig) -> LabelingScore {
-    let chars: Vec<&sim::scan::CharacterTruth> = truth.characters.iter().filter(|c| !c.columns.is_empty()).collect();
-    let window_col = (cfg.start_window_cols.start + cfg.start_window_cols.end) as f64 / 2.0;
-    let tolerance_s = 0.5 * 2.5 / truth.scan.speed_mm_s;
-    let mut correct = 0;
-    for (w, c) in labeling.windows.iter().zip(&chars) {
-        let Some(t_center) = c.columns.last().and_then(|col| col.t_center_s) else { continue };
-        let onset = time_at_column(t_center, window_col, cfg.pool, truth);
-        if ((w.t_max_us as f64) * 1e-6 - onset).abs() <= tolerance_s {
-            correct += 1;
-        }
-    }
-    LabelingScore {
-        expected: chars.len(),
-        found: labeling.windows.len(),
-        correct,
-        accuracy: if chars.is_empty() { 1.0 } else { correct as f64 / chars.len() as f64 },
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,7 +10,7 @@
 //! missing letter `log p_delete`. A string outside the lexicon competes as
 //! `lm_weight * log p_oov + sum log max_t p_i(t)`, so unknown words are kept when the evidence is strong.
 
-use sim::braille::cell_of;
+use encoders::braille::cell_of;
 use std::collections::HashMap;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

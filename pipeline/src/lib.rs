@@ -1,16 +1,19 @@
-//! Words out: from an event stream to labelled character windows (the paper's labeling
-//! pipeline, [`labeling`]), from per-frame detections to words (the temporal filter,
-//! [`words`]), spelling correction ([`spelling`]) and the paper's word metrics ([`metrics`]).
-//! The segmentation network and the classifiers behind one interface come next.
+//! Words out: from an event stream to character windows (the paper's labeling pipeline,
+//! [`labeling`]), a window to a network's input ([`input`], [`augment`]), trained models loaded by
+//! the architecture their header names ([`models`]) and run on windows ([`classify`]: a loaded
+//! model is shared, each stream owns its state), the streaming reader ([`reader`]), the temporal
+//! filter ([`words`]) and spelling ([`spelling`], [`lexicon`]).
+//!
+//! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
+//! `learn` without its `train` feature (burn's inference only).
 
 pub mod augment;
-pub mod chars;
 pub mod classify;
 pub mod error;
 pub mod input;
 pub mod labeling;
 pub mod lexicon;
-pub mod metrics;
+pub mod models;
 pub mod reader;
 pub mod spelling;
 pub mod words;

@@ -12,6 +12,7 @@
 //! The classifiers are behind [`WindowClassifier`], so the ResNet and the SNN read identical
 //! windows of identical streams.
 
+use crate::classify::WindowModel;
 use crate::error::{Error, Result};
 use crate::labeling::LabelerConfig;
 use crate::lexicon::LexiconDecoder;
@@ -71,16 +72,23 @@ impl Window<'_> {
 
 /// A network that reads a window: class probabilities (they sum to 1). The segmentation network
 /// gives `[background, character]`, a character classifier the 26 letters A..Z.
+///
+/// The network is shared (`&self`): whatever a stream keeps between windows (neuron state,
+/// caches, counters) lives in its own [`WindowClassifier::State`], so one loaded model serves
+/// any number of streams at once.
 pub trait WindowClassifier {
-    fn classify(&mut self, window: &Window) -> Result<Vec<f32>>;
+    type State;
 
-    /// A new stream begins: forget whatever was kept from the previous one.
-    fn start_stream(&mut self) {}
+    /// The state of a new stream.
+    fn new_state(&self) -> Self::State;
+
+    fn classify(&self, state: &mut Self::State, window: &Window) -> Result<Vec<f32>>;
 }
 
 /// How finished words are corrected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Spell {
     /// The letters as read.
     None,
@@ -207,8 +215,8 @@ pub struct ReaderStats {
     pub words: u64,
 }
 
-/// The streaming reader of one stream.
-pub struct StreamReader<'m> {
+/// The streaming reader of one stream: the shared models, and this stream's state of each.
+pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifier = WindowModel> {
     cfg: ReaderConfig,
     bin_us: i64,
     frames: usize,
@@ -225,8 +233,10 @@ pub struct StreamReader<'m> {
     /// Bins in the ring that hold an event.
     nonempty: usize,
     last_t: i64,
-    segmenter: &'m mut dyn WindowClassifier,
-    classifier: &'m mut dyn WindowClassifier,
+    segmenter: &'m S,
+    classifier: &'m C,
+    segmenter_state: S::State,
+    classifier_state: C::State,
     filter: TemporalFilter,
     speller: &'m Speller,
     word: Vec<ReadChar>,
@@ -234,14 +244,14 @@ pub struct StreamReader<'m> {
     pub stats: ReaderStats,
 }
 
-impl<'m> StreamReader<'m> {
+impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     pub fn new(
         cfg: ReaderConfig,
         resolution: Resolution,
-        segmenter: &'m mut dyn WindowClassifier,
-        classifier: &'m mut dyn WindowClassifier,
+        segmenter: &'m S,
+        classifier: &'m C,
         speller: &'m Speller,
-    ) -> Result<StreamReader<'m>> {
+    ) -> Result<StreamReader<'m, S, C>> {
         if !(cfg.speed_mm_s > 0.0 && cfg.speed_mm_s.is_finite()) {
             return Err(Error::Config(format!("the speed must be positive, got {} mm/s", cfg.speed_mm_s)));
         }
@@ -249,8 +259,6 @@ impl<'m> StreamReader<'m> {
             return Err(Error::Config("the window needs at least one frame".into()));
         }
         let map = PoolMap::new(resolution, cfg.labeler.pool, Some(&cfg.labeler.active_cols))?;
-        segmenter.start_stream();
-        classifier.start_stream();
         let cells = map.output.pixels();
         let frames = cfg.labeler.frames;
         Ok(StreamReader {
@@ -267,6 +275,8 @@ impl<'m> StreamReader<'m> {
             last_t: i64::MIN,
             filter: TemporalFilter::new(&cfg.scaled_filter()),
             cfg,
+            segmenter_state: segmenter.new_state(),
+            classifier_state: classifier.new_state(),
             segmenter,
             classifier,
             speller,
@@ -292,11 +302,21 @@ impl<'m> StreamReader<'m> {
         self.bin_us
     }
 
+    /// This stream's state of the segmentation network and of the classifier.
+    pub fn states(&self) -> (&S::State, &C::State) {
+        (&self.segmenter_state, &self.classifier_state)
+    }
+
+    /// The states, once the stream is read.
+    pub fn into_states(self) -> (S::State, C::State) {
+        (self.segmenter_state, self.classifier_state)
+    }
+
     /// Hands in one event; what it completes is appended to `out`. Events must come in time
     /// order (the `event` index in the error is the count handed in so far).
     pub fn push(&mut self, e: &Event, out: &mut Vec<ReadOutput>) -> Result<()> {
         if e.t_us < self.last_t {
-            return Err(Error::Config(format!(
+            return Err(Error::Input(format!(
                 "event {} at {} us goes back in time (the previous was at {} us)",
                 self.stats.events, e.t_us, self.last_t
             )));
@@ -443,14 +463,14 @@ impl<'m> StreamReader<'m> {
             bins: [b, a],
         };
         self.stats.segmenter_calls += 1;
-        let seg = self.segmenter.classify(&window)?;
+        let seg = self.segmenter.classify(&mut self.segmenter_state, &window)?;
         let present = seg.get(1).copied().unwrap_or(0.0);
         if present <= self.cfg.present_threshold {
             self.filter.tick(t_end_us, &mut self.pending);
             return Ok(());
         }
         self.stats.classifier_calls += 1;
-        let probs = self.classifier.classify(&window)?;
+        let probs = self.classifier.classify(&mut self.classifier_state, &window)?;
         let (k, &p) = probs
             .iter()
             .enumerate()
@@ -493,15 +513,23 @@ impl<'m> StreamReader<'m> {
     }
 }
 
+/// What [`read_all`] gives: the words, the counters and each model's state at the end.
+pub struct ReadAll<S, C> {
+    pub words: Vec<ReadWord>,
+    pub stats: ReaderStats,
+    pub segmenter: S,
+    pub classifier: C,
+}
+
 /// Reads a whole stream of events (in time order): the words.
-pub fn read_all(
+pub fn read_all<S: WindowClassifier, C: WindowClassifier>(
     events: &[Event],
     cfg: ReaderConfig,
     resolution: Resolution,
-    segmenter: &mut dyn WindowClassifier,
-    classifier: &mut dyn WindowClassifier,
+    segmenter: &S,
+    classifier: &C,
     speller: &Speller,
-) -> Result<(Vec<ReadWord>, ReaderStats)> {
+) -> Result<ReadAll<S::State, C::State>> {
     let mut r = StreamReader::new(cfg, resolution, segmenter, classifier, speller)?;
     let mut out = Vec::new();
     let mut words = Vec::new();
@@ -515,7 +543,9 @@ pub fn read_all(
     keep(&mut out);
     r.finish(&mut out)?;
     keep(&mut out);
-    Ok((words, r.stats.clone()))
+    let stats = r.stats.clone();
+    let (segmenter, classifier) = r.into_states();
+    Ok(ReadAll { words, stats, segmenter, classifier })
 }
 
 #[cfg(test)]
@@ -527,14 +557,18 @@ mod tests {
     /// classifier that reads the letter from the newest non-empty bin's first column (A + col % 26).
     struct Count(f32);
     impl WindowClassifier for Count {
-        fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+        type State = ();
+        fn new_state(&self) {}
+        fn classify(&self, _: &mut (), w: &Window) -> Result<Vec<f32>> {
             let n: f32 = w.bins().flat_map(|b| b.iter().map(|c| c.count)).sum();
             Ok(if n >= self.0 { vec![0.0, 1.0] } else { vec![1.0, 0.0] })
         }
     }
     struct Column;
     impl WindowClassifier for Column {
-        fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
+        type State = ();
+        fn new_state(&self) {}
+        fn classify(&self, _: &mut (), w: &Window) -> Result<Vec<f32>> {
             let col = w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width);
             let mut p = vec![0.0; 26];
             p[col % 26] = 1.0;
@@ -552,7 +586,8 @@ mod tests {
 
     fn read(events: Vec<Event>, cfg: ReaderConfig) -> (Vec<ReadWord>, ReaderStats) {
         let speller = Speller::new(Spell::None);
-        read_all(&events, cfg, Resolution::DVXPLORER, &mut Count(1.0), &mut Column, &speller).unwrap()
+        let r = read_all(&events, cfg, Resolution::DVXPLORER, &Count(1.0), &Column, &speller).unwrap();
+        (r.words, r.stats)
     }
 
     #[test]
@@ -589,7 +624,7 @@ mod tests {
         let mut ev = burst(20, 0, 100);
         ev.push(Event { t_us: 50_000, x: 80, y: 10, polarity: Polarity::Off });
         let speller = Speller::new(Spell::None);
-        let e = read_all(&ev, ReaderConfig::new(8.0), Resolution::DVXPLORER, &mut Count(1.0), &mut Column, &speller)
+        let e = read_all(&ev, ReaderConfig::new(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller)
             .err()
             .unwrap()
             .to_string();
@@ -603,9 +638,9 @@ mod tests {
     fn an_hour_of_stream_is_read_with_bounded_memory() {
         // every 600 ms a 100 ms burst (letters U..Y by column), a word of five, then 1.5 s of
         // silence; an hour of it, handed in a chunk of a second at a time as a live sensor would
-        let (speller, mut seg, mut cls) = (Speller::new(Spell::None), Count(1.0), Column);
+        let speller = Speller::new(Spell::None);
         let mut r =
-            StreamReader::new(ReaderConfig::new(8.0), Resolution::DVXPLORER, &mut seg, &mut cls, &speller).unwrap();
+            StreamReader::new(ReaderConfig::new(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller).unwrap();
         let (mut out, mut words, mut peak, mut chunk) = (Vec::new(), 0usize, 0usize, Vec::new());
         let mut t_ms = 0i64;
         let word_ms = 5 * 600 + 1500;
@@ -664,10 +699,14 @@ mod tests {
     #[test]
     fn the_window_is_the_labelers_heat_map() {
         // the reader's window equals the labeler's heat map of the same span
-        struct Grab(Vec<encoders::heatmap::Heatmap>);
+        struct Grab;
         impl WindowClassifier for Grab {
-            fn classify(&mut self, w: &Window) -> Result<Vec<f32>> {
-                self.0.push(w.heatmap());
+            type State = Vec<encoders::heatmap::Heatmap>;
+            fn new_state(&self) -> Self::State {
+                Vec::new()
+            }
+            fn classify(&self, grabbed: &mut Self::State, w: &Window) -> Result<Vec<f32>> {
+                grabbed.push(w.heatmap());
                 Ok(vec![1.0, 0.0])
             }
         }
@@ -680,9 +719,9 @@ mod tests {
             })
             .collect();
         let cfg = ReaderConfig::new(8.0);
-        let (mut grab, speller) = (Grab(Vec::new()), Speller::new(Spell::None));
-        read_all(&ev, cfg.clone(), Resolution::DVXPLORER, &mut grab, &mut Column, &speller).unwrap();
-        assert!(grab.0.len() > 10);
+        let speller = Speller::new(Spell::None);
+        let grabbed = read_all(&ev, cfg.clone(), Resolution::DVXPLORER, &Grab, &Column, &speller).unwrap().segmenter;
+        assert!(grabbed.len() > 10);
         let l = &cfg.labeler;
         let enc = encoders::heatmap::HeatmapEncoder::new(
             encoders::heatmap::HeatmapConfig::new(Resolution::DVXPLORER)
@@ -691,7 +730,7 @@ mod tests {
                 .with_mask_cols(l.active_cols.clone()),
         )
         .unwrap();
-        for w in &grab.0 {
+        for w in &grabbed {
             let a = ev.partition_point(|e| e.t_us < w.t_start_us);
             let b = ev.partition_point(|e| e.t_us < w.t_end_us());
             assert_eq!(w, &enc.encode(&ev[a..b], w.t_start_us, l.frames));

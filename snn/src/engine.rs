@@ -17,6 +17,7 @@ use crate::neuron::{NeuronKind, NeuronParams};
 
 /// When thresholds are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Mode {
     Stepped,
     Async,

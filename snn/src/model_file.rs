@@ -29,9 +29,16 @@ pub const FORMAT_VERSION: u32 = 1;
 /// The architecture family a file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Arch {
     Snn,
     Resnet,
+}
+
+impl std::fmt::Display for Arch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
 }
 
 impl Arch {
@@ -110,25 +117,46 @@ impl ModelFile {
         Self::parse(path, &bytes, arch)
     }
 
-    /// [`ModelFile::read`] on bytes already in memory; `path` names them in errors.
-    pub fn parse(path: &Path, bytes: &[u8], arch: Arch) -> Result<ModelFile> {
+    /// The architecture a model file's header names (the format and its version checked).
+    pub fn arch_of(path: &Path, bytes: &[u8]) -> Result<Arch> {
+        let meta = Self::header(path, bytes)?;
+        let found = &meta["arch"];
+        [Arch::Snn, Arch::Resnet]
+            .into_iter()
+            .find(|a| a.name() == found)
+            .ok_or_else(|| model_err(path, format!("header `arch` is `{found}`, not a known architecture")))
+    }
+
+    /// The header's metadata, its format, version and architecture checked present.
+    fn header(path: &Path, bytes: &[u8]) -> Result<HashMap<String, String>> {
         let (_, metadata) = SafeTensors::read_metadata(bytes)
             .map_err(|e| model_err(path, format!("not a safetensors model file: {e}")))?;
         let meta = metadata.metadata().clone().unwrap_or_default();
-        let get = |key: &str| {
-            meta.get(key)
-                .ok_or_else(|| model_err(path, format!("header key `{key}` is missing (not a {FORMAT} file?)")))
-        };
-        if get("format")? != FORMAT {
-            return Err(model_err(path, format!("header `format` is `{}`, not `{FORMAT}`", get("format")?)));
+        for key in ["format", "format_version", "arch"] {
+            if !meta.contains_key(key) {
+                return Err(model_err(path, format!("header key `{key}` is missing (not a {FORMAT} file?)")));
+            }
         }
-        let version = get("format_version")?;
+        if meta["format"] != FORMAT {
+            return Err(model_err(path, format!("header `format` is `{}`, not `{FORMAT}`", meta["format"])));
+        }
+        let version = &meta["format_version"];
         if version.parse::<u32>().ok() != Some(FORMAT_VERSION) {
             return Err(model_err(
                 path,
                 format!("format version {version}; this build reads version {FORMAT_VERSION}"),
             ));
         }
+        Ok(meta)
+    }
+
+    /// [`ModelFile::read`] on bytes already in memory; `path` names them in errors.
+    pub fn parse(path: &Path, bytes: &[u8], arch: Arch) -> Result<ModelFile> {
+        let meta = Self::header(path, bytes)?;
+        let get = |key: &str| {
+            meta.get(key)
+                .ok_or_else(|| model_err(path, format!("header key `{key}` is missing (not a {FORMAT} file?)")))
+        };
         let found = get("arch")?;
         if found != arch.name() {
             return Err(model_err(path, format!("holds a `{found}` model, `{}` was asked for", arch.name())));
@@ -193,6 +221,7 @@ impl ModelFile {
 /// How an SNN's outputs become a class.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Readout {
     /// The output neuron that spiked most (spiking output layer).
     SpikeCount,

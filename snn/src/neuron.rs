@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 /// What a neuron does after it spikes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Reset {
     /// Back to `v_reset`.
     Zero,

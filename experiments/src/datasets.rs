@@ -1,17 +1,46 @@
 //! Labelled character windows from simulated scans: what the character classifiers learn from
-//! and are tested on. Each scan is labelled by the paper's pipeline ([`crate::labeling`]); a
-//! window takes the letter of the character it stands for in reading order, and only scans whose
-//! window count matched the row are used (so no window is given another character's letter).
+//! and are tested on (SIMULATED data). Each scan is labelled by the paper's pipeline
+//! ([`pipeline::labeling`]); a window takes the letter of the character it stands for in reading
+//! order, and only scans whose window count matched the row are used (so no window is given
+//! another character's letter). The character count is ground truth: it labels training data and
+//! never reaches a reader.
 
+use crate::Progress;
 use crate::error::Result;
-use crate::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
 use encoders::heatmap::Heatmap;
+use learn::data::SpikeSet;
+use learn::resnet::ImageSet;
+use pipeline::input::CharInput;
+use pipeline::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::sensor::Sensor;
-use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
+use sim::{Board, BoardGeometry, BoardKind, CameraConfig, GelConfig, ScanConfig};
+
+/// The simulated sensor every protocol uses: the DVXplorer's resolution behind the default gel,
+/// pixel seed `seed`.
+pub fn sensor(resolution: encoders::Resolution, seed: u64) -> Result<Sensor> {
+    let camera = CameraConfig { resolution, ..CameraConfig::default() };
+    Ok(Sensor::new(camera, GelConfig::default(), seed)?)
+}
+
+/// The seed of one trial of one row (`braille simulate`, `braille label-check`).
+pub fn trial_seed(seed: u64, row: usize, trial: u64) -> u64 {
+    sim::board::stable_hash(&format!("{seed}/{row}/{trial}"))
+}
+
+/// Which scan a window came from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ScanId {
+    /// The board's name (`SAB`, `RAB`, `text:...`).
+    pub board: String,
+    pub row: usize,
+    pub trial: u64,
+}
 
 /// What a scan's windows are labelled with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Task {
     /// The character classifier's: each character's window, labelled with its letter.
@@ -42,8 +71,8 @@ pub struct CharSample {
     /// The class in the task's classes (a letter's index; 1 for "character", 0 for background).
     pub class: usize,
     pub map: Heatmap,
-    /// Which scan it came from (board, row, trial).
-    pub scan: (String, usize, u64),
+    /// Which scan it came from.
+    pub scan: ScanId,
 }
 
 /// Which scans to take windows from.
@@ -61,14 +90,6 @@ pub struct CharSetSpec {
     /// frames around the aligned one (0: the paper's aligned windows only).
     #[serde(default)]
     pub jitter_ms: f64,
-}
-
-/// What a build gives: the windows, and the scans skipped because the count did not match.
-#[derive(Debug, Clone, Default)]
-pub struct CharSet {
-    pub samples: Vec<CharSample>,
-    pub scans: usize,
-    pub skipped_scans: usize,
 }
 
 /// The letter index of the 26 classes (`A` = 0).
@@ -154,7 +175,7 @@ pub fn scan_windows(
         }
         for (class, w) in windows {
             let map = window_heatmap(&s.events, sensor.camera.resolution, speed_mm_s, &w, cfg)?;
-            out.push(CharSample { letter, class, map, scan: (board.kind.name(), row, trial) });
+            out.push(CharSample { letter, class, map, scan: ScanId { board: board.kind.name(), row, trial } });
         }
     }
     Ok(Some(out))
@@ -184,7 +205,7 @@ pub fn scans(spec: &CharSetSpec) -> Result<Vec<(Board, usize, u64)>> {
 /// `max_chars` long, joined by `/` as a text board takes them. Seeded.
 pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&str]) -> String {
     use rand::{Rng, SeedableRng};
-    let words: Vec<String> = crate::spelling::Norvig::textblob()
+    let words: Vec<String> = pipeline::spelling::Norvig::textblob()
         .most_frequent(usize::MAX)
         .into_iter()
         .map(|(w, _)| w.to_uppercase())
@@ -209,6 +230,136 @@ pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&st
         out.push(row);
     }
     out.join("/")
+}
+
+/// Windows cropped for one or more model inputs, with where each came from.
+#[derive(Debug, Clone, Default)]
+pub struct Windows {
+    /// One set per input asked for, the same windows in the same order.
+    pub sets: Vec<ImageSet>,
+    /// Per window: its scan.
+    pub origin: Vec<ScanId>,
+    /// Scans simulated, and those skipped because the labeler's window count was off.
+    pub scans: usize,
+    pub skipped_scans: usize,
+}
+
+/// Windows of `spec`'s scans for one input (see [`build_many`]).
+pub fn build(spec: &CharSetSpec, input: &CharInput, progress: &dyn Progress) -> Result<(ImageSet, Windows)> {
+    let mut w = build_many(spec, &[input], progress)?;
+    let set = w.sets.remove(0);
+    Ok((set, w))
+}
+
+/// Windows of `spec`'s scans, simulated in parallel and cropped as soon as their scan is done (so
+/// memory holds only the crops). Each scan is simulated and labelled once and its windows cropped
+/// for every input (which must share one labeler), so all models see the same windows. The same
+/// spec gives the same windows, whichever model asks.
+pub fn build_many(spec: &CharSetSpec, inputs: &[&CharInput], progress: &dyn Progress) -> Result<Windows> {
+    let Some(first) = inputs.first() else {
+        return Err(crate::Error::Invalid("no model input to build windows for".into()));
+    };
+    if inputs.iter().any(|i| i.labeler != first.labeler) {
+        return Err(crate::Error::Invalid(
+            "the models label their windows differently; build their windows separately".into(),
+        ));
+    }
+    let sensor = sensor(encoders::Resolution::DVXPLORER, 1)?;
+    let list = scans(spec)?;
+    progress.start("simulating scans", list.len() as u64);
+    type Kept = (usize, Vec<Vec<f32>>, ScanId);
+    let per_scan: Vec<Option<Vec<Kept>>> = list
+        .par_iter()
+        .map(|(board, row, trial)| -> Result<_> {
+            let seed = scan_seed(spec.seed, &board.kind, *row, *trial);
+            let r = scan_windows(
+                board,
+                &sensor,
+                *row,
+                *trial,
+                seed,
+                spec.speed_mm_s,
+                spec.depth_mm,
+                &first.labeler,
+                spec.task,
+                spec.jitter_ms,
+            )?;
+            progress.inc();
+            let Some(samples) = r else { return Ok(None) };
+            let mut kept = Vec::with_capacity(samples.len());
+            for s in samples {
+                let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
+                kept.push((s.class, crops, s.scan));
+            }
+            Ok(Some(kept))
+        })
+        .collect::<Result<_>>()?;
+    progress.finish();
+    let mut sets: Vec<ImageSet> = inputs.iter().map(|i| ImageSet { shape: i.shape(), ..ImageSet::default() }).collect();
+    let mut origin = Vec::new();
+    let skipped_scans = per_scan.iter().filter(|s| s.is_none()).count();
+    for (class, crops, scan) in per_scan.into_iter().flatten().flatten() {
+        for (set, counts) in sets.iter_mut().zip(crops) {
+            set.data.push(counts);
+            set.labels.push(class);
+        }
+        origin.push(scan);
+    }
+    Ok(Windows { sets, origin, scans: list.len(), skipped_scans })
+}
+
+/// Words of the EV board, kept out of the random word rows so that EV stays a test board.
+pub const EV_WORDS: [&str; 9] = ["RIGHT", "LEFT", "EXIT", "OPEN", "PUSH", "PULL", "STOP", "HELP", "WATER"];
+
+/// The training protocol's windows, split by whole scans.
+#[derive(Debug, Clone)]
+pub struct TrainingWindows {
+    pub all: ImageSet,
+    /// Indices into `all`.
+    pub train: Vec<usize>,
+    pub val: Vec<usize>,
+    pub scans: usize,
+    pub skipped_scans: usize,
+}
+
+/// The training protocol's windows: SAB and UN at 8 mm/s and 1.5 mm (the paper's), plus
+/// `word_rows` rows of random words (beyond the paper: letters with neighbours at the cell
+/// spacing, as in words; the single-letter boards spread their letters over the row), split by
+/// whole scans (every fifth trial goes to validation when there are five or more), so no scan
+/// feeds both.
+pub fn training_windows(
+    trials: u64,
+    seed: u64,
+    word_rows: usize,
+    input: &CharInput,
+    task: Task,
+    jitter_ms: f64,
+    progress: &dyn Progress,
+) -> Result<TrainingWindows> {
+    let mut boards = vec![BoardKind::Sab, BoardKind::Un];
+    if word_rows > 0 {
+        let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
+        boards.push(BoardKind::Text(text));
+    }
+    let spec = CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed, task, jitter_ms };
+    let (all, w) = build(&spec, input, progress)?;
+    let (val, train): (Vec<usize>, Vec<usize>) =
+        (0..all.len()).partition(|&i| trials >= 5 && w.origin[i].trial % 5 == 4);
+    Ok(TrainingWindows { all, train, val, scans: w.scans, skipped_scans: w.skipped_scans })
+}
+
+/// The windows `idx` of `raw` as labelled spike trains for an SNN.
+pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, task: Task) -> SpikeSet {
+    let [frames2, h, w] = input.shape();
+    SpikeSet {
+        n_inputs: 2 * h * w,
+        steps: frames2 / 2,
+        dt_us,
+        classes: task.classes(),
+        trains: idx.par_iter().map(|&i| input.spikes(&raw.data[i], dt_us)).collect(),
+        labels: idx.iter().map(|&i| raw.labels[i]).collect(),
+        dropped_events: 0,
+    }
 }
 
 #[cfg(test)]

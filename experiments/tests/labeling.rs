@@ -1,6 +1,7 @@
 //! The paper's labeling pipeline on simulated scans, scored against the simulator's truth.
 
-use pipeline::labeling::{LabelerConfig, label, score, window_heatmap};
+use experiments::labeling::score;
+use pipeline::labeling::{LabelerConfig, label, window_heatmap};
 use sim::{Board, BoardGeometry, BoardKind, CameraConfig, GelConfig, ScanConfig, Sensor, simulate};
 
 #[test]

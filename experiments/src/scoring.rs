@@ -1,0 +1,175 @@
+//! Scoring: classifiers' outputs against the truth ([`argmax`], [`Confusion`], [`macro_f1`]), and
+//! the seed paper's four conditional word-reading metrics ([`WordMetrics`]), each on the subset
+//! that passed the previous one:
+//! 1. words per line: scans (lines) in which the number of words read equals the truth;
+//! 2. letters per word: of the words of those lines, those read with the right number of letters;
+//! 3. correct words: of those words, the ones read exactly;
+//! 4. correct letters: of the letters of those words, the ones read right.
+
+use serde::Serialize;
+
+/// The index of the largest value; the first on ties (as burn's argmax); 0 when empty.
+pub fn argmax(v: impl IntoIterator<Item = f32>) -> usize {
+    let mut best = (0, f32::NEG_INFINITY);
+    for (i, x) in v.into_iter().enumerate() {
+        if x > best.1 {
+            best = (i, x);
+        }
+    }
+    best.0
+}
+
+/// Counts of (truth, predicted) pairs over `k` classes: `counts[truth][predicted]`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Confusion {
+    pub counts: Vec<Vec<u32>>,
+}
+
+impl Confusion {
+    pub fn new(k: usize) -> Confusion {
+        Confusion { counts: vec![vec![0; k]; k] }
+    }
+
+    /// Counts the pairs; classes outside `0..k` are an error of the caller and panic.
+    pub fn from_pairs(k: usize, pairs: impl IntoIterator<Item = (usize, usize)>) -> Confusion {
+        let mut c = Confusion::new(k);
+        for (t, p) in pairs {
+            c.add(t, p);
+        }
+        c
+    }
+
+    pub fn add(&mut self, truth: usize, predicted: usize) {
+        self.counts[truth][predicted] += 1;
+    }
+
+    pub fn total(&self) -> u64 {
+        self.counts.iter().flatten().map(|&c| c as u64).sum()
+    }
+
+    pub fn correct(&self) -> u64 {
+        (0..self.counts.len()).map(|c| self.counts[c][c] as u64).sum()
+    }
+
+    /// Correct over all; 0 when empty.
+    pub fn accuracy(&self) -> f64 {
+        let n = self.total();
+        if n == 0 { 0.0 } else { self.correct() as f64 / n as f64 }
+    }
+
+    pub fn macro_f1(&self) -> f64 {
+        macro_f1(&self.counts)
+    }
+}
+
+/// Macro-averaged F1 over the classes that occur (in truth or prediction) of a confusion matrix
+/// `[truth][predicted]`; 0 when nothing occurs.
+pub fn macro_f1(confusion: &[Vec<u32>]) -> f64 {
+    let k = confusion.len();
+    let mut f1s = Vec::new();
+    #[allow(clippy::needless_range_loop)] // c indexes a row and a column
+    for c in 0..k {
+        let tp = confusion[c][c] as f64;
+        let fp: f64 = (0..k).filter(|&r| r != c).map(|r| confusion[r][c] as f64).sum();
+        let fn_: f64 = (0..k).filter(|&p| p != c).map(|p| confusion[c][p] as f64).sum();
+        if tp + fp + fn_ > 0.0 {
+            f1s.push(2.0 * tp / (2.0 * tp + fp + fn_));
+        }
+    }
+    if f1s.is_empty() { 0.0 } else { f1s.iter().sum::<f64>() / f1s.len() as f64 }
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct WordMetrics {
+    pub lines: usize,
+    pub lines_with_right_word_count: usize,
+    pub words: usize,
+    pub words_with_right_letter_count: usize,
+    pub correct_words: usize,
+    pub letters: usize,
+    pub correct_letters: usize,
+}
+
+impl WordMetrics {
+    /// Adds one line: the words printed and the words read, in order.
+    pub fn add_line(&mut self, truth: &[String], read: &[String]) {
+        self.lines += 1;
+        if truth.len() != read.len() {
+            return;
+        }
+        self.lines_with_right_word_count += 1;
+        for (t, r) in truth.iter().zip(read) {
+            self.words += 1;
+            if t.chars().count() != r.chars().count() {
+                continue;
+            }
+            self.words_with_right_letter_count += 1;
+            self.correct_words += (t == r) as usize;
+            self.letters += t.chars().count();
+            self.correct_letters += t.chars().zip(r.chars()).filter(|(a, b)| a == b).count();
+        }
+    }
+
+    fn ratio(a: usize, b: usize) -> f64 {
+        if b == 0 { f64::NAN } else { a as f64 / b as f64 }
+    }
+
+    pub fn words_per_line(&self) -> f64 {
+        Self::ratio(self.lines_with_right_word_count, self.lines)
+    }
+    pub fn letters_per_word(&self) -> f64 {
+        Self::ratio(self.words_with_right_letter_count, self.words)
+    }
+    pub fn correct_words_rate(&self) -> f64 {
+        Self::ratio(self.correct_words, self.words_with_right_letter_count)
+    }
+    pub fn correct_letters_rate(&self) -> f64 {
+        Self::ratio(self.correct_letters, self.letters)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn argmax_takes_the_first_of_ties() {
+        assert_eq!(argmax([0.1, 0.7, 0.7, 0.2]), 1);
+        assert_eq!(argmax([-3.0, -1.0]), 1);
+        assert_eq!(argmax(std::iter::empty()), 0);
+    }
+
+    #[test]
+    fn macro_f1_by_hand() {
+        // truth 0: 3 right, 1 read as 1; truth 1: 2 right; truth 2: 1 read as 0; class 3 never occurs
+        let c = Confusion::from_pairs(4, [(0, 0), (0, 0), (0, 0), (0, 1), (1, 1), (1, 1), (2, 0)]);
+        // class 0: tp 3, fp 1, fn 1 -> 6/8; class 1: tp 2, fp 1, fn 0 -> 4/5; class 2: tp 0, fn 1 -> 0
+        let want = (6.0 / 8.0 + 4.0 / 5.0 + 0.0) / 3.0;
+        assert!((c.macro_f1() - want).abs() < 1e-12, "{} against {want}", c.macro_f1());
+        assert_eq!((c.correct(), c.total()), (5, 7));
+        assert!((c.accuracy() - 5.0 / 7.0).abs() < 1e-12);
+        // perfect and empty
+        assert_eq!(Confusion::from_pairs(3, [(0, 0), (2, 2)]).macro_f1(), 1.0);
+        assert_eq!(Confusion::new(3).macro_f1(), 0.0);
+        assert_eq!(Confusion::new(3).accuracy(), 0.0);
+    }
+
+    fn w(s: &str) -> Vec<String> {
+        s.split_whitespace().map(str::to_string).collect()
+    }
+
+    #[test]
+    fn each_metric_is_conditional_on_the_previous() {
+        let mut m = WordMetrics::default();
+        m.add_line(&w("RIGHT LEFT EXIT OPEN"), &w("RIGHT LEFT EXIT OPEN"));
+        m.add_line(&w("RIGHT LEFT EXIT OPEN"), &w("RIGHT LEFTEXIT OPEN")); // wrong word count
+        m.add_line(&w("PUSH PULL STOP HELP WATER"), &w("PUSH PULL STOB HEL WATER"));
+        assert_eq!(m.lines, 3);
+        assert!((m.words_per_line() - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(m.words, 9);
+        assert_eq!(m.words_with_right_letter_count, 8); // HEL has 3 letters
+        assert_eq!(m.correct_words, 7); // STOB is wrong
+        assert_eq!(m.letters, (5 + 4 + 4 + 4) + (4 + 4 + 4 + 5)); // HEL is left out
+        assert_eq!(m.letters - m.correct_letters, 1);
+    }
+}

@@ -1,0 +1,274 @@
+//! Training an SNN from a recipe ([`crate::recipe::SnnRecipe`]): on a tactile dataset folder
+//! (real recordings) or on the SIMULATED character windows. The best checkpoint (or the averaged
+//! weights) leaves as a model file for the event-driven engine, its recipe in the provenance.
+
+use crate::Progress;
+use crate::datasets::{snn_set, training_windows};
+use crate::error::{Error, Result};
+use crate::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe};
+use crate::tactile::snn_accuracy;
+use encoders::dataset::{Dataset, Split};
+use encoders::sigma_delta::SigmaDeltaConfig;
+use learn::data::{SpikeSet, TactileEncoding};
+use learn::snn::SnnTwin;
+use learn::train::{EpochReport, Observer, Outcome, TrainConfig};
+use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
+use serde::Serialize;
+use snn::engine::Mode;
+use snn::model_file::{Readout, SnnConfig, SnnModel};
+use snn::neuron::{Discretisation, LifConfig, NeuronKind};
+use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
+use std::path::Path;
+
+/// The recipe's network for `n_inputs` inputs and `n_classes` classes.
+pub fn network_spec(r: &SnnRecipe, n_inputs: usize, n_classes: usize) -> Result<NetworkSpec> {
+    let dt = r.dt_us as f64;
+    let hidden = match r.neuron {
+        NeuronChoice::Lif => LifConfig::lif(r.tau_mem_us),
+        NeuronChoice::CubaLif => LifConfig::cuba_lif(r.tau_mem_us, r.tau_syn_us),
+        NeuronChoice::If => LifConfig::integrate_and_fire(),
+    }
+    .with_reset(r.reset)
+    .discretise(dt, Discretisation::Exact);
+    if r.hidden.is_empty() || r.hidden.contains(&0) {
+        return Err(Error::Invalid("--hidden needs positive layer sizes".into()));
+    }
+    if r.recurrent_init_gain.is_some() && !r.recurrent {
+        return Err(Error::Invalid("--recurrent-init-gain needs --recurrent".into()));
+    }
+    let mut layers: Vec<LayerSpec> = r
+        .hidden
+        .iter()
+        .map(|&n| LayerSpec {
+            op: OpSpec::Dense { n_out: n },
+            neurons: Some(hidden),
+            recurrent: r.recurrent,
+            bias: r.bias,
+            recurrent_bias: false,
+        })
+        .collect();
+    let out = match r.readout {
+        Readout::MaxMembrane => {
+            let mut p = LifConfig::lif(r.tau_out_us).discretise(dt, Discretisation::Exact);
+            p.kind = NeuronKind::Li;
+            p
+        }
+        Readout::SpikeCount => hidden,
+    };
+    layers.push(LayerSpec {
+        op: OpSpec::Dense { n_out: n_classes },
+        neurons: Some(out),
+        recurrent: false,
+        bias: false,
+        recurrent_bias: false,
+    });
+    Ok(NetworkSpec { input_shape: vec![n_inputs], layers })
+}
+
+/// What the data gave to train on.
+#[derive(Debug, Clone, Serialize)]
+pub struct DataSummary {
+    /// The dataset folder's name, or what the simulated windows were.
+    pub data: String,
+    pub classes: usize,
+    pub inputs: usize,
+    pub steps: usize,
+    pub dt_us: i64,
+    pub train: usize,
+    pub validation: usize,
+    /// Tactile datasets: the test split's size (it is not scored by training).
+    pub test: Option<usize>,
+    pub input_events_per_sample: f64,
+    /// Simulated windows: scans simulated, and those skipped (window count off).
+    pub scans: Option<usize>,
+    pub skipped_scans: Option<usize>,
+}
+
+/// A trained SNN with how it went.
+pub struct TrainedSnn {
+    pub model: SnnModel,
+    pub history: Vec<EpochReport>,
+    pub best_epoch: usize,
+    pub best_val_accuracy: f64,
+    /// The averaged weights' validation accuracy and whether they were chosen.
+    pub average: Option<(f64, bool)>,
+    pub data: DataSummary,
+    /// Tactile datasets: test accuracy on the engine. Simulated windows: the validation
+    /// windows' accuracy on the engine.
+    pub engine_accuracy: f64,
+    pub engine_n: usize,
+}
+
+fn events_per_sample(s: &SpikeSet) -> f64 {
+    s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64
+}
+
+/// Trains the recipe on a tactile dataset folder (iCub layout: any channel and class count).
+pub fn train_tactile(r: &SnnRecipe, data_dir: &Path, observer: &mut dyn Observer) -> Result<TrainedSnn> {
+    let data = Dataset::load(data_dir, r.period_us)?;
+    let sd = SigmaDeltaConfig { threshold: r.sigma_delta, interpolate: r.interpolate };
+    let encoding = TactileEncoding::fit(&data, sd, r.dt_us)?;
+    let all_train = encoding.encode(&data, Some(Split::Train))?;
+    let test = encoding.encode(&data, Some(Split::Test))?;
+    let (train, val) = if r.val_fraction > 0.0 {
+        all_train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed))
+    } else {
+        (all_train.clone(), all_train.subset(&[]))
+    };
+    let summary = DataSummary {
+        data: data_dir.display().to_string(),
+        classes: data.classes.len(),
+        inputs: encoding.n_inputs(),
+        steps: encoding.steps,
+        dt_us: encoding.dt_us,
+        train: train.len(),
+        validation: val.len(),
+        test: Some(test.len()),
+        input_events_per_sample: events_per_sample(&all_train),
+        scans: None,
+        skipped_scans: None,
+    };
+    let spec = network_spec(r, encoding.n_inputs(), data.classes.len())?;
+    let fit = fit(r, spec, &train, &val, observer)?;
+    let scored = snn_accuracy(&fit.network, &fit.config, &test, Mode::Stepped)?;
+    let mut extra = serde_json::json!({
+        "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
+        "test_accuracy": scored.accuracy,
+    });
+    if let Some(v) = r.val_seed {
+        extra["val_seed"] = v.into();
+    }
+    let model = SnnModel {
+        preprocess: serde_json::to_value(&encoding).map_err(|e| Error::Invalid(e.to_string()))?,
+        classes: data.classes.clone(),
+        provenance: provenance(r, &fit, extra),
+        config: fit.config.clone(),
+        network: fit.network.clone(),
+    };
+    Ok(fit.into_trained(model, summary, scored.accuracy, scored.n))
+}
+
+/// Trains the recipe on the SIMULATED character windows (SAB and UN, 8 mm/s, 1.5 mm, the same
+/// scans and validation split as the ResNet with the same trials and seed), the windows' events
+/// fed as input spikes, one step per 10 ms frame.
+pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn Progress) -> Result<TrainedSnn> {
+    let pool = crate::chars::check_pool(r.pool)?;
+    let input = CharInput {
+        labeler: pipeline::labeling::LabelerConfig::default(),
+        rows: LITE_ROWS,
+        cols: LITE_COLS,
+        pool,
+        preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
+        augment: pipeline::augment::AugmentConfig::default(),
+    };
+    let tw = training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, progress)?;
+    let train = snn_set(&input, &tw.all, &tw.train, r.dt_us, r.task);
+    let val = snn_set(&input, &tw.all, &tw.val, r.dt_us, r.task);
+    let summary = DataSummary {
+        data: format!("SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words", r.word_rows),
+        classes: train.classes.len(),
+        inputs: train.n_inputs,
+        steps: train.steps,
+        dt_us: r.dt_us,
+        train: train.len(),
+        validation: val.len(),
+        test: None,
+        input_events_per_sample: events_per_sample(&train),
+        scans: Some(tw.scans),
+        skipped_scans: Some(tw.skipped_scans),
+    };
+    let spec = network_spec(r, train.n_inputs, train.classes.len())?;
+    let fit = fit(r, spec, &train, &val, observer)?;
+    let scored = snn_accuracy(&fit.network, &fit.config, &val, Mode::Stepped)?;
+    let model = SnnModel {
+        preprocess: serde_json::to_value(&input).map_err(|e| Error::Invalid(e.to_string()))?,
+        classes: r.task.classes(),
+        provenance: provenance(
+            r,
+            &fit,
+            serde_json::json!({
+                "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "task": r.task,
+                "jitter_ms": r.jitter_ms,
+                "word_rows": r.word_rows,
+                "scans": tw.scans,
+                "train_windows": train.len(),
+                "val_windows": val.len(),
+            }),
+        ),
+        config: fit.config.clone(),
+        network: fit.network.clone(),
+    };
+    Ok(fit.into_trained(model, summary, scored.accuracy, scored.n))
+}
+
+/// A finished fit: the chosen weights as an engine network.
+struct Fit {
+    outcome: Outcome,
+    network: snn::network::Network,
+    config: SnnConfig,
+    train: TrainConfig,
+    seconds: f64,
+}
+
+impl Fit {
+    fn into_trained(self, model: SnnModel, data: DataSummary, engine_accuracy: f64, engine_n: usize) -> TrainedSnn {
+        TrainedSnn {
+            model,
+            best_epoch: self.outcome.best_epoch,
+            best_val_accuracy: self.outcome.best_val_accuracy,
+            average: self.outcome.average,
+            history: self.outcome.history,
+            data,
+            engine_accuracy,
+            engine_n,
+        }
+    }
+}
+
+/// Trains `spec` from the recipe's seeded initialisation.
+fn fit(r: &SnnRecipe, spec: NetworkSpec, train: &SpikeSet, val: &SpikeSet, observer: &mut dyn Observer) -> Result<Fit> {
+    let cfg = r.train_config();
+    let mut twin = SnnTwin::new(spec.clone(), r.surrogate(), r.readout)?;
+    twin.clamped_readout_gradient = r.readout_gradient == ReadoutGradient::Clamped;
+    let init = spec.init_with_recurrent_gain(r.seed, r.init_gain, r.recurrent_init_gain.unwrap_or(r.init_gain))?;
+    let started = std::time::Instant::now();
+    let outcome = learn::train::train(&twin, &init, train, val, &cfg, observer)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let network = spec.build(outcome.weights.clone())?;
+    Ok(Fit {
+        outcome,
+        network,
+        config: SnnConfig { network: spec, dt_us: r.dt_us, readout: r.readout },
+        train: cfg,
+        seconds,
+    })
+}
+
+/// How a model was trained, with `extra` (an object) merged in; the recipe in full.
+fn provenance(r: &SnnRecipe, fit: &Fit, extra: serde_json::Value) -> serde_json::Value {
+    let mut p = serde_json::json!({
+        "recipe": r,
+        "train": fit.train,
+        "surrogate": format!("{:?}", r.surrogate()),
+        "readout_gradient": format!("{:?}", r.readout_gradient),
+        "init_gain": r.init_gain,
+        "recurrent_init_gain": r.recurrent_init_gain.unwrap_or(r.init_gain),
+        "best_epoch": fit.outcome.best_epoch,
+        "val_accuracy": fit.outcome.best_val_accuracy,
+        "train_seconds": fit.seconds,
+        "peak_rss_mb": crate::peak_rss_mb(),
+    });
+    if let (Some(p), serde_json::Value::Object(extra)) = (p.as_object_mut(), extra) {
+        p.extend(extra);
+    }
+    p
+}
+
+/// Writes an SNN model file, creating its folder; an existing file is kept unless `force`.
+pub fn save_model(model: &SnnModel, out: &Path, force: bool) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    }
+    Ok(model.save(out, force)?)
+}

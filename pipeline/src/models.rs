@@ -1,0 +1,135 @@
+//! One loader for every model file: its header names the architecture ([`load`]). The CLI, the
+//! benches, the reader and the experiments all load models here.
+
+use crate::error::{Error, Result};
+use crate::input::CharInput;
+use learn::resnet::{Resnet, ResnetConfig};
+use snn::model_file::{Arch, ModelFile, SnnModel};
+use std::path::Path;
+
+/// A trained ResNet and how its input is made.
+pub struct ResnetModel {
+    pub config: ResnetConfig,
+    pub input: CharInput,
+    pub model: Resnet,
+    pub classes: Vec<String>,
+    pub provenance: serde_json::Value,
+}
+
+fn bad(path: &Path, what: impl Into<String>) -> Error {
+    Error::Model { path: path.to_path_buf(), what: what.into() }
+}
+
+impl ResnetModel {
+    /// Writes the model file (atomically; an existing file is kept unless `force`).
+    pub fn save(&self, path: &Path, force: bool) -> Result<()> {
+        let json = |v: serde_json::Result<serde_json::Value>| v.map_err(|e| bad(path, e.to_string()));
+        ModelFile {
+            arch: Arch::Resnet,
+            config: json(serde_json::to_value(&self.config))?,
+            preprocess: json(serde_json::to_value(&self.input))?,
+            classes: self.classes.clone(),
+            provenance: self.provenance.clone(),
+            tensors: learn::resnet::to_tensors(&self.model)?,
+        }
+        .write(path, force)?;
+        Ok(())
+    }
+
+    /// A ResNet model file's bytes; `path` names them in errors.
+    pub fn parse(path: &Path, bytes: &[u8]) -> Result<ResnetModel> {
+        let f = ModelFile::parse(path, bytes, Arch::Resnet)?;
+        let config: ResnetConfig =
+            serde_json::from_value(f.config.clone()).map_err(|e| bad(path, format!("header `config`: {e}")))?;
+        let input: CharInput =
+            serde_json::from_value(f.preprocess.clone()).map_err(|e| bad(path, format!("header `preprocess`: {e}")))?;
+        if input.shape() != config.input {
+            return Err(bad(
+                path,
+                format!("the preprocessing gives {:?}, the network takes {:?}", input.shape(), config.input),
+            ));
+        }
+        if f.classes.len() != config.classes {
+            return Err(bad(
+                path,
+                format!("{} class names for a network of {} outputs", f.classes.len(), config.classes),
+            ));
+        }
+        let model = learn::resnet::from_tensors(&config, &f.tensors).map_err(|e| bad(path, e.to_string()))?;
+        Ok(ResnetModel { config, input, model, classes: f.classes, provenance: f.provenance })
+    }
+}
+
+/// A loaded model of either architecture.
+#[allow(clippy::large_enum_variant)] // a handful per process
+pub enum Model {
+    Resnet(ResnetModel),
+    /// An SNN: on character windows, or on a tactile dataset's encoding (its `preprocess` says).
+    Snn(SnnModel),
+}
+
+/// Loads a model file of any architecture, by what its header names.
+pub fn load(path: &Path) -> Result<Model> {
+    let bytes = std::fs::read(path).map_err(|e| bad(path, e.to_string()))?;
+    Ok(match ModelFile::arch_of(path, &bytes)? {
+        Arch::Resnet => Model::Resnet(ResnetModel::parse(path, &bytes)?),
+        Arch::Snn => Model::Snn(SnnModel::parse(path, &bytes)?),
+    })
+}
+
+/// Loads a model file that must hold an SNN.
+pub fn load_snn(path: &Path) -> Result<SnnModel> {
+    match load(path)? {
+        Model::Snn(m) => Ok(m),
+        Model::Resnet(_) => Err(bad(path, "holds a `resnet` model, an SNN was asked for")),
+    }
+}
+
+impl Model {
+    pub fn arch(&self) -> Arch {
+        match self {
+            Model::Resnet(_) => Arch::Resnet,
+            Model::Snn(_) => Arch::Snn,
+        }
+    }
+
+    pub fn classes(&self) -> &[String] {
+        match self {
+            Model::Resnet(m) => &m.classes,
+            Model::Snn(m) => &m.classes,
+        }
+    }
+
+    pub fn provenance(&self) -> &serde_json::Value {
+        match self {
+            Model::Resnet(m) => &m.provenance,
+            Model::Snn(m) => &m.provenance,
+        }
+    }
+
+    /// How the model's character windows are made; an error for an SNN of a tactile dataset.
+    /// `path` names the file in errors.
+    pub fn char_input(&self, path: &Path) -> Result<CharInput> {
+        match self {
+            Model::Resnet(m) => Ok(m.input.clone()),
+            Model::Snn(m) => {
+                let input: CharInput = serde_json::from_value(m.preprocess.clone()).map_err(|e| {
+                    bad(
+                        path,
+                        format!(
+                            "header `preprocess` is not a character-window input (a model for `eval --data`?): {e}"
+                        ),
+                    )
+                })?;
+                let n = 2 * input.shape()[1] * input.shape()[2];
+                if m.network.n_inputs() != n {
+                    return Err(bad(
+                        path,
+                        format!("the preprocessing gives {n} inputs, the network takes {}", m.network.n_inputs()),
+                    ));
+                }
+                Ok(input)
+            }
+        }
+    }
+}

@@ -1,0 +1,125 @@
+//! What the commands share: repository paths, progress bars for the libraries' long steps, the
+//! writing of event files and JSON.
+
+use anyhow::Result;
+use encoders::formats::aedat4::{self, EncoderOptions};
+use encoders::formats::{self, AtomicFile, EventSink, Format};
+use encoders::{Event, Resolution};
+use indicatif::{ProgressBar, ProgressStyle};
+use learn::train::{EpochReport, Observer};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// A file of the repository: from the working directory, else from where the binary was built.
+pub fn repo_path(rel: &str) -> PathBuf {
+    let local = PathBuf::from(rel);
+    if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
+}
+
+/// A progress bar per step of a library call ([`experiments::Progress`]); notes go to stderr.
+#[derive(Default)]
+pub struct Bar(Mutex<Option<ProgressBar>>);
+
+impl experiments::Progress for Bar {
+    fn start(&self, what: &str, len: u64) {
+        let bar = ProgressBar::new(len);
+        bar.set_style(
+            ProgressStyle::with_template(&format!("{what} [{{bar:30}}] {{pos}}/{{len}} ({{elapsed}})"))
+                .expect("a valid template"),
+        );
+        *self.0.lock().expect("bar lock") = Some(bar);
+    }
+
+    fn inc(&self) {
+        if let Some(b) = self.0.lock().expect("bar lock").as_ref() {
+            b.inc(1);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = self.0.lock().expect("bar lock").take() {
+            b.finish_and_clear();
+        }
+    }
+
+    fn note(&self, line: &str) {
+        eprintln!("{line}");
+    }
+}
+
+/// Training progress: a bar per epoch with running loss and accuracy, and a line per epoch.
+pub struct Epochs {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+    sum: (f64, f64, usize),
+}
+
+impl Epochs {
+    pub fn new(quiet: bool) -> Epochs {
+        Epochs { bar: None, quiet, sum: (0.0, 0.0, 0) }
+    }
+}
+
+impl Observer for Epochs {
+    fn epoch_begin(&mut self, epoch: usize, batches: usize) {
+        self.sum = (0.0, 0.0, 0);
+        if !self.quiet {
+            let bar = ProgressBar::new(batches as u64);
+            bar.set_style(
+                ProgressStyle::with_template("epoch {prefix:>3} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                    .expect("a valid template")
+                    .progress_chars("=> "),
+            );
+            bar.set_prefix(epoch.to_string());
+            self.bar = Some(bar);
+        }
+    }
+
+    fn batch(&mut self, loss: f64, accuracy: f64) {
+        self.sum = (self.sum.0 + loss, self.sum.1 + accuracy, self.sum.2 + 1);
+        if let Some(b) = &self.bar {
+            let n = self.sum.2 as f64;
+            b.set_message(format!("loss {:.3} acc {:.1}%", self.sum.0 / n, 100.0 * self.sum.1 / n));
+            b.inc(1);
+        }
+    }
+
+    fn epoch_end(&mut self, r: &EpochReport) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+        eprintln!(
+            "epoch {:>3}: lr {:.2e} train loss {:.3} acc {:5.1}% | val loss {:.3} acc {:5.1}% | spikes/sample {:?} | {:.1} s",
+            r.epoch,
+            r.lr,
+            r.train_loss,
+            100.0 * r.train_accuracy,
+            r.val_loss,
+            100.0 * r.val_accuracy,
+            r.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect::<Vec<_>>(),
+            r.seconds
+        );
+    }
+}
+
+/// Writes events to `path` in the format of its extension.
+pub fn write_events(path: &Path, events: &[Event], resolution: Resolution, force: bool) -> Result<()> {
+    let mut sink: Box<dyn EventSink> = match Format::for_output(path)? {
+        Format::Aedat4 => {
+            let file = AtomicFile::create(path, force)?;
+            let opts =
+                EncoderOptions { source: "braille simulate (virtual Evetac)".into(), ..EncoderOptions::default() };
+            Box::new(aedat4::Encoder::new(file, Some(resolution), opts)?)
+        }
+        _ => formats::create(path, Some(resolution), force)?,
+    };
+    sink.write(events)?;
+    sink.finish()?;
+    Ok(())
+}
+
+/// Where a scan's ground truth is written beside its event file: `STEM.truth.json`.
+pub fn truth_path(events: &Path) -> PathBuf {
+    let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    events.with_file_name(format!("{stem}.truth.json"))
+}
