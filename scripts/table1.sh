@@ -5,7 +5,7 @@
 # tests every model on the same RAB scans at the paper's seven depths (`braille chars-report`).
 # The report also tests the word-reading classifiers (`+ words`, trained by scripts/words.sh) when
 # models/ holds them. Writes models/resnet-lite-{raw,norm,aug,normaug}.safetensors,
-# models/snn-chars.safetensors, docs/chars.* and the training histories. About 60 minutes on two
+# models/snn-chars.safetensors, docs/results/chars.* and the training histories. About 60 minutes on two
 # cores; `--report-only` skips the training.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,13 +14,13 @@ mkdir -p models docs
 if [[ "${1:-}" != "--report-only" ]]; then
   for aug in raw norm aug normaug; do
     target/release/braille train --arch resnet --preset lite --aug "$aug" --trials 40 --epochs 30 --lr 1e-3 \
-      --seed 1 --out "models/resnet-lite-$aug.safetensors" --history "docs/resnet_lite_${aug}_history.json" \
+      --seed 1 --out "models/resnet-lite-$aug.safetensors" --history "docs/results/resnet_lite_${aug}_history.json" \
       --force --quiet
   done
   # The SNN: 2560 inputs (the 64x80 crop pooled 2x2, ON and OFF) -> 256 LIF -> 26 leaky
   # integrators, 10 ms steps; events dropped with probability 0.3 in training (a shallower press
   # gives fewer events).
   target/release/braille train --arch snn --recipe chars --out models/snn-chars.safetensors \
-    --history docs/snn_chars_history.json --force --quiet
+    --history docs/results/snn_chars_history.json --force --quiet
 fi
-target/release/braille chars-report --models models --out docs --trials 30
+target/release/braille chars-report --models models --out docs/results --trials 30

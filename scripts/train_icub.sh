@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Trains the shipped SNNs on the real iCub Braille recordings and regenerates docs/icub.{md,json,png}.
+# Trains the shipped SNNs on the real iCub Braille recordings and regenerates docs/results/icub.{md,json,png}.
 # Seeded: the same commands give the same models on the same machine. About 2 min (raw1350) and
 # 10-15 min (th10) on two cores.
 set -euo pipefail
@@ -12,7 +12,7 @@ mkdir -p models docs
 # (max membrane); Adam 2e-3 with cosine decay; the command's defaults. Seed 2 had the best
 # validation accuracy of the eight runs in the README (two configurations, seeds 1-4).
 $b train --data data/icub_braille/raw1350 --recipe raw1350 \
-  --out models/snn-raw1350.safetensors --history docs/icub_raw1350_history.json --force --quiet
+  --out models/snn-raw1350.safetensors --history docs/results/icub_raw1350_history.json --force --quiet
 # th10: the released events (sigma-delta threshold 10), the same network with faster neurons
 # (tau_mem 100 ms, tau_syn 50 ms), a recurrent hidden layer whose recurrent weights start at
 # zero (the network starts feed-forward; recurrent weights at the input's scale drown it in
@@ -24,5 +24,5 @@ $b train --data data/icub_braille/raw1350 --recipe raw1350 \
 # those 100 epochs, its weights averaged over the last 30 (stochastic weight averaging); seed 2,
 # fixed before the run.
 $b train --data data/icub_braille/th10 --recipe th10 \
-  --out models/snn-th10.safetensors --history docs/icub_th10_history.json --force --quiet
-$b icub-report --out docs
+  --out models/snn-th10.safetensors --history docs/results/icub_th10_history.json --force --quiet
+$b icub-report --out docs/results

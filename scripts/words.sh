@@ -6,8 +6,8 @@
 # plus 80 rows of words, 5 scans per row, 8 mm/s, 1.5 mm, seed 1. The segmentation networks
 # (the paper's binary 'character present' network, as an SNN and as a small ResNet) learn from the
 # same scans' windows with the paper's negatives and background from the rest of the scan. Then
-# the paper's speed table for both architectures (docs/words.{md,json}, docs/words_speed.png) and
-# Table I's report (docs/chars.*, which also tests these classifiers). About 60 minutes on two
+# the paper's speed table for both architectures (docs/results/words.{md,json}, docs/results/words_speed.png) and
+# Table I's report (docs/results/chars.*, which also tests these classifiers). About 60 minutes on two
 # cores; `--report-only` runs the two reports alone (about 15 minutes).
 #
 # The SNN's recipe was chosen on validation scans, never on the test scans (seed 1000003): RAB,
@@ -21,14 +21,14 @@ mkdir -p models docs
 b=target/release/braille
 if [[ "${1:-}" != "--report-only" ]]; then
   $b train --arch snn --recipe words --out models/snn-words.safetensors \
-    --history docs/snn_words_history.json --force --quiet
+    --history docs/results/snn_words_history.json --force --quiet
   $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
     --epochs 15 --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
-    --history docs/resnet_lite_normaug_words_history.json --force --quiet
-  $b train --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/snn_segment_history.json --force --quiet
+    --history docs/results/resnet_lite_normaug_words_history.json --force --quiet
+  $b train --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/results/snn_segment_history.json --force --quiet
   $b train --arch resnet --task segment --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
     --epochs 8 --lr 1e-3 --seed 1 --out models/resnet-tiny-segment.safetensors \
-    --history docs/resnet_tiny_segment_history.json --force --quiet
+    --history docs/results/resnet_tiny_segment_history.json --force --quiet
 fi
-$b words-report --trials 30 --out docs
-$b chars-report --models models --out docs --trials 30
+$b words-report --trials 30 --out docs/results
+$b chars-report --models models --out docs/results --trials 30

@@ -1,10 +1,6 @@
 //! What the commands share: repository paths, progress bars for the libraries' long steps, the
 //! writing of event files and JSON.
 
-use anyhow::Result;
-use encoders::formats::aedat4::{self, EncoderOptions};
-use encoders::formats::{self, AtomicFile, EventSink, Format};
-use encoders::{Event, Resolution};
 use indicatif::{ProgressBar, ProgressStyle};
 use learn::train::{EpochReport, Observer};
 use std::path::{Path, PathBuf};
@@ -102,24 +98,4 @@ impl Observer for Epochs {
     }
 }
 
-/// Writes events to `path` in the format of its extension.
-pub fn write_events(path: &Path, events: &[Event], resolution: Resolution, force: bool) -> Result<()> {
-    let mut sink: Box<dyn EventSink> = match Format::for_output(path)? {
-        Format::Aedat4 => {
-            let file = AtomicFile::create(path, force)?;
-            let opts =
-                EncoderOptions { source: "braille simulate (virtual Evetac)".into(), ..EncoderOptions::default() };
-            Box::new(aedat4::Encoder::new(file, Some(resolution), opts)?)
-        }
-        _ => formats::create(path, Some(resolution), force)?,
-    };
-    sink.write(events)?;
-    sink.finish()?;
-    Ok(())
-}
-
-/// Where a scan's ground truth is written beside its event file: `STEM.truth.json`.
-pub fn truth_path(events: &Path) -> PathBuf {
-    let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    events.with_file_name(format!("{stem}.truth.json"))
-}
+pub use experiments::scans::{truth_path, write_events};

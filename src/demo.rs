@@ -1,13 +1,12 @@
 //! The built-in demonstration of what works so far, on real tactile data.
 
 use anyhow::{Context, Result, bail};
-use encoders::dataset::{Dataset, SampleData, Split};
+use encoders::Event;
+use encoders::dataset::Dataset;
 use encoders::formats::aedat4::{self, EncoderOptions};
 use encoders::formats::{self, AtomicFile, EventSink, OpenOptions};
 use encoders::heatmap::{HeatmapConfig, HeatmapEncoder};
-use encoders::sigma_delta::{self, SigmaDeltaConfig};
 use encoders::stats::StreamStats;
-use encoders::{Event, Polarity};
 use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -50,41 +49,21 @@ pub fn run(args: Args) -> Result<()> {
         t.elapsed().as_secs_f64()
     );
 
-    // Sigma-delta encoding of every sample: pressure = 255 - reading (255 = no contact).
-    let cfg = SigmaDeltaConfig { threshold: args.threshold, interpolate: false };
+    // A stream that spells the text from test-split recordings (sigma-delta encoded pressure,
+    // 255 - reading), letter after letter.
     let t = Instant::now();
-    let mut encoded: Vec<(usize, Split, Vec<Event>)> = Vec::with_capacity(ds.samples.len());
-    for s in &ds.samples {
-        let SampleData::Analog { frames } = &s.data else {
-            bail!("{} holds event data; the demo encodes analog data", data.display())
-        };
-        let pressure: Vec<f32> = frames.iter().map(|v| 255.0 - v).collect();
-        encoded.push((s.label, s.split, sigma_delta::encode(&cfg, &pressure, ds.channels, args.period_us)?));
-    }
-    let total: usize = encoded.iter().map(|e| e.2.len()).sum();
+    let spelled = experiments::tactile::spell_stream(&ds, &args.text, args.threshold, args.period_us)
+        .with_context(|| data.display().to_string())?;
     println!(
         "2. Sigma-delta encoded (threshold {}) into {} events, {:.1} per sample, in {:.1} ms.",
         args.threshold,
-        total,
-        total as f64 / encoded.len() as f64,
+        spelled.encoded_events,
+        spelled.encoded_events as f64 / spelled.samples.max(1) as f64,
         t.elapsed().as_secs_f64() * 1e3
     );
-
-    // A stream that spells the text from test-split recordings, letter after letter.
-    let mut stream: Vec<Event> = Vec::new();
-    let mut spelled = String::new();
-    let mut offset_us = 0i64;
-    let sample_us = 2_000_000i64;
-    for ch in args.text.to_uppercase().chars() {
-        let name = if ch == ' ' { "Space".to_string() } else { ch.to_string() };
-        let Some(label) = ds.classes.iter().position(|c| *c == name) else {
-            bail!("no class {name:?} in {}; classes: {}", data.display(), ds.classes.join(" "))
-        };
-        let (_, _, ev) = encoded.iter().find(|(l, s, _)| *l == label && *s == Split::Test).context("no test sample")?;
-        stream.extend(ev.iter().map(|e| Event { t_us: e.t_us + offset_us, ..*e }));
-        spelled.push(ch);
-        offset_us += sample_us;
-    }
+    let (stream, sample_us) = (spelled.events, spelled.sample_us);
+    let offset_us = sample_us * spelled.text.chars().count() as i64;
+    let spelled = spelled.text;
     let path = out.join("icub_text.aedat4");
     let resolution = ds.resolution();
     let file = AtomicFile::create(&path, true)?;
@@ -151,39 +130,15 @@ fn read_letters(
     threshold: f32,
 ) -> Result<()> {
     let path = crate::common::repo_path("models/snn-raw1350.safetensors");
-    let model = snn::model_file::SnnModel::load(&path)?;
-    let enc: learn::data::TactileEncoding = serde_json::from_value(model.preprocess.clone())
-        .with_context(|| format!("{}: header `preprocess` is not a tactile encoding", path.display()))?;
+    let model = pipeline::models::load_snn(&path)?;
+    let enc = experiments::tactile::encoding_of(&model, &path)?;
     if enc.sigma_delta.as_ref().is_some_and(|sd| sd.threshold != threshold) || model.classes != classes {
         println!("4b. (skipped: the shipped SNN was trained with another encoding or classes than this demo's)");
         return Ok(());
     }
-    let encoder = enc.encoder(resolution)?;
-    let engine = snn::engine::Engine::new(&model.network, model.config.dt_us, snn::engine::Mode::Stepped)?;
-    let mut state = engine.state(0);
     let t = Instant::now();
-    let mut read = String::new();
-    let mut synops = 0u64;
-    for (i, _) in truth.chars().enumerate() {
-        let (a, b) = (i as i64 * sample_us, (i as i64 + 1) * sample_us);
-        let lo = stream.partition_point(|e| e.t_us < a);
-        let hi = stream.partition_point(|e| e.t_us < b);
-        // The stream encodes pressure (255 - reading); the model was trained on the readings as
-        // recorded, whose sigma-delta events are the same with ON and OFF swapped.
-        let letter: Vec<Event> = stream[lo..hi]
-            .iter()
-            .map(|e| Event { t_us: e.t_us - a, polarity: Polarity::from_on(!e.polarity.is_on()), ..*e })
-            .collect();
-        engine.reset(&mut state, 0);
-        engine.run_train(&mut state, &encoder.encode(&letter, 0, enc.steps))?;
-        synops += state.stats.synops;
-        let best = experiments::scoring::argmax(state.output_v_max().iter().copied());
-        read.push(match classes.get(best).map(String::as_str) {
-            Some("Space") => ' ',
-            Some(c) => c.chars().next().unwrap_or('?'),
-            None => '?',
-        });
-    }
+    let n = truth.chars().count();
+    let (read, synops) = experiments::tactile::read_letters(&model, &path, stream, resolution, n, sample_us)?;
     let right = read.chars().zip(truth.chars()).filter(|(a, b)| a == b).count();
     println!(
         "4b. The shipped SNN ({}) read the stream back letter by letter on the event-driven\n    engine: {:?} -> {:?}, {}/{} letters right, in {:.1} ms for {:.0} s of stream ({} synaptic\n    operations). Real recordings; each letter's 2 s slice is given.",
@@ -191,9 +146,9 @@ fn read_letters(
         truth,
         read,
         right,
-        truth.chars().count(),
+        n,
         t.elapsed().as_secs_f64() * 1e3,
-        (truth.chars().count() as i64 * sample_us) as f64 / 1e6,
+        (n as i64 * sample_us) as f64 / 1e6,
         synops
     );
     Ok(())
@@ -265,7 +220,7 @@ fn read_words(out: &Path) -> Result<()> {
         println!("{arch}: {hits}/{n} words right on the two rows (SIMULATED).");
     }
     println!(
-        "Read a file yourself: braille read {} --arch snn\nThe speed table (8-32 mm/s, 30 scans per row): docs/words.md.\n",
+        "Read a file yourself: braille read {} --arch snn\nThe speed table (8-32 mm/s, 30 scans per row): docs/results/words.md.\n",
         out.join("ev_row0_16mm_s.aedat4").display()
     );
     Ok(())

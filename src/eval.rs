@@ -9,7 +9,6 @@ use experiments::tactile::SplitChoice;
 use experiments::words::WordsSpec;
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::Spell;
-use serde::Serialize;
 use sim::BoardKind;
 use snn::engine::Mode;
 use snn::model_file::Arch;
@@ -65,20 +64,6 @@ pub enum What {
     Words(WordsArgs),
 }
 
-#[derive(Serialize)]
-struct Report<'a> {
-    data: String,
-    split: &'a str,
-    model: String,
-    mode: &'static str,
-    accuracy: f64,
-    n: usize,
-    correct: usize,
-    synops_per_sample: f64,
-    spikes_per_sample: f64,
-    input_events_per_sample: f64,
-}
-
 pub fn run(args: Args) -> Result<()> {
     match args.what {
         Some(What::Chars(a)) => return chars(a),
@@ -88,33 +73,14 @@ pub fn run(args: Args) -> Result<()> {
     let (Some(data_dir), Some(model_path)) = (args.data.clone(), args.model.clone()) else {
         anyhow::bail!("eval needs --data DIR and --model PATH, or the `chars` or `words` subcommand");
     };
-    let model = pipeline::models::load_snn(&model_path)?;
-    let encoding = experiments::tactile::encoding_of(&model, &model_path)?;
     let split = match args.split {
         SplitArg::Train => SplitChoice::Train,
         SplitArg::Validation => SplitChoice::Validation { fraction: args.val_fraction, seed: args.val_seed },
         SplitArg::Test => SplitChoice::Test,
         SplitArg::All => SplitChoice::All,
     };
-    let set = experiments::tactile::load_split(&data_dir, &encoding, split)?;
-    let s = experiments::tactile::snn_accuracy(&model.network, &model.config, &set, args.mode)?;
-    let report = Report {
-        data: data_dir.display().to_string(),
-        split: split.name(),
-        model: model_path.display().to_string(),
-        mode: match args.mode {
-            Mode::Stepped => "stepped",
-            Mode::Async => "async",
-        },
-        accuracy: s.accuracy,
-        n: s.n,
-        correct: s.correct,
-        synops_per_sample: s.synops_per_sample,
-        spikes_per_sample: s.spikes_per_sample,
-        input_events_per_sample: s.input_events_per_sample,
-    };
+    let (report, csv) = experiments::tactile::eval_split(&model_path, &data_dir, split, args.mode)?;
     if let Some(path) = &args.predictions {
-        let csv = experiments::tactile::predictions_csv(&model.classes, &set.labels, &s.predictions);
         std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }
     if args.json {
@@ -217,19 +183,6 @@ pub struct WordsArgs {
     json: bool,
 }
 
-#[derive(Serialize)]
-struct WordsReport<'a> {
-    data: &'static str,
-    board: String,
-    spell: Spell,
-    words_per_line: f64,
-    letters_per_word: f64,
-    correct_words: f64,
-    correct_letters: f64,
-    #[serde(flatten)]
-    score: &'a experiments::words::WordsScore,
-}
-
 fn words(args: WordsArgs) -> Result<()> {
     let (s, c) = experiments::words::default_models(args.arch, &crate::common::repo_path("models"));
     let readers = ReaderModels::load(&s, &c, args.snn_runner)?;
@@ -240,19 +193,8 @@ fn words(args: WordsArgs) -> Result<()> {
         trials: args.trials,
         seed: args.seed,
     };
-    let lines = experiments::words::read_scans(&spec, &[&readers], &Bar::default())?;
-    let s = experiments::words::score(args.arch, 0, &lines, args.speed, args.depth);
-    let m = s.by_spell.iter().find(|b| b.spell == args.spell).expect("every spelling is scored");
-    let r = WordsReport {
-        data: "simulated (virtual Evetac)",
-        board: args.board.name(),
-        spell: args.spell,
-        words_per_line: m.words_per_line,
-        letters_per_word: m.letters_per_word,
-        correct_words: m.correct_words,
-        correct_letters: m.correct_letters,
-        score: &s,
-    };
+    let r = experiments::words::eval_words(&spec, &readers, args.spell, &Bar::default())?;
+    let s = &r.score;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {

@@ -21,23 +21,6 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    println!("Labeling pipeline against ground truth (SIMULATED scans, virtual Evetac):\n");
-    println!(
-        "| board | speed (mm/s) | depth (mm) | scans | count matched | windows right |\n| --- | --- | --- | --- | --- | --- |"
-    );
-    for r in &rows {
-        println!(
-            "| {} | {} | {} | {} | {}/{} | {}/{} ({:.1}%) |",
-            r.board,
-            r.speed_mm_s,
-            r.depth_mm,
-            r.scans,
-            r.count_matched,
-            r.scans,
-            r.correct,
-            r.characters,
-            100.0 * r.accuracy
-        );
-    }
+    print!("{}", experiments::labeling::label_check_markdown(&rows));
     Ok(())
 }

@@ -1,14 +1,20 @@
 //! `braille report`: every results table and figure regenerated into one folder, with an index.
-//! Each part runs as this binary's own command (the same code and output as run by hand):
-//! the simulator's physics checks, the labeling pipeline, a simulated scan as a heat map and an
-//! event raster, Table I and the depth curve, the speed table, the SNN against the ResNet on one
-//! stream (latency histograms, SynOps and energy), and the real iCub results.
+//! Each part calls the library function its own command calls and writes the same files: the
+//! simulator's physics checks, the labeling pipeline, a simulated scan as a heat map and an event
+//! raster, Table I and the depth curve, the speed table, the SNN against the ResNet on one stream
+//! (latency histograms, SynOps and energy), the real iCub results and the engine's benchmark.
 
-use anyhow::{Context, Result, bail};
-use plotters::prelude::*;
+use crate::charts::{LineChart, Series};
+use crate::common::{Bar, repo_path};
+use anyhow::{Context, Result};
+use experiments::words::ReadSummary;
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::Spell;
+use plotters::prelude::SeriesLabelPosition;
+use snn::model_file::Arch;
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -22,249 +28,222 @@ pub struct Args {
     quick: bool,
 }
 
-/// One step: a command of this binary, its stdout kept in `stdout_to` when given.
-struct Step {
+/// Runs one part, timed, and notes it.
+fn step<T>(
+    times: &mut Vec<(&'static str, &'static str, f64)>,
     name: &'static str,
-    args: Vec<String>,
-    stdout_to: Option<&'static str>,
-}
-
-fn run_step(out: &Path, s: &Step) -> Result<f64> {
+    files: &'static str,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    eprintln!("report: {name}");
     let t = Instant::now();
-    eprintln!("report: {} (braille {})", s.name, s.args.join(" "));
-    let o = Command::new(std::env::current_exe()?)
-        .args(&s.args)
-        .stderr(std::process::Stdio::inherit())
-        .output()
-        .with_context(|| format!("running `braille {}`", s.args.join(" ")))?;
-    if !o.status.success() {
-        bail!("report step `{}` failed: braille {}", s.name, s.args.join(" "));
-    }
-    if let Some(f) = s.stdout_to {
-        let p = out.join(f);
-        std::fs::write(&p, &o.stdout).with_context(|| format!("writing {}", p.display()))?;
-    }
-    Ok(t.elapsed().as_secs_f64())
+    let r = f().with_context(|| format!("report part `{name}`"))?;
+    times.push((name, files, t.elapsed().as_secs_f64()));
+    Ok(r)
 }
 
 pub fn run(args: Args) -> Result<()> {
     let out = &args.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let o = out.to_str().context("the report folder's name is not UTF-8")?.to_string();
     let q = args.quick;
-    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
-    let scan = format!("{o}/ev_row0_16mm_s.aedat4");
-    let mut steps = vec![
-        Step {
-            name: "simulator physics checks",
-            args: s(&["sim-check", "--trials", if q { "2" } else { "8" }]),
-            stdout_to: Some("sim_check.md"),
-        },
-        Step {
-            name: "simulator physics checks (JSON)",
-            args: s(&["sim-check", "--trials", if q { "2" } else { "8" }, "--json"]),
-            stdout_to: Some("sim_check.json"),
-        },
-        Step {
-            name: "labeling pipeline",
-            args: s(&["label-check", "--trials", if q { "1" } else { "4" }]),
-            stdout_to: Some("label_check.md"),
-        },
-        Step {
-            name: "a simulated scan",
-            args: s(&[
-                "simulate", "--board", "EV", "--row", "0", "--speed", "16", "--seed", "1", "--out", &scan, "--force",
-            ]),
-            stdout_to: None,
-        },
-        Step {
-            name: "heat map and event raster",
-            args: s(&[
-                "plot",
-                &scan,
-                "--out",
-                &format!("{o}/scan_ev_row0.png"),
-                "--title",
-                "SIMULATED EV row 0, 16 mm/s",
-                "--force",
-            ]),
-            stdout_to: None,
-        },
-    ];
-    let mut chars = s(&["chars-report", "--out", &o, "--trials", if q { "1" } else { "30" }]);
-    if q {
-        chars.extend(s(&["--depths", "0.6,1.5"]));
-    }
-    steps.push(Step { name: "Table I and the depth curve", args: chars, stdout_to: None });
-    let mut words = s(&["words-report", "--out", &o, "--trials", if q { "1" } else { "30" }]);
-    if q {
-        words.extend(s(&["--speeds", "16,32"]));
-    }
-    steps.push(Step { name: "the speed table", args: words, stdout_to: None });
-    for arch in ["resnet", "snn"] {
-        steps.push(Step {
-            name: "one stream read by each architecture",
-            args: s(&["read", &scan, "--arch", arch, "--json"]),
-            stdout_to: Some(if arch == "snn" { "read_snn.jsonl" } else { "read_resnet.jsonl" }),
-        });
-    }
-    steps.push(Step { name: "the real iCub results", args: s(&["icub-report", "--out", &o]), stdout_to: None });
-    steps.push(Step {
-        name: "the engine on the peer benchmark",
-        args: s(&["bench", "--json"]),
-        stdout_to: Some("bench.json"),
-    });
+    let models = repo_path("models");
+    let bar = Bar::default();
     let started = Instant::now();
     let mut times = Vec::new();
-    for step in &steps {
-        times.push((step.name, run_step(out, step)?));
-    }
-    std::fs::remove_file(&scan).ok();
-    std::fs::remove_file(crate::common::truth_path(Path::new(&scan))).ok();
-    let (lat_md, lat_png) = latency(out)?;
+    let write = |file: &str, text: &str| -> Result<()> {
+        let p = out.join(file);
+        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+    };
+    let checks = step(&mut times, "simulator physics checks", "[sim_check.md](sim_check.md), sim_check.json", || {
+        let r = sim::checks::run(if q { 2 } else { 8 })?;
+        write("sim_check.md", &r.markdown())?;
+        write("sim_check.json", &(serde_json::to_string_pretty(&r)? + "\n"))?;
+        Ok(r.markdown())
+    })?;
+    let labels = step(&mut times, "labeling pipeline", "[label_check.md](label_check.md)", || {
+        let rows = experiments::labeling::label_check(if q { 1 } else { 4 }, 0)?;
+        let md = experiments::labeling::label_check_markdown(&rows);
+        write("label_check.md", &md)?;
+        Ok(md)
+    })?;
+    // the scan `braille simulate --board EV --row 0 --speed 16 --seed 1` writes
+    let scan_path = out.join("ev_row0_16mm_s.aedat4");
+    step(
+        &mut times,
+        "a simulated scan, as a heat map and an event raster",
+        "[scan_ev_row0.png](scan_ev_row0.png)",
+        || {
+            let board = sim::Board::new(
+                sim::BoardKind::Ev,
+                sim::BoardGeometry::default(),
+                sim::Board::default_seed(&sim::BoardKind::Ev),
+            )?;
+            let sensor = experiments::datasets::sensor(encoders::Resolution::DVXPLORER, 1)?;
+            let scan = sim::ScanConfig {
+                speed_mm_s: 16.0,
+                depth_mm: 1.5,
+                row: 0,
+                seed: experiments::datasets::trial_seed(1, 0, 0),
+                ..sim::ScanConfig::default()
+            };
+            let s = sim::simulate(&board, &sensor, &scan)?;
+            crate::common::write_events(&scan_path, &s.events, sensor.camera.resolution, true)?;
+            let window = crate::charts::ScanWindow { pool: 4, start_s: None, length_s: 0.35 };
+            crate::charts::scan_figure(
+                &s.events,
+                Some(sensor.camera.resolution),
+                &window,
+                "SIMULATED EV row 0, 16 mm/s",
+                &out.join("scan_ev_row0.png"),
+            )
+        },
+    )?;
+    step(
+        &mut times,
+        "Table I and the depth curve",
+        "[chars.md](chars.md), chars_depth.png, chars_confusion_*.png",
+        || {
+            let depths: &[f64] = if q { &[0.6, 1.5] } else { &[] };
+            let r =
+                experiments::reports::chars::chars_report(&models, depths, if q { 1 } else { 30 }, 1_000_003, &bar)?;
+            crate::charts::write_chars_report(&r, out)
+        },
+    )?;
+    step(&mut times, "the speed table", "[words.md](words.md), words_speed.png", || {
+        let speeds: &[f64] = if q { &[16.0, 32.0] } else { &[8.0, 16.0, 24.0, 32.0] };
+        let r =
+            experiments::reports::words::words_report(&models, speeds, 1.5, if q { 1 } else { 30 }, 1_000_003, &bar)?;
+        crate::charts::write_words_report(&r, out)
+    })?;
+    let runs = step(&mut times, "one stream read by each architecture", "read_resnet.jsonl, read_snn.jsonl", || {
+        [Arch::Resnet, Arch::Snn]
+            .into_iter()
+            .map(|arch| read_scan(&scan_path, arch, &models, out))
+            .collect::<Result<Vec<_>>>()
+    })?;
+    step(&mut times, "the real iCub results", "[icub.md](icub.md), icub.png", || {
+        crate::charts::write_icub_report(&repo_path("data/icub_braille"), &models, out)
+    })?;
+    let bench = step(&mut times, "the engine on the peer benchmark", "bench.json", || {
+        let r = experiments::bench::engine(64, 7)?;
+        write("bench.json", &(serde_json::to_string_pretty(&r)? + "\n"))?;
+        Ok(r)
+    })?;
+    std::fs::remove_file(&scan_path).ok();
+    let lat_md = latency(&runs, &out.join("latency.png"))?;
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "# braille: the report\n\nRegenerated by `braille report --out {o}{}` in {:.1} min on this machine. Every figure on **simulated** data (the virtual Evetac) says so; the iCub results are real recordings of another sensor.{}\n",
+        "# braille: the report\n\nRegenerated by `braille report --out {}{}` in {:.1} min on this machine. Every figure on **simulated** data (the virtual Evetac) says so; the iCub results are real recordings of another sensor.{}\n",
+        out.display(),
         if q { " --quick" } else { "" },
         started.elapsed().as_secs_f64() / 60.0,
         if q { " **Quick run**: one or two scans per condition, too noisy to quote." } else { "" }
     );
     let _ = writeln!(md, "| part | files | minutes |\n| --- | --- | --- |");
-    let files = [
-        "[sim_check.md](sim_check.md)",
-        "sim_check.json",
-        "[label_check.md](label_check.md)",
-        "",
-        "[scan_ev_row0.png](scan_ev_row0.png)",
-        "[chars.md](chars.md), chars_depth.png, chars_confusion_*.png",
-        "[words.md](words.md), words_speed.png",
-        "read_resnet.jsonl",
-        "read_snn.jsonl",
-        "[icub.md](icub.md), icub.png",
-        "bench.json",
-    ];
-    for ((name, t), f) in times.iter().zip(files) {
-        let _ = writeln!(md, "| {name} | {f} | {:.1} |", t / 60.0);
+    for (name, files, t) in &times {
+        let _ = writeln!(md, "| {name} | {files} | {:.1} |", t / 60.0);
     }
     let _ = writeln!(md, "\n## A simulated scan\n\n![heat map and event raster](scan_ev_row0.png)\n");
-    for (title, file) in
-        [("Simulator physics checks", "sim_check.md"), ("Labeling pipeline against the ground truth", "label_check.md")]
-    {
-        let body = std::fs::read_to_string(out.join(file)).unwrap_or_default();
-        let _ = writeln!(md, "## {title} (SIMULATED)\n\n{body}\n");
-    }
+    let _ = writeln!(md, "## Simulator physics checks (SIMULATED)\n\n{checks}\n");
+    let _ = writeln!(md, "## Labeling pipeline against the ground truth (SIMULATED)\n\n{labels}\n");
     let _ =
-        writeln!(md, "## SNN against ResNet on one stream (SIMULATED)\n\n{lat_md}\n![per-call latency]({lat_png})\n");
+        writeln!(md, "## SNN against ResNet on one stream (SIMULATED)\n\n{lat_md}\n![per-call latency](latency.png)\n");
     let _ = writeln!(
         md,
         "## Characters, words and the real sensor\n\n- [Table I and the depth curve](chars.md) (SIMULATED)\n- [The speed table](words.md) (SIMULATED)\n- [iCub Braille, real recordings](icub.md)\n"
     );
-    let bench = std::fs::read_to_string(out.join("bench.json")).unwrap_or_default();
-    if let Ok(b) = serde_json::from_str::<serde_json::Value>(&bench) {
-        let _ = writeln!(
-            md,
-            "## The event-driven engine on the peer benchmark's network\n\n{:.3} ms per sample, {:.2} ns per synaptic event, {:.3} us per input event (stepped); async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99) (`braille bench --json`; the peers: `bash scripts/peers/compare.sh`).\n",
-            b["ms_per_sample"].as_f64().unwrap_or(f64::NAN),
-            b["ns_per_synop"].as_f64().unwrap_or(f64::NAN),
-            b["us_per_input_event"].as_f64().unwrap_or(f64::NAN),
-            b["async_event_latency_ns_p50"].as_f64().unwrap_or(f64::NAN),
-            b["async_event_latency_ns_p99"].as_f64().unwrap_or(f64::NAN)
-        );
-    }
-    let p = out.join("index.md");
-    std::fs::write(&p, md).with_context(|| format!("writing {}", p.display()))?;
-    eprintln!("wrote {} ({:.1} min)", p.display(), started.elapsed().as_secs_f64() / 60.0);
+    let _ = writeln!(
+        md,
+        "## The event-driven engine on the peer benchmark's network\n\n{:.3} ms per sample, {:.2} ns per synaptic event, {:.3} us per input event (stepped); async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99) (`braille bench --json`; the peers: `bash scripts/peers/compare.sh`).\n",
+        bench.ms_per_sample,
+        bench.ns_per_synop,
+        bench.us_per_input_event,
+        bench.async_event_latency_ns_p50.unwrap_or(f64::NAN),
+        bench.async_event_latency_ns_p99.unwrap_or(f64::NAN)
+    );
+    write("index.md", &md)?;
+    eprintln!("wrote {} ({:.1} min)", out.join("index.md").display(), started.elapsed().as_secs_f64() / 60.0);
     Ok(())
 }
 
-/// A named line of points with its colour.
-type Series = (String, Vec<(f64, f64)>, RGBColor);
-
-/// The two `braille read --json` summaries of one stream: a table and the latency histograms.
-fn latency(out: &Path) -> Result<(String, &'static str)> {
-    let summary = |f: &str| -> Result<serde_json::Value> {
-        let p = out.join(f);
-        let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
-        let last = text.lines().last().with_context(|| format!("{}: empty", p.display()))?;
-        serde_json::from_str(last).with_context(|| format!("{}: the last line is not a summary", p.display()))
+/// `braille read SCAN --arch A --json` into `read_A.jsonl`: the words, then the summary.
+fn read_scan(scan: &Path, arch: Arch, models: &Path, out: &Path) -> Result<ReadSummary> {
+    let (s, c) = experiments::words::default_models(arch, models);
+    let readers = ReaderModels::load(&s, &c, SnnRunner::Sliding)?;
+    let mut source = encoders::formats::open(scan, &encoders::formats::OpenOptions::default())?;
+    let resolution = source.info().resolution.unwrap_or(encoders::Resolution::DVXPLORER);
+    let mut lines = String::new();
+    let mut on_word = |w: &pipeline::reader::ReadWord| -> experiments::Result<()> {
+        lines.push_str(&serde_json::to_string(w).expect("words serialise"));
+        lines.push('\n');
+        Ok(())
     };
-    let runs = [("resnet", summary("read_resnet.jsonl")?), ("snn", summary("read_snn.jsonl")?)];
+    let name = scan.display().to_string();
+    let summary = experiments::words::read_source(
+        source.as_mut(),
+        &name,
+        &readers,
+        16.0,
+        resolution,
+        Spell::Lexicon,
+        &mut on_word,
+    )?;
+    let path = out.join(format!("read_{arch}.jsonl"));
+    let mut f = std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+    writeln!(f, "{lines}{}", serde_json::to_string(&summary)?)?;
+    Ok(summary)
+}
+
+/// The two architectures' reading of one stream: a table and the per-call latency histograms.
+fn latency(runs: &[ReadSummary], png: &Path) -> Result<String> {
     let mut md = String::from(
         "The simulated EV row 0 at 16 mm/s, read by each architecture's shipped networks (`braille read FILE --arch A --json`). Per call: the segmentation network runs on every frame, the classifier where a character is present. SynOps count the SNN's synaptic operations; the ResNet's multiply-accumulates are in [chars.md](chars.md).\n\n| architecture | text | stream (s) | read (s) | segmentation p50 / p99 (us) | classifier p50 / p99 (us) | classifier calls | SynOps | peak RSS (MB) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
-    for (arch, v) in &runs {
-        let f = |k: &str| v[k].as_f64().map_or("-".into(), |x| format!("{x:.0}"));
+    let f = |v: Option<f64>| v.map_or("-".into(), |x| format!("{x:.0}"));
+    let mut series = Vec::new();
+    for v in runs {
+        let synops = v.segmenter_synops + v.classifier_synops;
         let _ = writeln!(
             md,
-            "| {arch} | {} | {:.1} | {:.2} | {} / {} | {} / {} | {} | {} | {} |",
-            v["text"].as_str().unwrap_or(""),
-            v["stream_s"].as_f64().unwrap_or(f64::NAN),
-            v["read_s"].as_f64().unwrap_or(f64::NAN),
-            f("segmenter_us_p50"),
-            f("segmenter_us_p99"),
-            f("classifier_us_p50"),
-            f("classifier_us_p99"),
-            v["classifier_calls"],
-            match v["segmenter_synops"].as_u64().unwrap_or(0) + v["classifier_synops"].as_u64().unwrap_or(0) {
-                0 => "-".to_string(),
-                n => n.to_string(),
-            },
-            f("peak_rss_mb"),
+            "| {} | {} | {:.1} | {:.2} | {} / {} | {} / {} | {} | {} | {} |",
+            v.arch,
+            v.text,
+            v.stream_s,
+            v.read_s,
+            f(v.segmenter_us_p50),
+            f(v.segmenter_us_p99),
+            f(v.classifier_us_p50),
+            f(v.classifier_us_p99),
+            v.stats.classifier_calls,
+            if synops == 0 { "-".to_string() } else { synops.to_string() },
+            f(v.peak_rss_mb),
         );
+        for (h, what) in [(&v.segmenter_latency, "segmentation"), (&v.classifier_latency, "classifier")] {
+            let total = h.total().max(1) as f64;
+            let points = h
+                .counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| **c > 0)
+                .map(|(k, &c)| ((pipeline::classify::Histogram::edge_ns(k) / 1e3).log10(), 100.0 * c as f64 / total))
+                .collect();
+            series.push(Series { name: format!("{}, {what}", v.arch), points, emphasis: v.arch == Arch::Snn });
+        }
     }
-    let png = "latency.png";
-    let path = out.join(png);
-    crate::charts::register_fonts();
-    let root = BitMapBackend::new(&path, (900, 480)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let series: Vec<Series> = runs
-        .iter()
-        .flat_map(|(arch, v)| {
-            [("segmenter_latency", "segmentation"), ("classifier_latency", "classifier")].into_iter().enumerate().map(
-                move |(j, (key, what))| {
-                    let counts: Vec<f64> = v[key]["counts"]
-                        .as_array()
-                        .map(|a| a.iter().map(|c| c.as_f64().unwrap_or(0.0)).collect())
-                        .unwrap_or_default();
-                    let total: f64 = counts.iter().sum::<f64>().max(1.0);
-                    let pts = counts
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, c)| **c > 0.0)
-                        .map(|(k, c)| (pipeline::classify::Histogram::edge_ns(k) / 1e3, 100.0 * c / total))
-                        .collect();
-                    let color = match (*arch, j) {
-                        ("snn", 0) => RGBColor(230, 120, 120),
-                        ("snn", _) => RGBColor(200, 40, 40),
-                        (_, 0) => RGBColor(120, 160, 220),
-                        _ => RGBColor(30, 80, 180),
-                    };
-                    (format!("{arch}, {what}"), pts, color)
-                },
-            )
-        })
-        .collect();
-    let max_y = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(1.0, f64::max);
-    let mut chart = ChartBuilder::on(&root)
-        .caption("SIMULATED: time per call, EV row 0 at 16 mm/s", ("sans-serif", 20))
-        .margin(14)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d((1.0f64..1e5f64).log_scale(), 0.0..max_y * 1.1)?;
-    chart.configure_mesh().x_desc("microseconds per call (log)").y_desc("share of calls (%)").draw()?;
-    for (name, pts, c) in series {
-        chart
-            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    let max_y = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(1.0, f64::max);
+    LineChart {
+        title: "SIMULATED: time per call, EV row 0 at 16 mm/s",
+        x_desc: "microseconds per call (log scale)",
+        y_desc: "share of calls (%)",
+        x: 0.0..5.0,
+        y: 0.0..max_y * 1.1,
+        x_log10: true,
+        series,
+        targets: vec![],
+        legend: SeriesLabelPosition::UpperRight,
+        size: (900, 480),
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()?;
-    root.present().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    Ok((md, png))
+    .draw(png)?;
+    Ok(md)
 }

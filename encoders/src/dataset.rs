@@ -13,7 +13,7 @@ use crate::error::{Error, Location, Result};
 use crate::event::{Event, Polarity, Resolution};
 use serde::Serialize;
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
+
 use std::path::{Path, PathBuf};
 
 /// Which part of a fixed split a sample belongs to.
@@ -101,10 +101,12 @@ impl Dataset {
     }
 }
 
-/// A CSV file read row by row, with columns found by name.
+/// A CSV file read row by row (the `csv` crate: RFC 4180 quoting, fields trimmed, blank lines
+/// skipped), with columns found by name and errors that name the file and the line.
 struct Table {
     path: PathBuf,
-    lines: std::io::Lines<BufReader<std::fs::File>>,
+    reader: csv::Reader<std::fs::File>,
+    record: csv::StringRecord,
     header: Vec<String>,
     line_no: u64,
 }
@@ -112,13 +114,13 @@ struct Table {
 impl Table {
     fn open(path: &Path) -> Result<Table> {
         let file = std::fs::File::open(path).map_err(|e| Error::Io { path: path.into(), source: e })?;
-        let mut lines = BufReader::new(file).lines();
-        let header = match lines.next() {
-            Some(l) => l.map_err(|e| Error::Io { path: path.into(), source: e })?,
-            None => return Err(Error::Empty { path: path.into(), expected: "a header line".into() }),
-        };
-        let header = header.split(',').map(|s| s.trim().to_string()).collect();
-        Ok(Table { path: path.into(), lines, header, line_no: 1 })
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(true).from_reader(file);
+        let header: Vec<String> =
+            reader.headers().map_err(|e| csv_error(path, e))?.iter().map(str::to_string).collect();
+        if header.is_empty() {
+            return Err(Error::Empty { path: path.into(), expected: "a header line".into() });
+        }
+        Ok(Table { path: path.into(), reader, record: csv::StringRecord::new(), header, line_no: 1 })
     }
 
     fn column(&self, name: &str) -> Result<usize> {
@@ -133,25 +135,25 @@ impl Table {
 
     /// The next row's fields, or `None` at the end.
     fn next_row(&mut self) -> Result<Option<Vec<String>>> {
-        for line in self.lines.by_ref() {
-            self.line_no += 1;
-            let line = line.map_err(|e| Error::Io { path: self.path.clone(), source: e })?;
-            if line.trim().is_empty() {
+        loop {
+            if !self.reader.read_record(&mut self.record).map_err(|e| csv_error(&self.path, e))? {
+                return Ok(None);
+            }
+            self.line_no = self.record.position().map_or(self.line_no + 1, |p| p.line());
+            if self.record.iter().all(str::is_empty) {
                 continue;
             }
-            let fields: Vec<String> = line.split(',').map(|s| s.trim().to_string()).collect();
-            if fields.len() != self.header.len() {
+            if self.record.len() != self.header.len() {
                 return Err(Error::Parse {
                     path: self.path.clone(),
                     at: Location::Line(self.line_no),
                     field: "row".into(),
                     expected: format!("{} fields as in the header", self.header.len()),
-                    found: line,
+                    found: self.record.iter().collect::<Vec<_>>().join(","),
                 });
             }
-            return Ok(Some(fields));
+            return Ok(Some(self.record.iter().map(str::to_string).collect()));
         }
-        Ok(None)
     }
 
     fn parse<T: std::str::FromStr>(&self, fields: &[String], col: usize, expected: &str) -> Result<T> {
@@ -162,6 +164,28 @@ impl Table {
             expected: expected.into(),
             found: fields[col].clone(),
         })
+    }
+}
+
+/// A `csv` error as ours: I/O errors keep their source, malformed rows name the line.
+fn csv_error(path: &Path, e: csv::Error) -> Error {
+    let line = e.position().map_or(0, |p| p.line());
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => Error::Io { path: path.into(), source },
+        csv::ErrorKind::Utf8 { err, .. } => Error::Parse {
+            path: path.into(),
+            at: Location::Line(line),
+            field: "row".into(),
+            expected: "UTF-8 text".into(),
+            found: err.to_string(),
+        },
+        other => Error::Parse {
+            path: path.into(),
+            at: Location::Line(line),
+            field: "row".into(),
+            expected: "a CSV row".into(),
+            found: format!("{other:?}"),
+        },
     }
 }
 

@@ -114,3 +114,26 @@ pub fn label_check(trials: u64, seed: u64) -> crate::Result<Vec<LabelCheckRow>> 
         })
         .collect()
 }
+
+/// The label check as a Markdown table.
+pub fn label_check_markdown(rows: &[LabelCheckRow]) -> String {
+    use std::fmt::Write as _;
+    let mut m = String::from("Labeling pipeline against ground truth (SIMULATED scans, virtual Evetac):\n\n");
+    m.push_str("| board | speed (mm/s) | depth (mm) | scans | count matched | windows right |\n| --- | --- | --- | --- | --- | --- |\n");
+    for r in rows {
+        let _ = writeln!(
+            m,
+            "| {} | {} | {} | {} | {}/{} | {}/{} ({:.1}%) |",
+            r.board,
+            r.speed_mm_s,
+            r.depth_mm,
+            r.scans,
+            r.count_matched,
+            r.scans,
+            r.correct,
+            r.characters,
+            100.0 * r.accuracy
+        );
+    }
+    m
+}

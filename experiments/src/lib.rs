@@ -1,7 +1,7 @@
 //! The experiments, callable from Rust: simulated datasets ([`datasets`]: character windows from
 //! scans), the evaluation protocols and their scoring ([`scoring`], [`tactile`], [`chars`],
 //! [`words`], [`labeling`]), SNN recipes and training ([`recipe`], [`train`]), the engine's
-//! benchmark ([`bench`]) and each report part as data ([`reports`]). The `braille` binary maps
+//! benchmark ([`mod@bench`]) and each report part as data ([`reports`]). The `braille` binary maps
 //! its arguments to these functions, prints what they return and draws it.
 //!
 //! Everything here that runs on simulated scans is SIMULATED data and says so in what it returns.
@@ -13,6 +13,7 @@ pub mod error;
 pub mod labeling;
 pub mod recipe;
 pub mod reports;
+pub mod scans;
 pub mod scoring;
 pub mod tactile;
 pub mod train;

@@ -152,3 +152,136 @@ pub fn predictions_csv(classes: &[String], labels: &[usize], predictions: &[(usi
     }
     out
 }
+
+/// A text spelled as one event stream from recorded letters (real data): each letter a test-split
+/// sample of an analog dataset, sigma-delta encoded from pressure (255 - reading), one after the
+/// other every `sample_us`.
+pub struct SpelledStream {
+    pub events: Vec<encoders::Event>,
+    pub text: String,
+    pub sample_us: i64,
+    /// Events of every sample of the dataset, encoded.
+    pub encoded_events: usize,
+    pub samples: usize,
+}
+
+/// Spells `text` (A-Z and spaces, as the dataset's classes name them) from test-split samples of
+/// the analog dataset `ds`.
+pub fn spell_stream(ds: &Dataset, text: &str, threshold: f32, period_us: i64) -> Result<SpelledStream> {
+    use encoders::dataset::SampleData;
+    let cfg = encoders::sigma_delta::SigmaDeltaConfig { threshold, interpolate: false };
+    let mut encoded = Vec::with_capacity(ds.samples.len());
+    for s in &ds.samples {
+        let SampleData::Analog { frames } = &s.data else {
+            return Err(Error::Invalid("the dataset holds event data; spelling encodes analog data".into()));
+        };
+        let pressure: Vec<f32> = frames.iter().map(|v| 255.0 - v).collect();
+        encoded.push((s.label, s.split, encoders::sigma_delta::encode(&cfg, &pressure, ds.channels, period_us)?));
+    }
+    let sample_us = 2_000_000i64;
+    let (mut events, mut spelled, mut offset_us) = (Vec::new(), String::new(), 0i64);
+    for ch in text.to_uppercase().chars() {
+        let name = if ch == ' ' { "Space".to_string() } else { ch.to_string() };
+        let Some(label) = ds.classes.iter().position(|c| *c == name) else {
+            return Err(Error::Invalid(format!("no class {name:?}; classes: {}", ds.classes.join(" "))));
+        };
+        let Some((_, _, ev)) = encoded.iter().find(|(l, s, _)| *l == label && *s == Split::Test) else {
+            return Err(Error::Invalid(format!("no test sample of {name:?}")));
+        };
+        events.extend(ev.iter().map(|e| encoders::Event { t_us: e.t_us + offset_us, ..*e }));
+        spelled.push(ch);
+        offset_us += sample_us;
+    }
+    Ok(SpelledStream {
+        events,
+        text: spelled,
+        sample_us,
+        encoded_events: encoded.iter().map(|e| e.2.len()).sum(),
+        samples: encoded.len(),
+    })
+}
+
+/// A tactile SNN reads a spelled stream letter by letter (each letter's slice of `sample_us`) on
+/// the event-driven engine: the letters read and the synaptic operations. The stream encodes
+/// pressure; the model was trained on the readings as recorded, whose sigma-delta events are the
+/// same with ON and OFF swapped.
+pub fn read_letters(
+    model: &SnnModel,
+    path: &Path,
+    stream: &[encoders::Event],
+    resolution: encoders::Resolution,
+    letters: usize,
+    sample_us: i64,
+) -> Result<(String, u64)> {
+    let enc = encoding_of(model, path)?;
+    let encoder = enc.encoder(resolution)?;
+    let engine = Engine::new(&model.network, model.config.dt_us, Mode::Stepped)?;
+    let mut state = engine.state(0);
+    let (mut read, mut synops) = (String::new(), 0u64);
+    for i in 0..letters as i64 {
+        let (a, b) = (i * sample_us, (i + 1) * sample_us);
+        let lo = stream.partition_point(|e| e.t_us < a);
+        let hi = stream.partition_point(|e| e.t_us < b);
+        let letter: Vec<encoders::Event> = stream[lo..hi]
+            .iter()
+            .map(|e| encoders::Event {
+                t_us: e.t_us - a,
+                polarity: encoders::Polarity::from_on(!e.polarity.is_on()),
+                ..*e
+            })
+            .collect();
+        engine.reset(&mut state, 0);
+        engine.run_train(&mut state, &encoder.encode(&letter, 0, enc.steps))?;
+        synops += state.stats.synops;
+        let best = argmax(state.output_v_max().iter().copied());
+        read.push(match model.classes.get(best).map(String::as_str) {
+            Some("Space") => ' ',
+            Some(c) => c.chars().next().unwrap_or('?'),
+            None => '?',
+        });
+    }
+    Ok((read, synops))
+}
+
+/// A model's score on a dataset folder's split (`braille eval --data`).
+#[derive(Debug, Clone, Serialize)]
+pub struct SplitEval {
+    pub data: String,
+    pub split: &'static str,
+    pub model: String,
+    pub mode: &'static str,
+    pub accuracy: f64,
+    pub n: usize,
+    pub correct: usize,
+    pub synops_per_sample: f64,
+    pub spikes_per_sample: f64,
+    pub input_events_per_sample: f64,
+}
+
+/// The SNN at `model_path` on `split` of the dataset folder `data_dir`, run by the engine in
+/// `mode`; with each sample's truth, prediction and readout as CSV ([`predictions_csv`]).
+pub fn eval_split(model_path: &Path, data_dir: &Path, split: SplitChoice, mode: Mode) -> Result<(SplitEval, String)> {
+    let model = pipeline::models::load_snn(model_path)?;
+    let encoding = encoding_of(&model, model_path)?;
+    let set = load_split(data_dir, &encoding, split)?;
+    let s = snn_accuracy(&model.network, &model.config, &set, mode)?;
+    let csv = predictions_csv(&model.classes, &set.labels, &s.predictions);
+    Ok((
+        SplitEval {
+            data: data_dir.display().to_string(),
+            split: split.name(),
+            model: model_path.display().to_string(),
+            mode: match mode {
+                Mode::Stepped => "stepped",
+                Mode::Async => "async",
+            },
+            accuracy: s.accuracy,
+            n: s.n,
+            correct: s.correct,
+            synops_per_sample: s.synops_per_sample,
+            spikes_per_sample: s.spikes_per_sample,
+            input_events_per_sample: s.input_events_per_sample,
+        },
+        csv,
+    ))
+}

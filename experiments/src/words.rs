@@ -189,3 +189,151 @@ pub fn score(arch: Arch, k: usize, lines: &[Vec<LineRead>], speed_mm_s: f64, dep
     s.examples = examples;
     s
 }
+
+/// What reading a whole event source gave: the text, the counters, each network's time, work and
+/// per-call latency, and the process's peak memory.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReadSummary {
+    pub summary: bool,
+    pub data: String,
+    pub arch: Arch,
+    pub spell: Spell,
+    pub speed_mm_s: f64,
+    /// The last thousand words read (an endless stream keeps no more).
+    pub text: String,
+    pub stream_s: f64,
+    pub read_s: f64,
+    #[serde(flatten)]
+    pub stats: ReaderStats,
+    /// Time and synaptic operations (SNN) of each network.
+    pub segmenter_ms: f64,
+    pub classifier_ms: f64,
+    pub segmenter_synops: u64,
+    pub classifier_synops: u64,
+    /// Per call, in microseconds: the segmentation network on every frame, the classifier where
+    /// a character is present.
+    pub segmenter_us_p50: Option<f64>,
+    pub segmenter_us_p99: Option<f64>,
+    pub classifier_us_p50: Option<f64>,
+    pub classifier_us_p99: Option<f64>,
+    pub segmenter_latency: pipeline::classify::Histogram,
+    pub classifier_latency: pipeline::classify::Histogram,
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// Reads `source` chunk by chunk with bounded memory (a file, or standard input as it arrives),
+/// handing each word to `on_word` as it completes. `name` names the source in errors.
+pub fn read_source(
+    source: &mut dyn encoders::EventSource,
+    name: &str,
+    readers: &ReaderModels,
+    speed_mm_s: f64,
+    resolution: encoders::Resolution,
+    spell: Spell,
+    on_word: &mut dyn FnMut(&ReadWord) -> Result<()>,
+) -> Result<ReadSummary> {
+    use pipeline::reader::ReadOutput;
+    let speller = Speller::new(spell);
+    let started = Instant::now();
+    let mut reader = readers.stream(speed_mm_s, resolution, &speller)?;
+    let (mut out, mut text) = (Vec::new(), std::collections::VecDeque::<String>::new());
+    let (mut first, mut last) = (None, 0i64);
+    let mut emit = |out: &mut Vec<ReadOutput>, text: &mut std::collections::VecDeque<String>| -> Result<()> {
+        for o in out.drain(..) {
+            if let ReadOutput::Word(w) = o {
+                on_word(&w)?;
+                text.push_back(w.text);
+                if text.len() > 1000 {
+                    text.pop_front();
+                }
+            }
+        }
+        Ok(())
+    };
+    let at = |e: pipeline::Error| crate::Error::Stream { name: name.to_string(), source: Box::new(e) };
+    while let Some(chunk) =
+        source.next_chunk().map_err(|e| crate::Error::Read { name: name.to_string(), source: Box::new(e) })?
+    {
+        first.get_or_insert(chunk[0].t_us);
+        last = chunk[chunk.len() - 1].t_us;
+        reader.push_all(chunk, &mut out).map_err(at)?;
+        emit(&mut out, &mut text)?;
+    }
+    reader.finish(&mut out).map_err(at)?;
+    emit(&mut out, &mut text)?;
+    let stats = reader.stats.clone();
+    let (seg, cls) = reader.into_states();
+    let us = |h: &pipeline::classify::Histogram, q: f64| h.quantile_ns(q).map(|n| n / 1e3);
+    Ok(ReadSummary {
+        summary: true,
+        data: name.to_string(),
+        arch: readers.classifier.arch(),
+        spell,
+        speed_mm_s,
+        text: text.into_iter().collect::<Vec<_>>().join(" "),
+        stream_s: first.map_or(0.0, |f| (last - f) as f64 / 1e6),
+        read_s: started.elapsed().as_secs_f64(),
+        stats,
+        segmenter_ms: seg.stats.nanos as f64 / 1e6,
+        classifier_ms: cls.stats.nanos as f64 / 1e6,
+        segmenter_synops: seg.stats.synops,
+        classifier_synops: cls.stats.synops,
+        segmenter_us_p50: us(&seg.stats.latency, 0.5),
+        segmenter_us_p99: us(&seg.stats.latency, 0.99),
+        classifier_us_p50: us(&cls.stats.latency, 0.5),
+        classifier_us_p99: us(&cls.stats.latency, 0.99),
+        segmenter_latency: seg.stats.latency,
+        classifier_latency: cls.stats.latency,
+        peak_rss_mb: crate::peak_rss_mb(),
+    })
+}
+
+/// The scanning speed a simulated scan's ground truth gives (`FILE.truth.json` beside it, as
+/// `braille simulate` writes it), if there is one.
+pub fn truth_speed(truth: &Path) -> Result<Option<f64>> {
+    if !truth.exists() {
+        return Ok(None);
+    }
+    let text =
+        std::fs::read_to_string(truth).map_err(|source| crate::Error::Io { path: truth.to_path_buf(), source })?;
+    let t: sim::ScanTruth =
+        serde_json::from_str(&text).map_err(|source| crate::Error::Json { path: truth.to_path_buf(), source })?;
+    Ok(Some(t.scan.speed_mm_s))
+}
+
+/// A reader's words on a board's SIMULATED scans (`braille eval words`): the paper's four metrics
+/// with the spelling asked for, and the score with every spelling.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalWords {
+    pub data: &'static str,
+    pub board: String,
+    pub spell: Spell,
+    pub words_per_line: f64,
+    pub letters_per_word: f64,
+    pub correct_words: f64,
+    pub correct_letters: f64,
+    #[serde(flatten)]
+    pub score: WordsScore,
+}
+
+/// Reads every scan of `spec` with `readers` and scores it.
+pub fn eval_words(
+    spec: &WordsSpec,
+    readers: &ReaderModels,
+    spell: Spell,
+    progress: &dyn Progress,
+) -> Result<EvalWords> {
+    let lines = read_scans(spec, &[readers], progress)?;
+    let score = score(readers.classifier.arch(), 0, &lines, spec.speed_mm_s, spec.depth_mm);
+    let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
+    Ok(EvalWords {
+        data: "simulated (virtual Evetac)",
+        board: spec.board.name(),
+        spell,
+        words_per_line: m.words_per_line,
+        letters_per_word: m.letters_per_word,
+        correct_words: m.correct_words,
+        correct_letters: m.correct_letters,
+        score,
+    })
+}

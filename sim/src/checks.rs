@@ -179,6 +179,68 @@ pub fn recover_cells(scan: &Scan) -> Vec<(char, Cell)> {
 }
 
 /// Runs every check. `trials` repeats the depth measurement over boards and seeds.
+impl CheckReport {
+    /// The checks as a Markdown table beside what each should give.
+    pub fn markdown(&self) -> String {
+        use std::fmt::Write as _;
+        let r = self;
+        let mut m = String::new();
+        let _ = writeln!(m, "Simulator physics checks (simulated scans; see SIMULATOR.md):\n");
+        let _ = writeln!(m, "| check | measured | expected |\n| --- | --- | --- |");
+        for (d, target) in PAPER_DEPTH_GAIN {
+            let g = r.depth_gain[&format!("{d:.1}")];
+            let _ = writeln!(
+                m,
+                "| 1. events per dot at {d} mm over 0.2 mm | +{:.0}% | +{:.0}% +-10 points (paper) |",
+                g * 100.0,
+                target * 100.0
+            );
+        }
+        let _ = writeln!(
+            m,
+            "| 2. events per pass across 8-32 mm/s | largest deviation {:.1}% | within 15% |",
+            r.speed_spread * 100.0
+        );
+        for v in SPEEDS_MM_S {
+            let key = format!("{v:.0}");
+            let _ = writeln!(
+                m,
+                "| 2. column lag at {key} mm/s | {:.1} ms | {:.1} ms (2.5 mm / speed) |",
+                r.column_lag_ms[&key], r.expected_column_lag_ms[&key]
+            );
+        }
+        let _ = writeln!(m, "| 3. ON/OFF ratio per pass | {:.2} | 0.9-1.2 |", r.on_off_ratio);
+        let _ = writeln!(
+            m,
+            "| 3. leading / trailing edge, forward | {} / {} | opposite |\n| 3. leading / trailing edge, reverse | {} / {} | opposite; each physical edge swaps |",
+            r.leading_polarity["forward"],
+            r.trailing_polarity["forward"],
+            r.leading_polarity["reverse"],
+            r.trailing_polarity["reverse"]
+        );
+        for (d, w) in &r.blob_width_px {
+            let expected = if d == "0.2" { "about 27 px" } else { "34-55 px" };
+            let _ = writeln!(m, "| 4. dot blob width at {d} mm | {w:.0} px | {expected} |");
+        }
+        let _ = writeln!(m, "| 4. six-dot patterns read back from events | {}/26 | 26/26 |", r.patterns_recovered);
+        let _ = writeln!(
+            m,
+            "| 5. noise floor without contact | {:.0} Hz | {:.0} Hz configured |",
+            r.noise_rate_hz, r.expected_noise_rate_hz
+        );
+        let _ =
+            writeln!(m, "| 6. last event after the motion stops | {:.1} ms | within about 5 ms |", r.static_settle_ms);
+        let _ = writeln!(
+            m,
+            "| 7. smallest gap between events of one pixel | {} us | >= 500 us refractory |",
+            r.min_pixel_gap_us
+        );
+        let _ = writeln!(m, "| 7. timestamps on the 200 us readout grid | {} | true |", r.on_readout_grid);
+        let _ = writeln!(m, "| 8. same seed, same stream bit for bit | {} | true |", r.deterministic);
+        m
+    }
+}
+
 pub fn run(trials: u64) -> Result<CheckReport> {
     let (depth_gain, events_per_dot) = depth(&GelConfig::default(), trials)?;
     let quiet = quiet_sensor(1)?;

@@ -77,10 +77,9 @@ fn model_err(path: &Path, what: impl Into<String>) -> Error {
 /// rename); an existing file is kept unless `force`.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8], force: bool) -> Result<()> {
     use std::io::Write;
-    let err = |e: String| model_err(path, e.trim_start_matches(&format!("{}: ", path.display())).to_string());
-    let mut f = encoders::formats::AtomicFile::create(path, force).map_err(|e| err(e.to_string()))?;
-    f.write_all(bytes).map_err(|e| err(e.to_string()))?;
-    f.commit().map_err(|e| err(e.to_string()))
+    let mut f = encoders::formats::AtomicFile::create(path, force)?;
+    f.write_all(bytes).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    Ok(f.commit()?)
 }
 
 impl ModelFile {
@@ -107,13 +106,14 @@ impl ModelFile {
             .map(|(n, b, s)| TensorView::new(Dtype::F32, s.clone(), b).map(|v| (n.clone(), v)))
             .collect::<std::result::Result<Vec<_>, _>>()
             .map_err(|e| model_err(path, format!("tensor layout: {e}")))?;
-        let out = safetensors::serialize(views, Some(meta)).map_err(|e| model_err(path, e.to_string()))?;
+        let out = safetensors::serialize(views, Some(meta))
+            .map_err(|source| Error::Safetensors { path: path.to_path_buf(), source: Box::new(source) })?;
         write_atomic(path, &out, force)
     }
 
     /// Reads and checks a model file of architecture `arch`.
     pub fn read(path: &Path, arch: Arch) -> Result<ModelFile> {
-        let bytes = std::fs::read(path).map_err(|e| model_err(path, e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
         Self::parse(path, &bytes, arch)
     }
 
@@ -166,7 +166,8 @@ impl ModelFile {
         };
         let classes: Vec<String> =
             serde_json::from_value(json("classes")?).map_err(|e| model_err(path, format!("header `classes`: {e}")))?;
-        let st = SafeTensors::deserialize(bytes).map_err(|e| model_err(path, e.to_string()))?;
+        let st = SafeTensors::deserialize(bytes)
+            .map_err(|source| Error::Safetensors { path: path.to_path_buf(), source: Box::new(source) })?;
         let mut tensors = Vec::new();
         let mut names: Vec<String> = st.names().into_iter().map(str::to_string).collect();
         names.sort();
@@ -275,7 +276,7 @@ impl SnnModel {
     }
 
     pub fn load(path: &Path) -> Result<SnnModel> {
-        let bytes = std::fs::read(path).map_err(|e| model_err(path, e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
         Self::parse(path, &bytes)
     }
 

@@ -70,7 +70,7 @@ fn nir_err(path: &Path, what: impl Into<String>) -> Error {
 impl Graph {
     /// Reads a NIR file.
     pub fn read(path: &Path) -> Result<Graph> {
-        let bytes = std::fs::read(path).map_err(|e| nir_err(path, e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
         Graph::parse(path, bytes)
     }
 

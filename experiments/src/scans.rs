@@ -1,0 +1,174 @@
+//! Simulated scans written as event files with their ground truth (`braille simulate`):
+//! SIMULATED data, for any board, speed, depth, trial count and seed.
+
+use crate::Progress;
+use crate::error::{Error, Result};
+use encoders::formats::aedat4::{self, EncoderOptions};
+use encoders::formats::{self, AtomicFile, EventSink, Format};
+use encoders::stats::StreamStats;
+use encoders::{Event, Resolution};
+use rayon::prelude::*;
+use serde::Serialize;
+use sim::{Board, BoardGeometry, BoardKind, Direction, ScanConfig};
+use std::path::{Path, PathBuf};
+
+/// Which scans to simulate and where to write them.
+#[derive(Debug, Clone)]
+pub struct ScanSpec {
+    pub board: BoardKind,
+    pub speed: f64,
+    pub depth: f64,
+    /// One row, or every row.
+    pub row: Option<usize>,
+    pub trials: u64,
+    pub seed: u64,
+    /// The printed board's tolerances (None: derived from the board's name).
+    pub board_seed: Option<u64>,
+    pub sensor_seed: u64,
+    pub direction: Direction,
+    pub resolution: Resolution,
+    /// An event file for one scan, or a folder for several.
+    pub out: PathBuf,
+    pub force: bool,
+}
+
+/// One scan written.
+#[derive(Debug, Clone, Serialize)]
+pub struct FileSummary {
+    pub events: PathBuf,
+    pub truth: PathBuf,
+    pub row: usize,
+    pub trial: u64,
+    pub events_count: u64,
+    pub duration_s: f64,
+}
+
+/// What was simulated.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    pub data: &'static str,
+    pub board: String,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub scans: usize,
+    pub events: u64,
+    pub duration_s: f64,
+    pub on_off_ratio: Option<f64>,
+    pub files: Vec<FileSummary>,
+}
+
+/// Simulates the scans of `spec` in parallel, each written as it is done (AEDAT 4.0 in a folder,
+/// or the format of `out`'s extension), its ground truth beside it.
+pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summary> {
+    let board_seed = spec.board_seed.unwrap_or_else(|| Board::default_seed(&spec.board));
+    let board = Board::new(spec.board.clone(), BoardGeometry::default(), board_seed)?;
+    let sensor = crate::datasets::sensor(spec.resolution, spec.sensor_seed)?;
+    let rows: Vec<usize> = match spec.row {
+        Some(r) if r >= board.rows.len() => {
+            return Err(Error::Invalid(format!(
+                "--row {r}: the board has {} rows (0..{})",
+                board.rows.len(),
+                board.rows.len() - 1
+            )));
+        }
+        Some(r) => vec![r],
+        None => (0..board.rows.len()).collect(),
+    };
+    let jobs: Vec<(usize, u64)> = rows.iter().flat_map(|&r| (0..spec.trials).map(move |t| (r, t))).collect();
+    let single = Format::from_path(&spec.out).is_some();
+    if single && jobs.len() != 1 {
+        return Err(Error::Invalid(format!(
+            "{} scans (rows x trials) need a folder for --out, not a file",
+            jobs.len()
+        )));
+    }
+    if !single {
+        std::fs::create_dir_all(&spec.out).map_err(|source| Error::Io { path: spec.out.clone(), source })?;
+    }
+    let direction = spec.direction;
+    if jobs.len() > 1 {
+        progress.start("simulating scans", jobs.len() as u64);
+    }
+    let name = board.kind.name().replace(['/', ' ', ':', '"'], "_");
+    let results: Vec<Result<(FileSummary, StreamStats)>> = jobs
+        .par_iter()
+        .map(|&(row, trial)| {
+            let scan = ScanConfig {
+                speed_mm_s: spec.speed,
+                depth_mm: spec.depth,
+                row,
+                direction,
+                seed: crate::datasets::trial_seed(spec.seed, row, trial),
+                ..ScanConfig::default()
+            };
+            let s = sim::simulate(&board, &sensor, &scan)?;
+            let events_path = if single {
+                spec.out.clone()
+            } else {
+                spec.out.join(format!("{name}_row{row}_v{}_d{}_trial{trial}.aedat4", spec.speed, spec.depth))
+            };
+            let truth_path = truth_path(&events_path);
+            write_events(&events_path, &s.events, spec.resolution, spec.force)?;
+            crate::write_json(&truth_path, &s.truth, spec.force)?;
+            let mut stats = StreamStats::default();
+            stats.add(&s.events);
+            progress.inc();
+            Ok((
+                FileSummary {
+                    events: events_path,
+                    truth: truth_path,
+                    row,
+                    trial,
+                    events_count: stats.events,
+                    duration_s: s.truth.timeline.end_s,
+                },
+                stats,
+            ))
+        })
+        .collect();
+    progress.finish();
+    let mut files = Vec::new();
+    let (mut events, mut on, mut off, mut duration) = (0u64, 0u64, 0u64, 0.0);
+    for r in results {
+        let (f, s) = r?;
+        events += s.events;
+        on += s.on;
+        off += s.off;
+        duration += f.duration_s;
+        files.push(f);
+    }
+    let summary = Summary {
+        data: "simulated (virtual Evetac)",
+        board: board.kind.name(),
+        speed_mm_s: spec.speed,
+        depth_mm: spec.depth,
+        scans: files.len(),
+        events,
+        duration_s: duration,
+        on_off_ratio: (off > 0).then(|| on as f64 / off as f64),
+        files,
+    };
+    Ok(summary)
+}
+
+/// Writes events to `path` in the format of its extension.
+pub fn write_events(path: &Path, events: &[Event], resolution: Resolution, force: bool) -> Result<()> {
+    let mut sink: Box<dyn EventSink> = match Format::for_output(path)? {
+        Format::Aedat4 => {
+            let file = AtomicFile::create(path, force)?;
+            let opts =
+                EncoderOptions { source: "braille simulate (virtual Evetac)".into(), ..EncoderOptions::default() };
+            Box::new(aedat4::Encoder::new(file, Some(resolution), opts)?)
+        }
+        _ => formats::create(path, Some(resolution), force)?,
+    };
+    sink.write(events)?;
+    sink.finish()?;
+    Ok(())
+}
+
+/// Where a scan's ground truth is written beside its event file: `STEM.truth.json`.
+pub fn truth_path(events: &Path) -> PathBuf {
+    let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    events.with_file_name(format!("{stem}.truth.json"))
+}

@@ -1,0 +1,271 @@
+//! The fan-out maps and how inputs reach them: fixed-size index sets, a convolution's outputs
+//! bucketed by channel, per-pixel target lists, and the fan-in of a step's inputs and spikes.
+
+use super::LayerState;
+use super::compile::{Compiled, Fan, conv_positions, pool_targets};
+
+/// A fixed-size set of indices, iterated in ascending order.
+#[derive(Debug, Clone, Default)]
+pub(super) struct BitSet {
+    pub(super) words: Vec<u64>,
+    pub(super) any: bool,
+}
+
+impl BitSet {
+    pub(super) fn new(n: usize) -> Self {
+        Self { words: vec![0; n.div_ceil(64)], any: false }
+    }
+    #[inline]
+    pub(super) fn insert(&mut self, i: usize) {
+        self.words[i >> 6] |= 1 << (i & 63);
+        self.any = true;
+    }
+    /// Calls `f` on every member in ascending order and empties the set.
+    #[inline]
+    pub(super) fn drain(&mut self, mut f: impl FnMut(usize)) {
+        if !self.any {
+            return;
+        }
+        for (w, word) in self.words.iter_mut().enumerate() {
+            let mut bits = std::mem::take(word);
+            while bits != 0 {
+                let b = bits.trailing_zeros() as usize;
+                f(w * 64 + b);
+                bits &= bits - 1;
+            }
+        }
+        self.any = false;
+    }
+}
+
+/// A convolution's outputs of one step sorted by channel: the positions (and, for identity layers,
+/// values) of channel `ch` are at `ch * plane ..` in order of arrival. Fixed-size, so that adding
+/// one is a store and an increment.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Buckets {
+    pub(super) plane: usize,
+    pub(super) len: Vec<u32>,
+    pub(super) pos: Vec<u32>,
+    pub(super) val: Vec<f32>,
+}
+
+impl Buckets {
+    pub(super) fn new(channels: usize, plane: usize, values: bool) -> Self {
+        Self {
+            plane,
+            len: vec![0; channels],
+            pos: vec![0; channels * plane],
+            val: vec![0.0; if values { channels * plane } else { 0 }],
+        }
+    }
+    /// A spike at `pos` of channel `ch`; each position comes at most once per channel and step.
+    #[inline(always)]
+    pub(super) fn push(&mut self, ch: usize, pos: u32) {
+        let k = ch * self.plane + self.len[ch] as usize;
+        self.pos[k] = pos;
+        self.len[ch] += 1;
+    }
+    /// Spikes at `pos` of the channels whose bits are set in `fired` (the first `N`), without a
+    /// branch per spike: every channel's next slot gets `pos`, and only the fired ones advance.
+    /// A position comes at most once per step, so a channel's next slot is always inside its
+    /// plane: it is full only after the last position.
+    #[inline(always)]
+    pub(super) fn push_mask<const N: usize>(&mut self, fired: u32, pos: u32) {
+        let len: &mut [u32; N] = (&mut self.len[..N]).try_into().expect("N channels");
+        for (ch, n) in len.iter_mut().enumerate() {
+            self.pos[ch * self.plane + *n as usize] = pos;
+            *n += (fired >> ch) & 1;
+        }
+    }
+    #[inline(always)]
+    pub(super) fn push_value(&mut self, ch: usize, pos: u32, x: f32) {
+        let k = ch * self.plane + self.len[ch] as usize;
+        self.val[k] = x;
+        self.push(ch, pos);
+    }
+    #[inline]
+    pub(super) fn positions(&self, ch: usize) -> &[u32] {
+        &self.pos[ch * self.plane..ch * self.plane + self.len[ch] as usize]
+    }
+    #[inline]
+    pub(super) fn values(&self, ch: usize) -> &[f32] {
+        &self.val[ch * self.plane..ch * self.plane + self.len[ch] as usize]
+    }
+    #[inline]
+    pub(super) fn clear(&mut self) {
+        self.len.iter_mut().for_each(|n| *n = 0);
+    }
+}
+
+/// Where a convolution's inputs reach. The output positions depend on an input's pixel, not its
+/// channel, so one list per pixel serves every channel (small enough to stay in cache): pixel
+/// `p`'s targets are `targets[offsets[p]..offsets[p + 1]]`, each (output position, weight
+/// offset within the input channel's block of `channel_stride` weights).
+#[derive(Debug, Clone)]
+pub(super) struct ConvTargets {
+    pub(super) plane: usize,
+    pub(super) channel_stride: usize,
+    pub(super) offsets: Vec<u32>,
+    pub(super) targets: Vec<(u32, u32)>,
+}
+
+impl ConvTargets {
+    /// Input `i`'s targets and the offset of its channel's weights.
+    #[inline(always)]
+    pub(super) fn of(&self, i: usize) -> (&[(u32, u32)], usize) {
+        let (c, p) = (i / self.plane, i % self.plane);
+        (&self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize], c * self.channel_stride)
+    }
+}
+
+/// Calls `f(out, w)` for every target of input `i` (async mode, canonical output indices).
+#[inline]
+pub(super) fn fan_out(fan: &Fan, i: usize, mut f: impl FnMut(usize, f32)) {
+    match fan {
+        Fan::Dense { n_out, wt } => {
+            for (o, &w) in wt[i * n_out..(i + 1) * n_out].iter().enumerate() {
+                f(o, w);
+            }
+        }
+        Fan::Conv { in_hw, out_c, out_hw, kernel, stride, padding, wt, .. } => {
+            let plane = in_hw[0] * in_hw[1];
+            let (c, y, x) = (i / plane, (i % plane) / in_hw[1], i % in_hw[1]);
+            let opl = out_hw[0] * out_hw[1];
+            conv_positions(y, x, *kernel, *stride, *padding, *out_hw, |ky, kx, pos| {
+                let base = ((c * kernel[0] + ky) * kernel[1] + kx) * out_c;
+                for (o, &w) in wt[base..base + out_c].iter().enumerate() {
+                    f(o * opl + pos, w);
+                }
+            });
+        }
+        Fan::Pool { weight, in_hw, out_hw, kernel, stride } => {
+            pool_targets(i, *in_hw, *out_hw, *kernel, *stride, |o| f(o, *weight));
+        }
+    }
+}
+
+/// Stepped: adds input `i` with value `x` into the layer's accumulators; returns synops.
+#[inline]
+pub(super) fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
+    match &c.fan {
+        Fan::Dense { n_out, wt } => {
+            for (a, &w) in s.acc.iter_mut().zip(&wt[i * n_out..(i + 1) * n_out]) {
+                *a += x * w;
+            }
+            s.touched.insert(0);
+            *n_out as u64
+        }
+        Fan::Conv { out_c, wt, map, .. } => {
+            let oc = *out_c;
+            let (list, wc) = map.of(i);
+            let wt = &wt[wc..];
+            match oc {
+                8 => conv_fan_in::<8>(&mut s.acc, &mut s.touched, wt, list, x),
+                16 => conv_fan_in::<16>(&mut s.acc, &mut s.touched, wt, list, x),
+                _ => {
+                    for &(pos, w) in list {
+                        let (pos, w) = (pos as usize, w as usize);
+                        for (a, &w) in s.acc[pos * oc..(pos + 1) * oc].iter_mut().zip(&wt[w..w + oc]) {
+                            *a += x * w;
+                        }
+                        s.touched.insert(pos);
+                    }
+                }
+            }
+            (list.len() * oc) as u64
+        }
+        Fan::Pool { weight, in_hw, out_hw, kernel, stride } => {
+            let mut n = 0;
+            let (acc, touched) = (&mut s.acc, &mut s.touched);
+            pool_targets(i, *in_hw, *out_hw, *kernel, *stride, |o| {
+                acc[o] += x * weight;
+                touched.insert(o);
+                n += 1;
+            });
+            n
+        }
+    }
+}
+
+/// Stepped: [`fan_in`] of spikes (value 1) at the inputs `spikes`, in order; returns synops.
+/// Adding a weight itself is the same number as adding `1 * w`.
+#[inline]
+pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) -> u64 {
+    if spikes.is_empty() {
+        return 0;
+    }
+    match &c.fan {
+        Fan::Dense { n_out, wt } => {
+            let n = *n_out;
+            for &i in spikes {
+                let i = i as usize;
+                for (a, &w) in s.acc.iter_mut().zip(&wt[i * n..(i + 1) * n]) {
+                    *a += w;
+                }
+            }
+            s.touched.insert(0);
+            (spikes.len() * n) as u64
+        }
+        Fan::Conv { out_c: 8, wt, map, .. } => conv_spikes::<8>(s, wt, map, spikes),
+        Fan::Conv { out_c: 16, wt, map, .. } => conv_spikes::<16>(s, wt, map, spikes),
+        _ => spikes.iter().map(|&i| fan_in(c, s, i as usize, 1.0)).sum(),
+    }
+}
+
+#[inline(never)]
+pub(super) fn conv_spikes<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, spikes: &[u32]) -> u64 {
+    let mut n = 0;
+    for &i in spikes {
+        let (list, wc) = map.of(i as usize);
+        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, 1.0);
+        n += list.len();
+    }
+    (n * N) as u64
+}
+
+/// The step's inputs (`set`, values in `values`, both emptied) into a convolution of `N`
+/// channels, in ascending order; returns synops.
+#[inline(never)]
+pub(super) fn conv_inputs<const N: usize>(
+    s: &mut LayerState,
+    wt: &[f32],
+    map: &ConvTargets,
+    set: &mut BitSet,
+    values: &mut [f32],
+) -> u64 {
+    let mut n = 0;
+    set.drain(|i| {
+        let (list, wc) = map.of(i);
+        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
+        n += list.len();
+    });
+    (n * N) as u64
+}
+
+/// A convolution's fan-in with `N` output channels known at compile time, so that the adds
+/// unroll into whole vector registers; `wt` starts at the input channel's weights. A spike (`x == 1`) adds the weight itself, which is the
+/// same number as `1 * w`.
+#[inline(always)]
+pub(super) fn conv_fan_in<const N: usize>(
+    acc: &mut [f32],
+    touched: &mut BitSet,
+    wt: &[f32],
+    list: &[(u32, u32)],
+    x: f32,
+) {
+    for &(pos, w) in list {
+        let (pos, w) = (pos as usize, w as usize);
+        let a: &mut [f32; N] = (&mut acc[pos * N..pos * N + N]).try_into().expect("N channels");
+        let w: &[f32; N] = (&wt[w..w + N]).try_into().expect("N weights");
+        if x == 1.0 {
+            for k in 0..N {
+                a[k] += w[k];
+            }
+        } else {
+            for k in 0..N {
+                a[k] += x * w[k];
+            }
+        }
+        touched.insert(pos);
+    }
+}
