@@ -418,6 +418,15 @@ mod tests {
     use super::*;
 
     #[test]
+    fn loaded_models_are_shared_across_threads() {
+        fn shared<T: Send + Sync>() {}
+        shared::<WindowModel>();
+        shared::<ReaderModels>();
+        fn movable<T: Send>() {}
+        movable::<WindowState>();
+    }
+
+    #[test]
     fn histogram_quantiles_fall_in_their_bucket() {
         let mut h = Histogram::default();
         assert_eq!(h.quantile_ns(0.5), None);
