@@ -12,9 +12,9 @@ $b simulate --board EV --row 0 --speed 16 --depth 1.0 --seed 0 --out "$tmp/ev.ae
 $b plot "$tmp/ev.aedat4" --out docs/results/scan_ev_row0.png --force \
   --title "SIMULATED scan (virtual Evetac): EV board row 0, RIGHT LEFT EXIT OPEN, 16 mm/s, 1.0 mm"
 
-# The simulator's physics checks.
+# The simulator's physics checks at the nominal preset, and one dot's events against its position.
 $b sim-check > docs/results/sim_check.md
-$b sim-check --json > docs/results/sim_check.json
+$b sim-check --json --plot docs/results/sim_check_dot_lag.png > docs/results/sim_check.json
 # The labeling pipeline against the simulator's ground truth.
 $b label-check > docs/results/label_check.md
-echo "wrote docs/results/scan_ev_row0.png docs/results/sim_check.md docs/results/sim_check.json docs/results/label_check.md"
+echo "wrote docs/results/scan_ev_row0.png docs/results/sim_check.{md,json} docs/results/sim_check_dot_lag.png docs/results/label_check.md"

@@ -4,23 +4,27 @@
 # on the same windows (SAB and UN boards, 8 mm/s, 1.5 mm, 40 scans per board row, seed 1), then
 # tests every model on the same RAB scans at the paper's seven depths (`braille chars-report`).
 # The report also tests the word-reading classifiers (`+ words`, trained by scripts/words.sh) when
-# models/ holds them. Writes models/resnet-lite-{raw,norm,aug,normaug}.safetensors,
-# models/snn-chars.safetensors, docs/results/chars.* and the training histories. About 60 minutes on two
-# cores; `--report-only` skips the training.
+# the models folder holds them. About 60 minutes on two cores; `--report-only` skips the training.
+#
+# REALISM=clean|nominal|harsh picks the simulator's preset (default clean: the shipped models and
+# tables); beyond clean, models go to models/$REALISM/ and results to docs/results/$REALISM/, and
+# training uses the training sensor builds, testing the test builds (docs/simulator.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+realism="${REALISM:-clean}"
+if [[ "$realism" == clean ]]; then models=models; out=docs/results; else models="models/$realism"; out="docs/results/$realism"; fi
 cargo build --release --quiet
-mkdir -p models docs
+mkdir -p "$models" "$out"
 if [[ "${1:-}" != "--report-only" ]]; then
   for aug in raw norm aug normaug; do
     target/release/braille train --arch resnet --preset lite --aug "$aug" --trials 40 --epochs 30 --lr 1e-3 \
-      --seed 1 --out "models/resnet-lite-$aug.safetensors" --history "docs/results/resnet_lite_${aug}_history.json" \
-      --force --quiet
+      --seed 1 --realism "$realism" --out "$models/resnet-lite-$aug.safetensors" \
+      --history "$out/resnet_lite_${aug}_history.json" --force --quiet
   done
   # The SNN: 2560 inputs (the 64x80 crop pooled 2x2, ON and OFF) -> 256 LIF -> 26 leaky
   # integrators, 10 ms steps; events dropped with probability 0.3 in training (a shallower press
   # gives fewer events).
-  target/release/braille train --arch snn --recipe chars --out models/snn-chars.safetensors \
-    --history docs/results/snn_chars_history.json --force --quiet
+  target/release/braille train --arch snn --recipe chars --realism "$realism" --out "$models/snn-chars.safetensors" \
+    --history "$out/snn_chars_history.json" --force --quiet
 fi
-target/release/braille chars-report --models models --out docs/results --trials 30
+target/release/braille chars-report --models "$models" --out "$out" --trials 30 --realism "$realism"

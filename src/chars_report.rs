@@ -27,10 +27,13 @@ pub struct Args {
     /// Depths to test, in mm [default: the paper's 0.2-1.5 mm].
     #[arg(long, value_delimiter = ',')]
     depths: Vec<f64>,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let report = chars_report(&args.models, &args.depths, args.trials, args.seed, &Bar::default())?;
+    let report =
+        chars_report(&args.models, &args.depths, args.trials, args.seed, &args.realism.test_world(), &Bar::default())?;
     let md = crate::charts::write_chars_report(&report, &args.out)?;
     print!("{md}");
     Ok(())

@@ -9,7 +9,7 @@ use experiments::reports::icub::{IcubRow, baselines, icub_rows};
 use experiments::reports::words::WordsReport;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Registers the bundled DejaVu Sans as "sans-serif" (plotters draws text with it).
 pub fn register_fonts() {
@@ -475,4 +475,76 @@ fn plot_icub(rows: &[IcubRow], path: &std::path::Path) -> Result<()> {
         bail!("{}: not written", path.display());
     }
     Ok(())
+}
+
+/// One dot's events against its position (positive: where the dot has been) at 8 and 32 mm/s,
+/// with the gel's dynamics and without, normalised to each profile's peak.
+pub fn dot_lag_figure(r: &sim::checks::CheckReport, path: &Path) -> Result<()> {
+    let mut series = Vec::new();
+    for speed in ["8", "32"] {
+        let Some(p) = r.dot_profiles.get(speed) else { continue };
+        for (name, counts, emphasis) in [
+            (format!("{speed} mm/s, gel with dynamics"), &p.events, true),
+            (format!("{speed} mm/s, gel without"), &p.events_without_dynamics, false),
+        ] {
+            let peak = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
+            let points = p.position_mm.iter().zip(counts).map(|(&x, &c)| (x, c as f64 / peak)).collect();
+            series.push(Series { name, points, emphasis });
+        }
+    }
+    let title = format!("SIMULATED one dot at 1 mm ({} realism): events by position", r.realism);
+    LineChart {
+        title: &title,
+        x_desc: "pixel's position behind the dot (mm; + where the dot has been)",
+        y_desc: "events (of the profile's peak)",
+        x: -2.0..3.0,
+        y: 0.0..1.05,
+        x_log10: false,
+        series,
+        targets: Vec::new(),
+        legend: SeriesLabelPosition::UpperRight,
+        size: (900, 520),
+    }
+    .draw(path)
+}
+
+/// The robustness sweeps: one PNG per nuisance, `{stem}_{nuisance}.png` beside `stem`.
+pub fn robustness_figures(r: &experiments::robustness::Report, dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for c in &r.curves {
+        let name = serde_json::to_value(c.nuisance)?.as_str().unwrap_or("nuisance").to_string();
+        let path = dir.join(format!("robustness_{name}.png"));
+        // Rates span decades: a log axis.
+        let log = c.nuisance == experiments::robustness::Nuisance::NoiseRate;
+        let x_of = |x: f64| if log { x.log10() } else { x };
+        let series = r
+            .models
+            .iter()
+            .enumerate()
+            .map(|(k, m)| Series {
+                name: m.clone(),
+                points: c.levels.iter().zip(&c.accuracy_all_windows[k]).map(|(&x, &a)| (x_of(x), 100.0 * a)).collect(),
+                emphasis: true,
+            })
+            .collect();
+        let lo = c.levels.iter().map(|&x| x_of(x)).fold(f64::INFINITY, f64::min);
+        let hi = c.levels.iter().map(|&x| x_of(x)).fold(f64::NEG_INFINITY, f64::max);
+        let pad = (hi - lo).max(1e-9) * 0.05;
+        let title = format!("SIMULATED {} ({} base)", c.label, r.spec.base);
+        LineChart {
+            title: &title,
+            x_desc: c.label,
+            y_desc: "characters read right, of all printed (%)",
+            x: lo - pad..hi + pad,
+            y: 0.0..101.0,
+            x_log10: log,
+            series,
+            targets: Vec::new(),
+            legend: SeriesLabelPosition::LowerLeft,
+            size: (800, 480),
+        }
+        .draw(&path)?;
+        out.push(path);
+    }
+    Ok(out)
 }

@@ -99,3 +99,19 @@ impl Observer for Epochs {
 }
 
 pub use experiments::scans::{truth_path, write_events};
+
+/// `--realism` of the commands that score the shipped models on simulated scans. Its default is
+/// `clean`, the world they were trained in, until they are retrained on `nominal`
+/// (docs/simulator.md); test scans use the preset's test builds of the sensor.
+#[derive(clap::Args, Clone, Copy)]
+pub struct RealismArg {
+    /// The simulator's nuisances: clean, nominal or harsh (docs/simulator.md).
+    #[arg(long, value_enum, default_value_t = sim::Realism::Clean)]
+    pub realism: sim::Realism,
+}
+
+impl RealismArg {
+    pub fn test_world(self) -> experiments::datasets::World {
+        experiments::datasets::World::test(self.realism)
+    }
+}

@@ -123,6 +123,8 @@ pub struct CharsArgs {
     seed: u64,
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
 }
 
 fn chars(args: CharsArgs) -> Result<()> {
@@ -135,6 +137,7 @@ fn chars(args: CharsArgs) -> Result<()> {
         seed: args.seed,
         task: Task::Chars,
         jitter_ms: 0.0,
+        world: args.realism.test_world(),
     };
     let r = experiments::chars::eval(&path, &spec, &Bar::default())?;
     if args.json {
@@ -181,6 +184,8 @@ pub struct WordsArgs {
     snn_runner: SnnRunner,
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
 }
 
 fn words(args: WordsArgs) -> Result<()> {
@@ -192,6 +197,7 @@ fn words(args: WordsArgs) -> Result<()> {
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
+        world: args.realism.test_world(),
     };
     let r = experiments::words::eval_words(&spec, &readers, args.spell, &Bar::default())?;
     let s = &r.score;

@@ -16,6 +16,7 @@ mod nir_cli;
 mod plot;
 mod read;
 mod report;
+mod robustness;
 mod sim_check;
 mod simulate;
 mod train;
@@ -48,6 +49,9 @@ enum Command {
     SimCheck(sim_check::Args),
     /// Measure the paper's labeling pipeline against the simulator's ground truth.
     LabelCheck(label_check::Args),
+    /// Each architecture's character classifier against one simulator nuisance at a time (noise,
+    /// misalignment, depth drift, speed, sensor build): Markdown, JSON, PNG.
+    Robustness(robustness::Args),
     /// Plot an event file as a heat map and an event raster (PNG).
     Plot(plot::Args),
     /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
@@ -94,6 +98,7 @@ fn main() -> ExitCode {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::LabelCheck(a) => label_check::run(a),
+        Command::Robustness(a) => robustness::run(a),
         Command::Train(a) => train::run(*a),
         Command::Eval(a) => eval::run(a),
         Command::IcubReport(a) => icub_report::run(a),

@@ -26,6 +26,10 @@ pub struct Args {
     /// figures are too noisy to quote).
     #[arg(long)]
     quick: bool,
+    /// The world of the model tables (Table I, the speed table); the physics checks run at
+    /// `nominal` whatever this says.
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
 }
 
 /// Runs one part, timed, and notes it.
@@ -54,12 +58,18 @@ pub fn run(args: Args) -> Result<()> {
         let p = out.join(file);
         std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
     };
-    let checks = step(&mut times, "simulator physics checks", "[sim_check.md](sim_check.md), sim_check.json", || {
-        let r = sim::checks::run(if q { 2 } else { 8 })?;
-        write("sim_check.md", &r.markdown())?;
-        write("sim_check.json", &(serde_json::to_string_pretty(&r)? + "\n"))?;
-        Ok(r.markdown())
-    })?;
+    let checks = step(
+        &mut times,
+        "simulator physics checks (nominal)",
+        "[sim_check.md](sim_check.md), sim_check.json, sim_check_dot_lag.png",
+        || {
+            let r = sim::checks::run(sim::Realism::Nominal, if q { 2 } else { 8 })?;
+            write("sim_check.md", &r.markdown())?;
+            write("sim_check.json", &(serde_json::to_string_pretty(&r)? + "\n"))?;
+            crate::charts::dot_lag_figure(&r, &out.join("sim_check_dot_lag.png"))?;
+            Ok(r.markdown())
+        },
+    )?;
     let labels = step(&mut times, "labeling pipeline", "[label_check.md](label_check.md)", || {
         let rows = experiments::labeling::label_check(if q { 1 } else { 4 }, 0)?;
         let md = experiments::labeling::label_check_markdown(&rows);
@@ -104,15 +114,28 @@ pub fn run(args: Args) -> Result<()> {
         "[chars.md](chars.md), chars_depth.png, chars_confusion_*.png",
         || {
             let depths: &[f64] = if q { &[0.6, 1.5] } else { &[] };
-            let r =
-                experiments::reports::chars::chars_report(&models, depths, if q { 1 } else { 30 }, 1_000_003, &bar)?;
+            let r = experiments::reports::chars::chars_report(
+                &models,
+                depths,
+                if q { 1 } else { 30 },
+                1_000_003,
+                &args.realism.test_world(),
+                &bar,
+            )?;
             crate::charts::write_chars_report(&r, out)
         },
     )?;
     step(&mut times, "the speed table", "[words.md](words.md), words_speed.png", || {
         let speeds: &[f64] = if q { &[16.0, 32.0] } else { &[8.0, 16.0, 24.0, 32.0] };
-        let r =
-            experiments::reports::words::words_report(&models, speeds, 1.5, if q { 1 } else { 30 }, 1_000_003, &bar)?;
+        let r = experiments::reports::words::words_report(
+            &models,
+            speeds,
+            1.5,
+            if q { 1 } else { 30 },
+            1_000_003,
+            &args.realism.test_world(),
+            &bar,
+        )?;
         crate::charts::write_words_report(&r, out)
     })?;
     let runs = step(&mut times, "one stream read by each architecture", "read_resnet.jsonl, read_snn.jsonl", || {

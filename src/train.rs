@@ -33,6 +33,10 @@ pub struct Args {
     /// (at 8 mm/s), as a streaming reader meets them (0: the paper's aligned windows only).
     #[arg(long)]
     jitter_ms: Option<f64>,
+    /// Without --data: the simulator's nuisances (training sensor builds beyond `clean`)
+    /// [recipe: clean].
+    #[arg(long, value_enum)]
+    realism: Option<sim::Realism>,
     /// ResNet: the network's size.
     #[arg(long, value_enum, default_value = "lite")]
     preset: ResnetPreset,
@@ -163,7 +167,7 @@ fn recipe(a: &Args) -> Result<SnnRecipe> {
     macro_rules! set {
         ($($field:ident <- $flag:expr),* $(,)?) => { $( if let Some(v) = $flag.clone() { r.$field = v; } )* };
     }
-    set!(task <- a.task, jitter_ms <- a.jitter_ms, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
+    set!(task <- a.task, jitter_ms <- a.jitter_ms, realism <- a.realism, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
         center <- a.center, period_us <- a.period_us, sigma_delta <- a.sigma_delta, dt_us <- a.dt_us,
         hidden <- a.hidden, neuron <- a.neuron, tau_mem_us <- a.tau_mem_us, tau_syn_us <- a.tau_syn_us,
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, readout <- a.readout,
@@ -207,11 +211,13 @@ pub fn run(args: Args) -> Result<()> {
                 pool: args.pool.unwrap_or(1),
                 trials: r.trials,
                 word_rows: r.word_rows,
+                realism: r.realism,
                 train: r.train_config(),
             };
             let m = experiments::chars::train_resnet(&t, &mut epochs, &bar)?;
             eprintln!(
-                "SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {} scans ({} skipped: window count off), {} training and {} validation windows of {:?}",
+                "SIMULATED training windows ({} realism): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {} scans ({} skipped: window count off), {} training and {} validation windows of {:?}",
+                t.realism,
                 t.word_rows,
                 m.scans,
                 m.skipped_scans,

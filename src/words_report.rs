@@ -20,10 +20,13 @@ pub struct Args {
     depth: f64,
     #[arg(long, default_value_t = 1_000_003)]
     seed: u64,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let models = crate::common::repo_path("models");
-    let r = words_report(&models, &args.speeds, args.depth, args.trials, args.seed, &Bar::default())?;
+    let world = args.realism.test_world();
+    let r = words_report(&models, &args.speeds, args.depth, args.trials, args.seed, &world, &Bar::default())?;
     crate::charts::write_words_report(&r, &args.out)
 }

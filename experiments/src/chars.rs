@@ -196,6 +196,8 @@ pub struct ResnetTraining {
     pub pool: usize,
     pub trials: u64,
     pub word_rows: usize,
+    /// The simulator's nuisances (training sensor builds beyond `clean`).
+    pub realism: sim::Realism,
     pub train: learn::train::TrainConfig,
 }
 
@@ -224,7 +226,8 @@ pub fn train_resnet(
     };
     let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool)? };
     let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment: AugmentConfig::default() };
-    let tw = training_windows(t.trials, t.train.seed, t.word_rows, &input, t.task, t.jitter_ms, progress)?;
+    let world = crate::datasets::World::train(t.realism);
+    let tw = training_windows(t.trials, t.train.seed, t.word_rows, &input, t.task, t.jitter_ms, &world, progress)?;
     // the windows move into the two sets (no copy: the training set is most of the memory)
     let mut all = tw.all;
     let mut pick = |idx: &[usize], prepared: bool| ImageSet {
@@ -252,6 +255,8 @@ pub fn train_resnet(
     let best = history.iter().map(|h| h.val_accuracy).fold(f64::NAN, f64::max);
     let provenance = serde_json::json!({
         "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+        "realism": t.realism,
+        "sensor_builds": world.sensors,
         "task": t.task,
         "jitter_ms": t.jitter_ms,
         "word_rows": t.word_rows,

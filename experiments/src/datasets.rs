@@ -15,13 +15,100 @@ use pipeline::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::sensor::Sensor;
-use sim::{Board, BoardGeometry, BoardKind, CameraConfig, GelConfig, ScanConfig};
+use sim::{Board, BoardKind, CameraConfig, GelConfig, Realism, ScanConfig, Setup};
 
-/// The simulated sensor every protocol uses: the DVXplorer's resolution behind the default gel,
-/// pixel seed `seed`.
+/// The clean simulated sensor: the DVXplorer's resolution behind the default gel, pixel seed
+/// `seed` (the `clean` world's one build).
 pub fn sensor(resolution: encoders::Resolution, seed: u64) -> Result<Sensor> {
     let camera = CameraConfig { resolution, ..CameraConfig::default() };
     Ok(Sensor::new(camera, GelConfig::default(), seed)?)
+}
+
+/// Sensor builds that training scans are made with, and builds kept for testing: a model is
+/// tested on sensors it never saw, as a model moved to a new Evetac would be.
+pub const TRAIN_SENSORS: [u64; 4] = [1, 2, 3, 4];
+pub const TEST_SENSORS: [u64; 2] = [101, 102];
+
+/// The simulated world a protocol's scans come from: a realism preset (the print of the boards,
+/// the gel, the camera, the kinematics) and the builds of the sensor, trial `t` being scanned by
+/// `sensors[t % len]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct World {
+    pub realism: Realism,
+    pub sensors: Vec<u64>,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        World::clean()
+    }
+}
+
+impl World {
+    /// The simulator before its nuisances: one sensor build (seed 1) for training and test, and
+    /// the scan seeds of then. The shipped models and tables were made in it.
+    pub fn clean() -> World {
+        World { realism: Realism::Clean, sensors: vec![1] }
+    }
+
+    /// Training scans at `realism`: the training builds ([`TRAIN_SENSORS`]; `clean` has one).
+    pub fn train(realism: Realism) -> World {
+        match realism {
+            Realism::Clean => World::clean(),
+            _ => World { realism, sensors: TRAIN_SENSORS.to_vec() },
+        }
+    }
+
+    /// Test scans at `realism`: builds never trained on ([`TEST_SENSORS`]; `clean` has one).
+    pub fn test(realism: Realism) -> World {
+        match realism {
+            Realism::Clean => World::clean(),
+            _ => World { realism, sensors: TEST_SENSORS.to_vec() },
+        }
+    }
+
+    pub fn setup(&self) -> Setup {
+        self.realism.setup()
+    }
+
+    /// The sensor build that scans trial `trial`.
+    pub fn sensor_seed(&self, trial: u64) -> u64 {
+        if self.sensors.is_empty() { 1 } else { self.sensors[(trial % self.sensors.len() as u64) as usize] }
+    }
+
+    /// Every build of this world at `resolution`, in the order of `sensors`.
+    pub fn sensors_at(&self, setup: &Setup, resolution: encoders::Resolution) -> Result<Vec<Sensor>> {
+        let seeds = if self.sensors.is_empty() { vec![1] } else { self.sensors.clone() };
+        seeds.iter().map(|&s| Ok(setup.sensor(resolution, s)?)).collect()
+    }
+
+    /// A board printed as this world prints (its tolerances from the board's own seed).
+    pub fn board(&self, setup: &Setup, kind: &BoardKind) -> Result<Board> {
+        Ok(Board::new(kind.clone(), setup.geometry.clone(), Board::default_seed(kind))?)
+    }
+
+    /// The seed of one scan. Beyond `clean` (which keeps its old seeds for regression) it depends
+    /// on everything that makes a scan: board, row, trial, speed, depth, sensor and preset, so no
+    /// two conditions share a scan.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scan_seed(
+        &self,
+        seed: u64,
+        board: &BoardKind,
+        row: usize,
+        trial: u64,
+        speed_mm_s: f64,
+        depth_mm: f64,
+    ) -> u64 {
+        match self.realism {
+            Realism::Clean => scan_seed(seed, board, row, trial),
+            r => sim::board::stable_hash(&format!(
+                "scan/{r}/{seed}/{}/{row}/{trial}/{speed_mm_s}/{depth_mm}/{}",
+                board.name(),
+                self.sensor_seed(trial)
+            )),
+        }
+    }
 }
 
 /// The seed of one trial of one row (`braille simulate`, `braille label-check`).
@@ -90,6 +177,9 @@ pub struct CharSetSpec {
     /// frames around the aligned one (0: the paper's aligned windows only).
     #[serde(default)]
     pub jitter_ms: f64,
+    /// The simulated world of the scans.
+    #[serde(default)]
+    pub world: World,
 }
 
 /// The letter index of the 26 classes (`A` = 0).
@@ -112,7 +202,21 @@ pub fn scan_windows(
     jitter_ms: f64,
 ) -> Result<Option<Vec<CharSample>>> {
     let scan = ScanConfig { speed_mm_s, depth_mm, row, seed: scan_seed, ..ScanConfig::default() };
-    let s = sim::simulate(board, sensor, &scan)?;
+    scan_windows_with(board, sensor, &scan, trial, cfg, task, jitter_ms)
+}
+
+/// [`scan_windows`] of a scan configured in full (a realism preset's kinematics).
+pub fn scan_windows_with(
+    board: &Board,
+    sensor: &Sensor,
+    scan: &ScanConfig,
+    trial: u64,
+    cfg: &LabelerConfig,
+    task: Task,
+    jitter_ms: f64,
+) -> Result<Option<Vec<CharSample>>> {
+    let (row, speed_mm_s) = (scan.row, scan.speed_mm_s);
+    let s = sim::simulate(board, sensor, scan)?;
     let chars: Vec<char> = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).map(|c| c.letter).collect();
     let l = label(&s.events, sensor.camera.resolution, speed_mm_s, chars.len(), cfg)?;
     if !l.count_matched {
@@ -186,11 +290,11 @@ pub fn scan_seed(seed: u64, board: &BoardKind, row: usize, trial: u64) -> u64 {
     sim::board::stable_hash(&format!("chars/{seed}/{}/{row}/{trial}", board.name()))
 }
 
-/// Every (board, row, trial) of `spec`, in a fixed order.
-pub fn scans(spec: &CharSetSpec) -> Result<Vec<(Board, usize, u64)>> {
+/// Every (board, row, trial) of `spec`, in a fixed order, boards printed as `setup` prints.
+pub fn scans(spec: &CharSetSpec, setup: &Setup) -> Result<Vec<(Board, usize, u64)>> {
     let mut out = Vec::new();
     for kind in &spec.boards {
-        let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(kind))?;
+        let board = spec.world.board(setup, kind)?;
         for row in 0..board.rows.len() {
             for trial in 0..spec.trials {
                 out.push((board.clone(), row, trial));
@@ -256,6 +360,17 @@ pub fn build(spec: &CharSetSpec, input: &CharInput, progress: &dyn Progress) -> 
 /// for every input (which must share one labeler), so all models see the same windows. The same
 /// spec gives the same windows, whichever model asks.
 pub fn build_many(spec: &CharSetSpec, inputs: &[&CharInput], progress: &dyn Progress) -> Result<Windows> {
+    build_many_in(spec, &spec.world.setup(), inputs, progress)
+}
+
+/// [`build_many`] with the world's preset replaced by `setup` (a robustness sweep's nuisance
+/// levels); the world still picks the sensor builds and the scan seeds.
+pub fn build_many_in(
+    spec: &CharSetSpec,
+    setup: &Setup,
+    inputs: &[&CharInput],
+    progress: &dyn Progress,
+) -> Result<Windows> {
     let Some(first) = inputs.first() else {
         return Err(crate::Error::Invalid("no model input to build windows for".into()));
     };
@@ -264,26 +379,18 @@ pub fn build_many(spec: &CharSetSpec, inputs: &[&CharInput], progress: &dyn Prog
             "the models label their windows differently; build their windows separately".into(),
         ));
     }
-    let sensor = sensor(encoders::Resolution::DVXPLORER, 1)?;
-    let list = scans(spec)?;
+    let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
+    let list = scans(spec, setup)?;
     progress.start("simulating scans", list.len() as u64);
     type Kept = (usize, Vec<Vec<f32>>, ScanId);
     let per_scan: Vec<Option<Vec<Kept>>> = list
         .par_iter()
         .map(|(board, row, trial)| -> Result<_> {
-            let seed = scan_seed(spec.seed, &board.kind, *row, *trial);
-            let r = scan_windows(
-                board,
-                &sensor,
-                *row,
-                *trial,
-                seed,
-                spec.speed_mm_s,
-                spec.depth_mm,
-                &first.labeler,
-                spec.task,
-                spec.jitter_ms,
-            )?;
+            let w = &spec.world;
+            let seed = w.scan_seed(spec.seed, &board.kind, *row, *trial, spec.speed_mm_s, spec.depth_mm);
+            let sensor = &sensors[(*trial % sensors.len() as u64) as usize];
+            let scan = setup.scan(spec.speed_mm_s, spec.depth_mm, *row, seed);
+            let r = scan_windows_with(board, sensor, &scan, *trial, &first.labeler, spec.task, spec.jitter_ms)?;
             progress.inc();
             let Some(samples) = r else { return Ok(None) };
             let mut kept = Vec::with_capacity(samples.len());
@@ -322,11 +429,13 @@ pub struct TrainingWindows {
     pub skipped_scans: usize,
 }
 
-/// The training protocol's windows: SAB and UN at 8 mm/s and 1.5 mm (the paper's), plus
+/// The training protocol's windows in `world` (its training sensor builds): SAB and UN at 8 mm/s
+/// and 1.5 mm (the paper's), plus
 /// `word_rows` rows of random words (beyond the paper: letters with neighbours at the cell
 /// spacing, as in words; the single-letter boards spread their letters over the row), split by
 /// whole scans (every fifth trial goes to validation when there are five or more), so no scan
 /// feeds both.
+#[allow(clippy::too_many_arguments)]
 pub fn training_windows(
     trials: u64,
     seed: u64,
@@ -334,6 +443,7 @@ pub fn training_windows(
     input: &CharInput,
     task: Task,
     jitter_ms: f64,
+    world: &World,
     progress: &dyn Progress,
 ) -> Result<TrainingWindows> {
     let mut boards = vec![BoardKind::Sab, BoardKind::Un];
@@ -341,7 +451,8 @@ pub fn training_windows(
         let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
         boards.push(BoardKind::Text(text));
     }
-    let spec = CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed, task, jitter_ms };
+    let spec =
+        CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed, task, jitter_ms, world: world.clone() };
     let (all, w) = build(&spec, input, progress)?;
     let (val, train): (Vec<usize>, Vec<usize>) =
         (0..all.len()).partition(|&i| trials >= 5 && w.origin[i].trial % 5 == 4);
@@ -365,6 +476,29 @@ pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, tas
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clean_keeps_its_seeds_and_other_worlds_seed_every_condition_apart() {
+        let clean = World::clean();
+        assert_eq!(clean.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5), scan_seed(5, &BoardKind::Rab, 1, 2));
+        assert_eq!(clean.scan_seed(5, &BoardKind::Rab, 1, 2, 32.0, 0.2), scan_seed(5, &BoardKind::Rab, 1, 2));
+        let test = World::test(Realism::Nominal);
+        let base = test.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5);
+        for other in [
+            test.scan_seed(5, &BoardKind::Rab, 1, 2, 32.0, 1.5),
+            test.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.0),
+            test.scan_seed(5, &BoardKind::Rab, 1, 3, 8.0, 1.5),
+            test.scan_seed(5, &BoardKind::Sab, 1, 2, 8.0, 1.5),
+            World::train(Realism::Nominal).scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5),
+            World::test(Realism::Harsh).scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5),
+        ] {
+            assert_ne!(base, other);
+        }
+        // Training and test builds never meet.
+        let (train, test) = (World::train(Realism::Nominal), World::test(Realism::Nominal));
+        assert!((0..8).all(|t| !test.sensors.contains(&train.sensor_seed(t))));
+        assert_eq!(World::train(Realism::Clean), World::test(Realism::Clean));
+    }
 
     #[test]
     fn word_rows_are_seeded_bounded_and_leave_out_the_excluded() {

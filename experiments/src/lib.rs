@@ -13,6 +13,7 @@ pub mod error;
 pub mod labeling;
 pub mod recipe;
 pub mod reports;
+pub mod robustness;
 pub mod scans;
 pub mod scoring;
 pub mod tactile;

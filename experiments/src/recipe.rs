@@ -60,6 +60,9 @@ pub struct SnnRecipe {
     pub trials: u64,
     /// Rows of random words added to the training boards.
     pub word_rows: usize,
+    /// The simulator's nuisances for the simulated windows (training sensor builds beyond
+    /// `clean`).
+    pub realism: sim::Realism,
     /// Sum-pooling of the 64x80 crop.
     pub pool: usize,
     /// Centre each window vertically.
@@ -120,6 +123,7 @@ impl Default for SnnRecipe {
             interpolate: false,
             task: Task::Chars,
             jitter_ms: 0.0,
+            realism: sim::Realism::Clean,
             trials: 10,
             word_rows: 0,
             pool: 2,

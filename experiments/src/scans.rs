@@ -9,7 +9,7 @@ use encoders::stats::StreamStats;
 use encoders::{Event, Resolution};
 use rayon::prelude::*;
 use serde::Serialize;
-use sim::{Board, BoardGeometry, BoardKind, Direction, ScanConfig};
+use sim::{Board, BoardKind, Direction, ScanConfig};
 use std::path::{Path, PathBuf};
 
 /// Which scans to simulate and where to write them.
@@ -25,6 +25,8 @@ pub struct ScanSpec {
     /// The printed board's tolerances (None: derived from the board's name).
     pub board_seed: Option<u64>,
     pub sensor_seed: u64,
+    /// The simulator's nuisances.
+    pub realism: sim::Realism,
     pub direction: Direction,
     pub resolution: Resolution,
     /// An event file for one scan, or a folder for several.
@@ -61,8 +63,9 @@ pub struct Summary {
 /// or the format of `out`'s extension), its ground truth beside it.
 pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summary> {
     let board_seed = spec.board_seed.unwrap_or_else(|| Board::default_seed(&spec.board));
-    let board = Board::new(spec.board.clone(), BoardGeometry::default(), board_seed)?;
-    let sensor = crate::datasets::sensor(spec.resolution, spec.sensor_seed)?;
+    let setup = spec.realism.setup();
+    let board = Board::new(spec.board.clone(), setup.geometry.clone(), board_seed)?;
+    let sensor = setup.sensor(spec.resolution, spec.sensor_seed)?;
     let rows: Vec<usize> = match spec.row {
         Some(r) if r >= board.rows.len() => {
             return Err(Error::Invalid(format!(
@@ -94,12 +97,8 @@ pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summar
         .par_iter()
         .map(|&(row, trial)| {
             let scan = ScanConfig {
-                speed_mm_s: spec.speed,
-                depth_mm: spec.depth,
-                row,
                 direction,
-                seed: crate::datasets::trial_seed(spec.seed, row, trial),
-                ..ScanConfig::default()
+                ..setup.scan(spec.speed, spec.depth, row, crate::datasets::trial_seed(spec.seed, row, trial))
             };
             let s = sim::simulate(&board, &sensor, &scan)?;
             let events_path = if single {

@@ -161,11 +161,15 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
         augment: pipeline::augment::AugmentConfig::default(),
     };
-    let tw = training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, progress)?;
+    let world = crate::datasets::World::train(r.realism);
+    let tw = training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, &world, progress)?;
     let train = snn_set(&input, &tw.all, &tw.train, r.dt_us, r.task);
     let val = snn_set(&input, &tw.all, &tw.val, r.dt_us, r.task);
     let summary = DataSummary {
-        data: format!("SIMULATED training windows: SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words", r.word_rows),
+        data: format!(
+            "SIMULATED training windows ({} realism, sensor builds {:?}): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words",
+            r.realism, world.sensors, r.word_rows
+        ),
         classes: train.classes.len(),
         inputs: train.n_inputs,
         steps: train.steps,

@@ -9,7 +9,7 @@ use pipeline::classify::ReaderModels;
 use pipeline::reader::{ReadWord, ReaderStats, Spell, Speller};
 use rayon::prelude::*;
 use serde::Serialize;
-use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
+use sim::BoardKind;
 use snn::model_file::Arch;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -77,6 +77,8 @@ pub struct WordsSpec {
     /// Scans per board row.
     pub trials: u64,
     pub seed: u64,
+    /// The simulated world of the scans.
+    pub world: crate::datasets::World,
 }
 
 /// The shipped models of each architecture under `models`: (segmentation network, character
@@ -93,17 +95,18 @@ pub fn default_models(arch: Arch, models: &Path) -> (PathBuf, PathBuf) {
 /// simulated once for all; the models are shared by the threads); `[scan][reader]`.
 pub fn read_scans(spec: &WordsSpec, readers: &[&ReaderModels], progress: &dyn Progress) -> Result<Vec<Vec<LineRead>>> {
     let (board, speed_mm_s, depth_mm) = (&spec.board, spec.speed_mm_s, spec.depth_mm);
-    let b = Board::new(board.clone(), BoardGeometry::default(), Board::default_seed(board))?;
-    let sensor = crate::datasets::sensor(encoders::Resolution::DVXPLORER, 1)?;
+    let setup = spec.world.setup();
+    let b = spec.world.board(&setup, board)?;
+    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let jobs: Vec<(usize, u64)> = (0..b.rows.len()).flat_map(|r| (0..spec.trials).map(move |t| (r, t))).collect();
     progress.start("reading simulated scans", jobs.len() as u64);
     let speller = Speller::new(Spell::None);
     let lines: Vec<Vec<LineRead>> = jobs
         .par_iter()
         .map(|&(row, trial)| -> Result<Vec<LineRead>> {
-            let scan_seed = crate::datasets::scan_seed(spec.seed, board, row, trial);
-            let cfg = ScanConfig { speed_mm_s, depth_mm, row, seed: scan_seed, ..ScanConfig::default() };
-            let s = sim::simulate(&b, &sensor, &cfg)?;
+            let scan_seed = spec.world.scan_seed(spec.seed, board, row, trial, speed_mm_s, depth_mm);
+            let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+            let s = sim::simulate(&b, sensor, &setup.scan(speed_mm_s, depth_mm, row, scan_seed))?;
             let truth: Vec<String> = s.truth.row_text.split_whitespace().map(str::to_string).collect();
             let stream_s = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
             let mut out = Vec::new();

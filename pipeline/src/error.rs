@@ -13,6 +13,12 @@ pub enum Error {
     Snn(#[from] snn::Error),
     #[error(transparent)]
     Learn(#[from] learn::Error),
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// A model file whose header does not fit what reads it.
     #[error("{}: {what}", path.display())]
     Model { path: std::path::PathBuf, what: String },

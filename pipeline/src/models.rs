@@ -70,7 +70,7 @@ pub enum Model {
 
 /// Loads a model file of any architecture, by what its header names.
 pub fn load(path: &Path) -> Result<Model> {
-    let bytes = std::fs::read(path).map_err(|e| bad(path, e.to_string()))?;
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     Ok(match ModelFile::arch_of(path, &bytes)? {
         Arch::Resnet => Model::Resnet(ResnetModel::parse(path, &bytes)?),
         Arch::Snn => Model::Snn(SnnModel::parse(path, &bytes)?),

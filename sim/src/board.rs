@@ -2,7 +2,7 @@
 //! heights, including manufacturing tolerances drawn from the board's own seed.
 
 use crate::braille::{Cell, cell_of};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -100,6 +100,27 @@ pub struct BoardGeometry {
     pub position_sigma_mm: f64,
     /// Standard deviation of each dot's height error (assumed, as above).
     pub height_sigma_mm: f64,
+    /// Standard deviation of each dot's base radius (FDM PLA: +-0.035 mm, half the measured
+    /// +-0.07 mm spread of the diameter). The sphere each dot is a cap of follows from its base
+    /// and height.
+    #[serde(default)]
+    pub base_radius_sigma_mm: f64,
+    /// The print's surface texture: the top layer's extrusion lines, as a sinusoid of this
+    /// amplitude and pitch whose crests run at `texture_angle_deg` to the row. 0 for a smooth board.
+    #[serde(default)]
+    pub texture_amplitude_mm: f64,
+    #[serde(default = "default_texture_pitch")]
+    pub texture_pitch_mm: f64,
+    #[serde(default = "default_texture_angle")]
+    pub texture_angle_deg: f64,
+}
+
+fn default_texture_pitch() -> f64 {
+    0.4
+}
+
+fn default_texture_angle() -> f64 {
+    45.0
 }
 
 impl Default for BoardGeometry {
@@ -114,6 +135,10 @@ impl Default for BoardGeometry {
             row_length_mm: 195.0,
             position_sigma_mm: 0.025,
             height_sigma_mm: 0.025,
+            base_radius_sigma_mm: 0.0,
+            texture_amplitude_mm: 0.0,
+            texture_pitch_mm: default_texture_pitch(),
+            texture_angle_deg: default_texture_angle(),
         }
     }
 }
@@ -125,25 +150,31 @@ impl BoardGeometry {
         (2.0 * r * h - h * h).max(0.0).sqrt()
     }
 
+    /// The sphere radius of a cap with this base radius and height.
+    pub fn sphere_radius_mm(base_radius_mm: f64, height_mm: f64) -> f64 {
+        ((base_radius_mm * base_radius_mm + height_mm * height_mm) / (2.0 * height_mm)).max(height_mm)
+    }
+
     pub fn validate(&self) -> Result<()> {
-        let positive = [
-            ("dot_radius_mm", self.dot_radius_mm),
-            ("dot_height_mm", self.dot_height_mm),
-            ("dot_spacing_mm", self.dot_spacing_mm),
-            ("cell_spacing_mm", self.cell_spacing_mm),
-            ("line_spacing_mm", self.line_spacing_mm),
-            ("row_length_mm", self.row_length_mm),
-        ];
-        for (name, v) in positive {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::Config(format!("{name} must be positive, got {v}")));
-            }
-        }
+        const POSITIVE: &str = "a positive length";
+        check("dot_radius_mm", self.dot_radius_mm, f64::MIN_POSITIVE..100.0, POSITIVE)?;
+        check("dot_height_mm", self.dot_height_mm, f64::MIN_POSITIVE..100.0, POSITIVE)?;
+        check("dot_spacing_mm", self.dot_spacing_mm, f64::MIN_POSITIVE..100.0, POSITIVE)?;
+        check("cell_spacing_mm", self.cell_spacing_mm, f64::MIN_POSITIVE..100.0, POSITIVE)?;
+        check("line_spacing_mm", self.line_spacing_mm, f64::MIN_POSITIVE..1000.0, POSITIVE)?;
+        check("row_length_mm", self.row_length_mm, f64::MIN_POSITIVE..1e5, POSITIVE)?;
+        check("margin_mm", self.margin_mm, 0.0..1e5, "zero or more")?;
+        check("position_sigma_mm", self.position_sigma_mm, 0.0..1.0, "in [0, 1) mm")?;
+        check("height_sigma_mm", self.height_sigma_mm, 0.0..1.0, "in [0, 1) mm")?;
+        check("base_radius_sigma_mm", self.base_radius_sigma_mm, 0.0..1.0, "in [0, 1) mm")?;
+        check("texture_amplitude_mm", self.texture_amplitude_mm, 0.0..0.5, "in [0, 0.5) mm")?;
+        check("texture_pitch_mm", self.texture_pitch_mm, 0.01..100.0, "at least 0.01 mm")?;
+        check("texture_angle_deg", self.texture_angle_deg, -180.0..=180.0, "in [-180, 180] degrees")?;
         if self.dot_height_mm > self.dot_radius_mm {
-            return Err(Error::Config("dot_height_mm cannot exceed dot_radius_mm (a cap of a sphere)".into()));
-        }
-        if self.margin_mm < 0.0 || self.position_sigma_mm < 0.0 || self.height_sigma_mm < 0.0 {
-            return Err(Error::Config("margin and tolerances must not be negative".into()));
+            return Err(Error::Inconsistent(format!(
+                "dot_height_mm {} exceeds dot_radius_mm {}: a dot is a cap of a sphere",
+                self.dot_height_mm, self.dot_radius_mm
+            )));
         }
         Ok(())
     }
@@ -155,6 +186,8 @@ pub struct Dot {
     pub x_mm: f64,
     pub y_mm: f64,
     pub height_mm: f64,
+    /// Radius of the sphere the dot is a cap of.
+    pub radius_mm: f64,
     /// Index into [`Board::characters`].
     pub character: usize,
 }
@@ -204,14 +237,12 @@ impl Board {
             let pitch = if spread && n > 1 { usable / (n - 1) as f64 } else { geometry.cell_spacing_mm };
             let width = pitch * (n - 1) as f64 + geometry.dot_spacing_mm;
             if width > usable + geometry.dot_spacing_mm + 1e-9 {
-                return Err(Error::Config(format!(
-                    "row {r} ({text:?}) needs {width:.1} mm but the row has {usable:.1} mm between its margins"
-                )));
+                return Err(Error::RowTooLong { row: r, text: text.clone(), needed_mm: width, usable_mm: usable });
             }
             let mut word = None;
             let mut words = 0;
             for (i, c) in text.chars().enumerate() {
-                let cell = cell_of(c).ok_or_else(|| Error::Config(format!("no Braille cell for {c:?}")))?;
+                let cell = cell_of(c).ok_or(Error::NoCell(c))?;
                 if c == ' ' {
                     word = None;
                 } else if word.is_none() {
@@ -229,17 +260,24 @@ impl Board {
             }
         }
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let pos = Normal::new(0.0, geometry.position_sigma_mm).map_err(|e| Error::Config(e.to_string()))?;
-        let height = Normal::new(0.0, geometry.height_sigma_mm).map_err(|e| Error::Config(e.to_string()))?;
+        let pos = Normal::new(0.0, geometry.position_sigma_mm).map_err(Error::distribution("position_sigma_mm"))?;
+        let height = Normal::new(0.0, geometry.height_sigma_mm).map_err(Error::distribution("height_sigma_mm"))?;
+        let base =
+            Normal::new(0.0, geometry.base_radius_sigma_mm).map_err(Error::distribution("base_radius_sigma_mm"))?;
         let mut dots = Vec::new();
         for (i, ch) in characters.iter().enumerate() {
             for &(col, row) in &ch.dots {
-                dots.push(Dot {
-                    x_mm: ch.x_mm + col as f64 * geometry.dot_spacing_mm + pos.sample(&mut rng),
-                    y_mm: ch.y_mm + (row as f64 - 1.0) * geometry.dot_spacing_mm + pos.sample(&mut rng),
-                    height_mm: (geometry.dot_height_mm + height.sample(&mut rng)).max(0.05),
-                    character: i,
-                });
+                let x_mm = ch.x_mm + col as f64 * geometry.dot_spacing_mm + pos.sample(&mut rng);
+                let y_mm = ch.y_mm + (row as f64 - 1.0) * geometry.dot_spacing_mm + pos.sample(&mut rng);
+                let height_mm = (geometry.dot_height_mm + height.sample(&mut rng)).max(0.05);
+                // A spread base is drawn after the rest, so that boards without it keep their dots.
+                let radius_mm = if geometry.base_radius_sigma_mm > 0.0 {
+                    let b = (geometry.dot_base_radius_mm() + base.sample(&mut rng)).max(0.05);
+                    BoardGeometry::sphere_radius_mm(b, height_mm)
+                } else {
+                    geometry.dot_radius_mm.max(height_mm)
+                };
+                dots.push(Dot { x_mm, y_mm, height_mm, radius_mm, character: i });
             }
         }
         Ok(Board { kind, geometry, seed, rows, characters, dots })

@@ -23,11 +23,13 @@ pub mod board;
 pub mod braille;
 pub mod checks;
 pub mod error;
+pub mod realism;
 pub mod scan;
 pub mod sensor;
 pub mod stamp;
 
 pub use board::{Board, BoardGeometry, BoardKind};
 pub use error::{Error, Result};
+pub use realism::{Realism, Setup};
 pub use scan::{Direction, Scan, ScanConfig, ScanTruth, simulate};
-pub use sensor::{CameraConfig, GelConfig, Sensor};
+pub use sensor::{CameraConfig, GelConfig, GelDynamics, PronyTerm, Sensor, SensorVariation};

@@ -10,9 +10,9 @@
 //! refractory period applied per pixel. Noise (leak, shot, hot pixels) is added on top.
 
 use crate::board::Board;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check};
 use crate::sensor::Sensor;
-use crate::stamp::Stamp;
+use crate::stamp::{Stamp, StampMotion};
 use encoders::{Event, Polarity, Resolution};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,6 +22,7 @@ use std::collections::HashMap;
 
 /// Which way the sensor slides along the row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
     /// Towards increasing board x (reading direction).
@@ -61,6 +62,27 @@ pub struct ScanConfig {
     pub misalignment_sigma_mm: f64,
     /// Seed of this trial: misalignment, ripple phase, noise.
     pub seed: u64,
+    /// Hand-held speed changes: the relative amplitude of slow swings of the speed around its
+    /// mean (1-5 Hz; human reading: a CV of 30-50%, assumed from Hughes et al. 2011). The speed
+    /// stays positive: reversals are not simulated. 0 for an arm.
+    #[serde(default)]
+    pub speed_variation: f64,
+    /// Depth along the slide: a tilt of the board against the path, drawn per trial with this
+    /// standard deviation in mm per 100 mm, plus a smooth wander of this standard deviation and
+    /// wavelength (assumed: REALISM.md 4).
+    #[serde(default)]
+    pub depth_tilt_sigma_mm_per_100mm: f64,
+    #[serde(default)]
+    pub depth_wander_sigma_mm: f64,
+    #[serde(default = "default_wander_wavelength")]
+    pub depth_wander_wavelength_mm: f64,
+    /// Standard deviation of the row's yaw against the sensor's x axis, per trial (assumed).
+    #[serde(default)]
+    pub yaw_sigma_deg: f64,
+}
+
+fn default_wander_wavelength() -> f64 {
+    40.0
 }
 
 impl Default for ScanConfig {
@@ -78,6 +100,11 @@ impl Default for ScanConfig {
             ripple_hz: 2.0,
             misalignment_sigma_mm: 0.15,
             seed: 0,
+            speed_variation: 0.0,
+            depth_tilt_sigma_mm_per_100mm: 0.0,
+            depth_wander_sigma_mm: 0.0,
+            depth_wander_wavelength_mm: default_wander_wavelength(),
+            yaw_sigma_deg: 0.0,
         }
     }
 }
@@ -90,6 +117,9 @@ pub struct Timeline {
     pub slide_end_s: f64,
     pub lift_start_s: f64,
     pub end_s: f64,
+    /// After the lift, the time the scan goes on while the gel recovers (0 without relaxation).
+    #[serde(default)]
+    pub recovery_s: f64,
 }
 
 /// When a dot column of a character passes the sensor.
@@ -132,6 +162,14 @@ pub struct ScanTruth {
     pub scan: ScanConfig,
     pub misalignment_mm: f64,
     pub ripple_phase_rad: f64,
+    /// The drawn yaw of the row and tilt of the depth (0 without them).
+    #[serde(default)]
+    pub yaw_deg: f64,
+    #[serde(default)]
+    pub depth_tilt_mm_per_100mm: f64,
+    /// The depth under the sensor's centre at the start, middle and end of the slide.
+    #[serde(default)]
+    pub depth_profile_mm: Vec<f64>,
     pub timeline: Timeline,
     pub resolution: Resolution,
     pub pitch_mm: f64,
@@ -146,34 +184,58 @@ pub struct Scan {
     pub truth: ScanTruth,
 }
 
-/// The slide's displacement over time with a sinusoidal speed ripple.
-#[derive(Debug, Clone, Copy)]
+/// The slide's displacement over time: a mean speed with sinusoidal swings (the arm's ripple, a
+/// hand's slow changes), each `(relative amplitude, angular frequency, phase)`.
+#[derive(Debug, Clone)]
 struct Motion {
     v: f64,
-    a: f64,
-    w: f64,
-    phase: f64,
+    terms: Vec<(f64, f64, f64)>,
 }
 
 impl Motion {
     fn displacement(&self, t: f64) -> f64 {
-        if self.a == 0.0 || self.w == 0.0 {
-            return self.v * t;
-        }
-        self.v * t + self.a * self.v / self.w * (self.phase.cos() - (self.w * t + self.phase).cos())
+        self.terms.iter().fold(self.v * t, |s, &(a, w, phase)| {
+            if a == 0.0 || w == 0.0 { s } else { s + a * self.v / w * (phase.cos() - (w * t + phase).cos()) }
+        })
     }
 
     fn speed(&self, t: f64) -> f64 {
-        self.v * (1.0 + self.a * (self.w * t + self.phase).sin())
+        self.terms.iter().fold(self.v, |v, &(a, w, phase)| v + self.v * a * (w * t + phase).sin())
     }
 
     /// The time at which the displacement reaches `s` (Newton's method; the motion is monotone).
     fn time_of(&self, s: f64) -> f64 {
         let mut t = s / self.v;
-        for _ in 0..4 {
+        for _ in 0..8 {
             t -= (self.displacement(t) - s) / self.speed(t);
         }
         t
+    }
+}
+
+/// Hand-held speed swings: (share of the amplitude, frequency in Hz), assumed within the 1-5 Hz
+/// band of REALISM.md 4.
+const HAND_SWINGS: [(f64, f64); 3] = [(0.5, 1.1), (0.3, 2.3), (0.2, 4.7)];
+
+/// The depth under the sensor's centre along the slide: tilt plus a smooth wander.
+#[derive(Debug, Clone)]
+struct DepthProfile {
+    depth_mm: f64,
+    slide_mm: f64,
+    tilt_per_mm: f64,
+    /// (amplitude, wavenumber, phase) of the wander's sinusoids.
+    wander: Vec<(f64, f64, f64)>,
+}
+
+impl DepthProfile {
+    fn at(&self, s: f64) -> f64 {
+        let s = s.clamp(0.0, self.slide_mm);
+        let w: f64 = self.wander.iter().map(|&(a, k, phase)| a * (k * s + phase).sin()).sum();
+        (self.depth_mm + self.tilt_per_mm * (s - self.slide_mm / 2.0) + w).max(0.0)
+    }
+
+    fn is_flat(&self) -> bool {
+        self.tilt_per_mm == 0.0 && self.wander.is_empty()
     }
 }
 
@@ -215,22 +277,79 @@ const LEVELS: usize = 4;
 
 fn validate(scan: &ScanConfig, board: &Board) -> Result<f64> {
     let slide = scan.slide_mm.unwrap_or(board.geometry.row_length_mm);
-    let ok = scan.speed_mm_s > 0.0
-        && scan.depth_mm >= 0.0
-        && scan.approach_speed_mm_s > 0.0
-        && scan.hold_s >= 0.0
-        && (0.0..0.5).contains(&scan.speed_ripple)
-        && scan.ripple_hz >= 0.0
-        && scan.misalignment_sigma_mm >= 0.0
-        && slide > 0.0;
-    if !ok {
-        return Err(Error::Config(format!("scan parameters out of range: {scan:?}")));
+    check("speed_mm_s", scan.speed_mm_s, 1e-3..1e4, "a positive speed")?;
+    check("depth_mm", scan.depth_mm, 0.0..50.0, "zero or more")?;
+    check("approach_speed_mm_s", scan.approach_speed_mm_s, 1e-3..1e4, "a positive speed")?;
+    check("hold_s", scan.hold_s, 0.0..1e4, "zero or more")?;
+    check("speed_ripple", scan.speed_ripple, 0.0..0.5, "in [0, 0.5)")?;
+    check("ripple_hz", scan.ripple_hz, 0.0..1e4, "zero or more")?;
+    check("misalignment_sigma_mm", scan.misalignment_sigma_mm, 0.0..10.0, "zero or more")?;
+    check("slide_mm", slide, 1e-3..1e5, "a positive length")?;
+    check("speed_variation", scan.speed_variation, 0.0..0.9, "in [0, 0.9)")?;
+    check("depth_tilt_sigma_mm_per_100mm", scan.depth_tilt_sigma_mm_per_100mm, 0.0..5.0, "zero or more")?;
+    check("depth_wander_sigma_mm", scan.depth_wander_sigma_mm, 0.0..5.0, "zero or more")?;
+    check("depth_wander_wavelength_mm", scan.depth_wander_wavelength_mm, 1.0..1e5, "at least 1 mm")?;
+    check("yaw_sigma_deg", scan.yaw_sigma_deg, 0.0..10.0, "in [0, 10) degrees")?;
+    if scan.speed_ripple + scan.speed_variation >= 0.95 {
+        return Err(Error::Inconsistent(format!(
+            "speed_ripple {} + speed_variation {} must stay below 0.95: the sensor would stop or reverse",
+            scan.speed_ripple, scan.speed_variation
+        )));
     }
     if scan.row >= board.rows.len() {
-        return Err(Error::Config(format!("row {} does not exist: the board has {} rows", scan.row, board.rows.len())));
+        return Err(Error::NoRow { row: scan.row, rows: board.rows.len() });
     }
     Ok(slide)
 }
+
+/// What a trial draws besides the clean scan's misalignment and ripple phase, from a stream of its
+/// own (so that scans without these nuisances keep their events).
+struct Nuisances {
+    yaw_rad: f64,
+    tilt_per_mm: f64,
+    wander: Vec<(f64, f64, f64)>,
+    hand: Vec<(f64, f64, f64)>,
+    rng: ChaCha8Rng,
+}
+
+impl Nuisances {
+    fn draw(scan: &ScanConfig) -> Result<Nuisances> {
+        let mut rng = ChaCha8Rng::seed_from_u64(scan.seed ^ 0x4e55_4953_414e_4345);
+        let unit = Normal::new(0.0, 1.0).map_err(Error::distribution("unit normal"))?;
+        let yaw_rad = (scan.yaw_sigma_deg * unit.sample(&mut rng)).to_radians();
+        let tilt_per_mm = scan.depth_tilt_sigma_mm_per_100mm * unit.sample(&mut rng) / 100.0;
+        let mut wander = Vec::new();
+        if scan.depth_wander_sigma_mm > 0.0 {
+            // Three sinusoids, wavelengths 1, 0.55 and 0.3 of the given one; amplitudes so that
+            // the variance is sigma^2.
+            let shares: [(f64, f64); 3] = [(0.7, 1.0), (0.5, 0.55), (0.3, 0.3)];
+            let norm = (shares.iter().map(|(a, _)| a * a / 2.0).sum::<f64>()).sqrt();
+            for (a, l) in shares {
+                let k = std::f64::consts::TAU / (l * scan.depth_wander_wavelength_mm);
+                wander.push((scan.depth_wander_sigma_mm * a / norm, k, rng.random_range(0.0..std::f64::consts::TAU)));
+            }
+        }
+        let mut hand = Vec::new();
+        if scan.speed_variation > 0.0 {
+            for (share, hz) in HAND_SWINGS {
+                let phase = rng.random_range(0.0..std::f64::consts::TAU);
+                hand.push((scan.speed_variation * share, std::f64::consts::TAU * hz, phase));
+            }
+        }
+        Ok(Nuisances { yaw_rad, tilt_per_mm, wander, hand, rng })
+    }
+}
+
+/// A dot as one scan sees it: where it is against the sensor's row line (yaw included) and how
+/// deep it is pressed (depth profile and its own height).
+struct PlacedDot {
+    x_mm: f64,
+    y_mm: f64,
+    key: StampKey,
+}
+
+/// Stamps are shared by dots of (nearly) the same penetration, height and radius: 0.01 mm steps.
+type StampKey = (i64, i64, i64);
 
 /// Simulates one scan of `board` by `sensor`.
 pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Scan> {
@@ -241,37 +360,61 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
     let step = pitch / 2.0;
     let dir = scan.direction.sign();
     let mut rng = ChaCha8Rng::seed_from_u64(scan.seed);
-    let misalignment =
-        Normal::new(0.0, scan.misalignment_sigma_mm).map_err(|e| Error::Config(e.to_string()))?.sample(&mut rng);
+    let misalignment = Normal::new(0.0, scan.misalignment_sigma_mm)
+        .map_err(Error::distribution("misalignment_sigma_mm"))?
+        .sample(&mut rng);
     let phase = rng.random_range(0.0..std::f64::consts::TAU);
-    let motion = Motion { v: scan.speed_mm_s, a: scan.speed_ripple, w: std::f64::consts::TAU * scan.ripple_hz, phase };
-    let lower_s = scan.depth_mm / scan.approach_speed_mm_s;
+    let mut nuisances = Nuisances::draw(scan)?;
+    let mut terms = vec![(scan.speed_ripple, std::f64::consts::TAU * scan.ripple_hz, phase)];
+    terms.extend(nuisances.hand.iter().copied());
+    let motion = Motion { v: scan.speed_mm_s, terms };
+    let depth = DepthProfile {
+        depth_mm: scan.depth_mm,
+        slide_mm: slide,
+        tilt_per_mm: nuisances.tilt_per_mm,
+        wander: nuisances.wander.clone(),
+    };
+    let start_depth = depth.at(0.0);
+    let lower_s = start_depth / scan.approach_speed_mm_s;
     let slide_s = motion.time_of(slide);
     let table = TimeTable::new(&motion, slide, pitch / 2.0);
+    // After lifting, the gel's relaxing share recovers for a few of its time constants.
+    let recovery = sensor.gel.dynamics.recovery();
+    let recovery_s = (5.0 * recovery.1).min(1.0);
     let timeline = Timeline {
         lowered_s: lower_s,
         slide_start_s: lower_s + scan.hold_s,
         slide_end_s: lower_s + scan.hold_s + slide_s,
         lift_start_s: lower_s + 2.0 * scan.hold_s + slide_s,
-        end_s: 2.0 * lower_s + 2.0 * scan.hold_s + slide_s,
+        end_s: 2.0 * lower_s + 2.0 * scan.hold_s + slide_s + recovery_s,
+        recovery_s,
     };
     // Sensor centre at the start of the slide, in board x; travel coordinate p = dir * x.
     let x_start = if dir > 0.0 { scan.start_mm } else { scan.start_mm + slide };
     let row_y = board.row_y_mm(scan.row) + misalignment;
+    // The row's yaw turns it about the middle of the slide.
+    let x_mid = x_start + dir * slide / 2.0;
+    let (sin_yaw, cos_yaw) = nuisances.yaw_rad.sin_cos();
 
-    // Stamps, shared by dots of (nearly) the same height.
+    // Stamps, shared by dots of (nearly) the same penetration, height and radius.
     let g = &board.geometry;
     let optics_scale = w as f64 / 640.0;
-    let mut stamps: HashMap<(i64, i64), Stamp> = HashMap::new();
-    let mut dot_stamp = Vec::with_capacity(board.dots.len());
+    let stamp_motion = StampMotion { direction: dir, speed_mm_s: scan.speed_mm_s };
+    let mut stamps: HashMap<StampKey, Stamp> = HashMap::new();
+    let mut placed = Vec::with_capacity(board.dots.len());
+    let q = |v: f64| (v / 0.01).round() as i64;
     for d in &board.dots {
-        let penetration = scan.depth_mm + (d.height_mm - g.dot_height_mm);
-        let key = ((penetration / 0.01).round() as i64, (d.height_mm / 0.01).round() as i64);
+        let (dx, dy) = (d.x_mm - x_mid, d.y_mm - board.row_y_mm(scan.row));
+        let (x_mm, y_mm) =
+            (x_mid + dx * cos_yaw - dy * sin_yaw, board.row_y_mm(scan.row) + dx * sin_yaw + dy * cos_yaw);
+        // The depth when the dot is under the sensor's centre.
+        let penetration = depth.at(dir * (x_mm - x_start)) + (d.height_mm - g.dot_height_mm);
+        let key = (q(penetration), q(d.height_mm), q(d.radius_mm));
         stamps.entry(key).or_insert_with(|| {
-            let (pen, hd) = (key.0 as f64 * 0.01, key.1 as f64 * 0.01);
-            Stamp::new(&sensor.gel, g.dot_radius_mm.max(hd), hd, pen.max(0.0), pitch, optics_scale)
+            let (pen, hd, rd) = (key.0 as f64 * 0.01, key.1 as f64 * 0.01, key.2 as f64 * 0.01);
+            Stamp::new(&sensor.gel, rd.max(hd), hd, pen.max(0.0), pitch, optics_scale, stamp_motion)
         });
-        dot_stamp.push(key);
+        placed.push(PlacedDot { x_mm, y_mm, key });
     }
     let max_half = stamps.values().map(|s| s.half).max().unwrap_or(0) as f64;
 
@@ -291,23 +434,21 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
 
     let grid = cam.readout_grid_us;
     let refractory = cam.refractory_us;
+    let texture = Texture::new(board, sensor, &depth, scan.speed_mm_s, &level_tau);
     let mut events: Vec<Event> = Vec::new();
-    let mut dots_by_y: Vec<usize> = (0..board.dots.len()).collect();
-    dots_by_y.sort_by(|&a, &b| board.dots[a].y_mm.total_cmp(&board.dots[b].y_mm));
+    let mut dots_by_y: Vec<usize> = (0..placed.len()).collect();
+    dots_by_y.sort_by(|&a, &b| placed[a].y_mm.total_cmp(&placed[b].y_mm));
 
     for py in 0..h {
         let y = row_y + (py as f64 + 0.5 - h as f64 / 2.0) * pitch;
         // Dots whose stamp reaches this pixel row, in travel order.
         let reach = (max_half + 1.0) * pitch;
-        let lo = dots_by_y.partition_point(|&i| board.dots[i].y_mm < y - reach);
-        let hi = dots_by_y.partition_point(|&i| board.dots[i].y_mm <= y + reach);
-        if lo == hi {
-            continue;
-        }
+        let lo = dots_by_y.partition_point(|&i| placed[i].y_mm < y - reach);
+        let hi = dots_by_y.partition_point(|&i| placed[i].y_mm <= y + reach);
         let mut near: Vec<usize> = dots_by_y[lo..hi].to_vec();
-        near.sort_by(|&a, &b| (dir * board.dots[a].x_mm).total_cmp(&(dir * board.dots[b].x_mm)));
-        let spans = build_spans(board, &near, &dot_stamp, &stamps, y, dir, pitch, step, pad, &tau_x);
-        if spans.is_empty() {
+        near.sort_by(|&a, &b| (dir * placed[a].x_mm).total_cmp(&(dir * placed[b].x_mm)));
+        let spans = build_spans(&placed, &near, &stamps, y, dir, pitch, step, pad, &tau_x);
+        if spans.is_empty() && texture.is_none() {
             continue;
         }
         for px in 0..w {
@@ -322,24 +463,113 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
             };
             // Travel coordinate of this pixel at the start of the slide.
             let c = dir * (x_start + (px as f64 + 0.5 - w as f64 / 2.0) * pitch);
-            pixel_events(&pixel, &spans, level, c, slide, step, &table, &timeline, grid, refractory, &mut events);
+            if !spans.is_empty() {
+                pixel_events(
+                    &pixel,
+                    recovery,
+                    &spans,
+                    level,
+                    c,
+                    slide,
+                    step,
+                    &table,
+                    &timeline,
+                    grid,
+                    refractory,
+                    &mut events,
+                );
+            }
+            if let Some(texture) = &texture {
+                let board_y = y;
+                texture.pixel_events(
+                    &pixel,
+                    level,
+                    c,
+                    dir,
+                    board_y,
+                    slide,
+                    &table,
+                    &timeline,
+                    grid,
+                    refractory,
+                    &mut events,
+                );
+            }
         }
+    }
+    if recovery_s > 0.0 {
+        // Lifting ends before the gel's slow share has recovered: nothing is read after the end.
+        let end_us = (timeline.end_s * 1e6) as i64;
+        events.retain(|e| e.t_us <= end_us);
     }
 
     add_noise(sensor, &timeline, &mut rng, &mut events)?;
+    if cam.latency_jitter_us > 0.0 {
+        jitter(&mut events, cam.latency_jitter_us, grid, &mut nuisances.rng)?;
+    }
     let mut events = sort_by_time(events, grid);
     enforce_refractory(&mut events, w, h, refractory);
+    if let Some(limit) = cam.event_rate_limit_hz {
+        read_out_frames(&mut events, grid, limit);
+    }
 
-    let truth = truth(board, sensor, scan, misalignment, phase, timeline, &motion, x_start, slide);
+    let mut truth = truth(board, sensor, scan, misalignment, phase, timeline, &motion, x_start, slide);
+    truth.yaw_deg = nuisances.yaw_rad.to_degrees();
+    truth.depth_tilt_mm_per_100mm = nuisances.tilt_per_mm * 100.0;
+    if !depth.is_flat() {
+        truth.depth_profile_mm = vec![depth.at(0.0), depth.at(slide / 2.0), depth.at(slide)];
+    }
     Ok(Scan { events, truth })
+}
+
+/// Latency jitter: each event's time within its readout frame is unknown (uniform), a half-normal
+/// latency of `sigma_us` is added, and the event goes to the frame after.
+fn jitter(events: &mut [Event], sigma_us: f64, grid: i64, rng: &mut ChaCha8Rng) -> Result<()> {
+    let latency = Normal::new(0.0, sigma_us).map_err(Error::distribution("latency_jitter_us"))?;
+    for e in events.iter_mut() {
+        let raw = e.t_us as f64 - rng.random_range(0.0..grid as f64) + latency.sample(rng).abs();
+        e.t_us = on_grid((raw.max(0.0)) as i64, grid);
+    }
+    Ok(())
+}
+
+/// The smallest grid time at or after `t_us`.
+fn on_grid(t_us: i64, grid: i64) -> i64 {
+    t_us.div_euclid(grid) * grid + if t_us.rem_euclid(grid) == 0 { 0 } else { grid }
+}
+
+/// Variable-rate readout: a frame reads every event that happened before it starts and lasts
+/// `max(grid, events / limit)`; the next frame starts when it ends. Events keep their order and
+/// are stamped with their frame's start; under overload they arrive late, none is dropped.
+fn read_out_frames(events: &mut [Event], grid: i64, limit_hz: f64) {
+    let per_event_us = 1e6 / limit_hz;
+    let mut i = 0;
+    let mut frame = match events.first() {
+        Some(e) => e.t_us,
+        None => return,
+    };
+    while i < events.len() {
+        // The frame reads what has happened by its start.
+        let start = i;
+        while i < events.len() && events[i].t_us <= frame {
+            events[i].t_us = frame;
+            i += 1;
+        }
+        let n = i - start;
+        let length = ((n as f64 * per_event_us).ceil() as i64).max(grid);
+        frame += length;
+        if i < events.len() && events[i].t_us > frame {
+            // Idle: frames run on at the grid until the next event.
+            frame += on_grid(events[i].t_us - frame, grid);
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
 fn build_spans(
-    board: &Board,
+    placed: &[PlacedDot],
     near: &[usize],
-    dot_stamp: &[(i64, i64)],
-    stamps: &HashMap<(i64, i64), Stamp>,
+    stamps: &HashMap<StampKey, Stamp>,
     y: f64,
     dir: f64,
     pitch: f64,
@@ -350,15 +580,17 @@ fn build_spans(
     // Sample-index intervals of each dot in travel coordinates, merged into spans.
     let mut intervals: Vec<(i64, i64, usize)> = Vec::new();
     for &d in near {
-        let dot = &board.dots[d];
-        let stamp = &stamps[&dot_stamp[d]];
+        let dot = &placed[d];
+        let stamp = &stamps[&dot.key];
         let dy = (y - dot.y_mm) / pitch;
         if dy.abs() >= stamp.half as f64 {
             continue;
         }
         let p = dir * dot.x_mm;
-        let r = stamp.half as f64 * pitch;
-        intervals.push((((p - r) / step).floor() as i64 - 1, ((p + r) / step).ceil() as i64 + 1, d));
+        // The stamp's extent along board x, turned into travel coordinates.
+        let (lo, hi) = (stamp.x_lo as f64 * pitch, stamp.x_hi as f64 * pitch);
+        let (back, ahead) = if dir > 0.0 { (lo, hi) } else { (hi, lo) };
+        intervals.push((((p - back) / step).floor() as i64 - 1, ((p + ahead) / step).ceil() as i64 + 1, d));
     }
     intervals.sort_by_key(|iv| iv.0);
     let mut groups: Vec<(i64, i64, Vec<usize>)> = Vec::new();
@@ -376,16 +608,13 @@ fn build_spans(
         let n = (b - a) as usize + 1 + pad;
         let mut raw = vec![0f32; n];
         for d in dots {
-            let dot = &board.dots[d];
-            let stamp = &stamps[&dot_stamp[d]];
+            let dot = &placed[d];
+            let stamp = &stamps[&dot.key];
             let dy = (y - dot.y_mm) / pitch;
             let p = dir * dot.x_mm;
             for (j, v) in raw.iter_mut().enumerate() {
                 let pj = (a + j as i64) as f64 * step;
-                let dx = dir * (pj - p) / pitch;
-                if dx.abs() < stamp.half as f64 {
-                    *v += stamp.at(dx, dy);
-                }
+                *v += stamp.at(dir * (pj - p) / pitch, dy);
             }
         }
         if raw.iter().all(|&v| v == 0.0) {
@@ -396,6 +625,149 @@ fn build_spans(
         spans.push(Span { p0: a as f64 * step, raw, filtered, runs });
     }
     spans
+}
+
+/// The print texture under the flat board face, where the face presses into the gel: a sinusoid
+/// of log brightness sweeping past each pixel as the board slides. Its events are found per pixel
+/// in closed form, half a period at a time, apart from the dots' (each source tracks its own
+/// reference level; the readout's refractory period then applies to both).
+struct Texture {
+    /// Wavenumber of the texture along board x and y, in rad/mm.
+    k_x: f64,
+    k_y: f64,
+    /// Log-brightness amplitude at full conformity, after the gel's and the optics' blur.
+    amplitude: f64,
+    /// Face penetration (mm) under the sensor along the slide, sampled every `ds` mm, and the
+    /// share of the texture the gel takes there.
+    ds: f64,
+    conformity: Vec<f64>,
+    /// Per photoreceptor level: the gain and phase lag of the low-pass at the sweep's frequency.
+    gain: Vec<f64>,
+    lag_rad: Vec<f64>,
+}
+
+impl Texture {
+    fn new(
+        board: &Board,
+        sensor: &Sensor,
+        depth: &DepthProfile,
+        speed_mm_s: f64,
+        level_tau: &[f64],
+    ) -> Option<Texture> {
+        let g = &board.geometry;
+        if g.texture_amplitude_mm <= 0.0 {
+            return None;
+        }
+        let k = std::f64::consts::TAU / g.texture_pitch_mm;
+        // Crests run at the angle to the row: the wavevector is normal to them.
+        let normal = (g.texture_angle_deg + 90.0).to_radians();
+        let (k_x, k_y) = (k * normal.cos(), k * normal.sin());
+        if k_x.abs() < 1e-9 {
+            return None;
+        }
+        let gel = &sensor.gel;
+        let pitch = sensor.camera.pitch_mm();
+        let optics_mm = gel.optics_blur_px * pitch * sensor.camera.resolution.width as f64 / 640.0;
+        let blur = (-(k * gel.gel_blur_mm).powi(2) / 2.0).exp() * (-(k * optics_mm).powi(2) / 2.0).exp();
+        let slope = g.texture_amplitude_mm * k * blur;
+        let amplitude = crate::stamp::log_contrast_of_slope(gel, slope, normal);
+        if amplitude <= 1e-6 {
+            return None;
+        }
+        // Johnson's pressure for full contact with a wavy surface, against the face's pressure.
+        let dynamics = &gel.dynamics;
+        let full_mpa =
+            std::f64::consts::PI * dynamics.contact_modulus_mpa() * g.texture_amplitude_mm / g.texture_pitch_mm;
+        let ds = 0.5;
+        let n = (depth.slide_mm / ds).ceil() as usize + 2;
+        let conformity: Vec<f64> = (0..n)
+            .map(|i| {
+                let face_mm = depth.at(i as f64 * ds) - g.dot_height_mm;
+                (dynamics.modulus_mpa * face_mm.max(0.0) / dynamics.thickness_mm / full_mpa).min(1.0)
+            })
+            .collect();
+        if conformity.iter().all(|&c| c <= 0.0) {
+            return None;
+        }
+        let omega = k_x.abs() * speed_mm_s;
+        let gain = level_tau.iter().map(|t| 1.0 / (1.0 + (omega * t).powi(2)).sqrt()).collect();
+        let lag_rad = level_tau.iter().map(|t| (omega * t).atan()).collect();
+        Some(Texture { k_x, k_y, amplitude, ds, conformity, gain, lag_rad })
+    }
+
+    fn conformity_at(&self, s: f64) -> f64 {
+        let f = (s / self.ds).max(0.0);
+        let i = (f as usize).min(self.conformity.len() - 2);
+        let r = f - i as f64;
+        self.conformity[i] * (1.0 - r) + self.conformity[i + 1] * r
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn pixel_events(
+        &self,
+        p: &Pixel,
+        level: usize,
+        c: f64,
+        dir: f64,
+        board_y: f64,
+        slide: f64,
+        motion: &TimeTable,
+        tl: &Timeline,
+        grid: i64,
+        refractory: i64,
+        out: &mut Vec<Event>,
+    ) {
+        let amp = self.amplitude * self.gain[level];
+        // The texture can only fire a pixel whose thresholds its swing reaches.
+        if 2.0 * amp < p.theta_on.min(p.theta_off) as f64 {
+            return;
+        }
+        // Phase under the pixel as the slide goes on: psi(s) = psi0 + rate * s, where the pixel
+        // sees board x = dir * (c + s).
+        let rate = (dir * self.k_x).abs();
+        let sign = (dir * self.k_x).signum();
+        let psi0 = sign * (self.k_x * dir * c + self.k_y * board_y) - self.lag_rad[level];
+        let mut st = PixelState { reference: 0.0, last_t_us: i64::MIN };
+        // Half periods between extremes of cos(psi): psi = m * pi.
+        let first = (psi0 / std::f64::consts::PI).floor() as i64;
+        let last = ((psi0 + rate * slide) / std::f64::consts::PI).ceil() as i64;
+        let value = |psi: f64, s: f64| (amp * self.conformity_at(s) * psi.cos()) as f32;
+        let s_of = |psi: f64| ((psi - psi0) / rate).clamp(0.0, slide);
+        let mut started = false;
+        for m in first..last {
+            let (psi_a, psi_b) = ((m as f64 * std::f64::consts::PI).max(psi0), ((m + 1) as f64 * std::f64::consts::PI));
+            let psi_b = psi_b.min(psi0 + rate * slide);
+            if psi_b <= psi_a {
+                continue;
+            }
+            let (sa, sb) = (s_of(psi_a), s_of(psi_b));
+            let (a, b) = (value(psi_a, sa), value(psi_b, sb));
+            if !started {
+                // The reference starts where the texture is when the slide begins.
+                st.reference = a;
+                started = true;
+            }
+            let mid_conformity = self.conformity_at((sa + sb) / 2.0);
+            let peak = amp * mid_conformity;
+            st.ramp(
+                p,
+                a,
+                b,
+                |f| {
+                    let v = (a + f as f32 * (b - a)) as f64;
+                    let cos = if peak > 0.0 { (v / peak).clamp(-1.0, 1.0) } else { 0.0 };
+                    // psi in [m pi, (m + 1) pi]: cos falls on even m, rises on odd m.
+                    let base = m as f64 * std::f64::consts::PI;
+                    let psi =
+                        if m.rem_euclid(2) == 0 { base + cos.acos() } else { base + std::f64::consts::PI - cos.acos() };
+                    tl.slide_start_s + motion.time_of(s_of(psi.clamp(psi_a, psi_b)))
+                },
+                grid,
+                refractory,
+                out,
+            );
+        }
+    }
 }
 
 /// First-order low-pass along the travel coordinate, exact for a piecewise-linear input.
@@ -513,6 +885,7 @@ fn value_at(span: &Span, samples: &[f32], q: f64, step: f64) -> f32 {
 #[allow(clippy::too_many_arguments)]
 fn pixel_events(
     p: &Pixel,
+    recovery: (f64, f64),
     spans: &[Span],
     level: usize,
     c: f64,
@@ -550,6 +923,30 @@ fn pixel_events(
             if fully_inside
                 && ((vb >= va && vb < st.reference + p.theta_on) || (vb < va && vb > st.reference - p.theta_off))
             {
+                continue;
+            }
+            if fully_inside {
+                // Within a monotone run, jump to the segment where the next level is crossed
+                // (the same segments and crossings as walking every sample, in log time).
+                let rising = vb >= va;
+                let mut from = j0;
+                while from < j1 {
+                    let level = if rising { st.reference + p.theta_on } else { st.reference - p.theta_off };
+                    let before = |j: usize| if rising { v[j + 1] < level } else { v[j + 1] > level };
+                    // The first segment from `from` whose end reaches the level.
+                    let (mut lo, mut hi) = (from, j1);
+                    while lo < hi {
+                        let mid = lo + (hi - lo) / 2;
+                        if before(mid) { lo = mid + 1 } else { hi = mid }
+                    }
+                    let j = lo;
+                    if j >= j1 {
+                        break;
+                    }
+                    let (qa, qb) = (span.p0 + j as f64 * step, span.p0 + (j + 1) as f64 * step);
+                    st.ramp(p, v[j], v[j + 1], |f| time_at(qa + f * (qb - qa)), grid, refractory, out);
+                    from = j + 1;
+                }
                 continue;
             }
             for j in j0..j1 {
@@ -592,7 +989,26 @@ fn pixel_events(
             );
         }
         if x != 0.0 {
-            st.ramp(p, x, 0.0, |f| tl.lift_start_s + f * (tl.end_s - tl.lift_start_s), grid, refractory, out);
+            // The gel's elastic share lets go as the sensor lifts; a relaxing share follows with its
+            // time constant (`recovery` = (fraction, tau) of the gel, zero without relaxation).
+            let (g, tau) = recovery;
+            let lift_end = tl.end_s - tl.recovery_s;
+            let rest = x * g as f32;
+            st.ramp(p, x, rest, |f| tl.lift_start_s + f * (lift_end - tl.lift_start_s), grid, refractory, out);
+            if rest != 0.0 {
+                st.ramp(
+                    p,
+                    rest,
+                    0.0,
+                    |f| {
+                        let left = (1.0 - f).max(1e-9);
+                        (lift_end - tau * left.ln()).min(tl.end_s)
+                    },
+                    grid,
+                    refractory,
+                    out,
+                );
+            }
         }
     }
 }
@@ -608,7 +1024,9 @@ fn add_noise(sensor: &Sensor, tl: &Timeline, rng: &mut ChaCha8Rng, events: &mut 
         if lambda <= 0.0 {
             return Ok(0);
         }
-        Ok(Poisson::new(lambda).map_err(|e| Error::Config(e.to_string()))?.sample(rng) as u64)
+        let poisson =
+            Poisson::new(lambda).map_err(|e| Error::Distribution { name: "noise rate", source: Box::new(e) })?;
+        Ok(poisson.sample(rng) as u64)
     };
     let duration = tl.end_s;
     let leak = poisson(pixels * cam.leak_hz_per_pixel * duration, rng)?;
@@ -736,6 +1154,9 @@ fn truth(
         scan: scan.clone(),
         misalignment_mm: misalignment,
         ripple_phase_rad: phase,
+        yaw_deg: 0.0,
+        depth_tilt_mm_per_100mm: 0.0,
+        depth_profile_mm: Vec::new(),
         timeline,
         resolution: sensor.camera.resolution,
         pitch_mm: sensor.camera.pitch_mm(),
@@ -750,7 +1171,7 @@ mod tests {
 
     #[test]
     fn motion_inverts() {
-        let m = Motion { v: 8.0, a: 0.03, w: 12.0, phase: 1.0 };
+        let m = Motion { v: 8.0, terms: vec![(0.03, 12.0, 1.0), (0.3, 7.0, 0.2)] };
         for s in [0.0, 1.0, 50.0, 195.0] {
             assert!((m.displacement(m.time_of(s)) - s).abs() < 1e-9);
         }

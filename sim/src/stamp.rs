@@ -1,16 +1,97 @@
 //! The image of one dot pressed into the gel: log-brightness change against the flat gel, on a
-//! grid of sensor pixels centred on the dot. The board moves rigidly under the sensor, so a scan's
-//! image is the sum of these stamps at the dots' moving positions.
+//! grid of sensor pixels around the dot. The board moves under the sensor, so a scan's image is
+//! the sum of these stamps at the dots' moving positions; the gel's lag and drag during the slide
+//! (see [`crate::sensor::GelDynamics`]) are part of each stamp, which therefore depends on the
+//! direction and speed of the slide.
 
 use crate::sensor::GelConfig;
 
-/// Log-brightness change around one dot, on a `(2k+1) x (2k+1)` grid with a step of one pixel.
+/// Log-brightness change around one dot, on a grid with a step of one pixel: `2 half + 1` rows and
+/// `x_lo + x_hi + 1` columns (a smear trails on one side).
 #[derive(Debug, Clone)]
 pub struct Stamp {
     pub half: usize,
+    pub x_lo: usize,
+    pub x_hi: usize,
     pub values: Vec<f32>,
     /// Contact radius used, in mm.
     pub contact_radius_mm: f64,
+    /// The gel's tangential drag at the contact's edge, in mm.
+    pub drag_mm: f64,
+}
+
+/// How the board moves under the sensor: the sensor slides towards `direction` (+1 forward,
+/// -1 reverse along board x) at this speed; in the sensor's frame the dot moves the other way.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampMotion {
+    pub direction: f64,
+    pub speed_mm_s: f64,
+}
+
+impl StampMotion {
+    /// A dot at rest under the sensor (no lag, no drag).
+    pub const STILL: StampMotion = StampMotion { direction: 1.0, speed_mm_s: 0.0 };
+}
+
+/// Phong shading relative to the flat gel, summed over the lights around the gel.
+struct Shading {
+    lights: Vec<([f64; 3], [f64; 3])>,
+    share: f64,
+    ambient: f64,
+    diffuse: f64,
+    specular: f64,
+    shininess: f64,
+    flat: f64,
+}
+
+impl Shading {
+    fn new(gel: &GelConfig) -> Shading {
+        let el = gel.light_elevation_deg.to_radians();
+        let lights = (0..gel.light_count)
+            .map(|k| {
+                let az = gel.light_azimuth_deg.to_radians() + std::f64::consts::TAU * k as f64 / gel.light_count as f64;
+                let l = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
+                let v = [l[0], l[1], l[2] + 1.0];
+                let m = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                (l, [v[0] / m, v[1] / m, v[2] / m])
+            })
+            .collect();
+        let mut s = Shading {
+            lights,
+            share: 1.0 / gel.light_count as f64,
+            ambient: gel.ambient,
+            diffuse: gel.diffuse,
+            specular: gel.specular,
+            shininess: gel.shininess,
+            flat: 1.0,
+        };
+        s.flat = s.shade(0.0, 0.0, 1.0);
+        s
+    }
+
+    fn shade(&self, nx: f64, ny: f64, nz: f64) -> f64 {
+        self.lights.iter().fold(self.ambient, |acc, (l, hv)| {
+            let d = (nx * l[0] + ny * l[1] + nz * l[2]).max(0.0);
+            let s = (nx * hv[0] + ny * hv[1] + nz * hv[2]).max(0.0).powf(self.shininess);
+            acc + self.share * (self.diffuse * d + self.specular * s)
+        })
+    }
+
+    /// Brightness of a surface of gradient (gx, gy) (towards the camera) over the flat gel's.
+    fn relative(&self, gx: f64, gy: f64) -> f64 {
+        let m = (gx * gx + gy * gy + 1.0).sqrt();
+        self.shade(-gx / m, -gy / m, 1.0 / m) / self.flat
+    }
+}
+
+/// Half the swing of log brightness of a surface tilted by `slope` (rad, small) back and forth
+/// along the direction `azimuth_rad` (0 = +x): the log contrast of a ripple of that slope.
+pub fn log_contrast_of_slope(gel: &GelConfig, slope: f64, azimuth_rad: f64) -> f64 {
+    let shading = Shading::new(gel);
+    let (c, s) = (azimuth_rad.cos(), azimuth_rad.sin());
+    let up = shading.relative(slope * c, slope * s).max(1e-6).ln();
+    let down = shading.relative(-slope * c, -slope * s).max(1e-6).ln();
+    (up - down).abs() / 2.0
 }
 
 /// Contact radius of a dot of sphere radius `r` and height `h` pressed `d` into the gel.
@@ -50,94 +131,170 @@ fn gaussian_kernel(sigma: f64) -> Vec<f64> {
     w.into_iter().map(|v| v / s).collect()
 }
 
-/// Separable blur of an `n x n` grid; values beyond the edge count as `edge`.
-fn blur(grid: &mut [f64], n: usize, sigma: f64, edge: f64) {
+/// Separable blur of an `nx x ny` grid (row-major); values beyond the edge count as `edge`.
+fn blur(grid: &mut [f64], nx: usize, ny: usize, sigma: f64, edge: f64) {
     let k = gaussian_kernel(sigma);
     if k.len() == 1 {
         return;
     }
     let r = (k.len() / 2) as i64;
     let mut tmp = vec![0.0; grid.len()];
-    for pass in 0..2 {
-        for a in 0..n {
-            for b in 0..n {
-                let mut s = 0.0;
-                for (j, w) in k.iter().enumerate() {
-                    let c = b as i64 + j as i64 - r;
-                    let v = if c < 0 || c >= n as i64 {
-                        edge
-                    } else if pass == 0 {
-                        grid[a * n + c as usize]
-                    } else {
-                        grid[c as usize * n + a]
-                    };
-                    s += w * v;
-                }
-                if pass == 0 {
-                    tmp[a * n + b] = s;
-                } else {
-                    tmp[b * n + a] = s;
-                }
+    // Along x.
+    for i in 0..ny {
+        for j in 0..nx {
+            let mut s = 0.0;
+            for (t, w) in k.iter().enumerate() {
+                let c = j as i64 + t as i64 - r;
+                s += w * if c < 0 || c >= nx as i64 { edge } else { grid[i * nx + c as usize] };
+            }
+            tmp[i * nx + j] = s;
+        }
+    }
+    // Along y.
+    for i in 0..ny {
+        for j in 0..nx {
+            let mut s = 0.0;
+            for (t, w) in k.iter().enumerate() {
+                let c = i as i64 + t as i64 - r;
+                s += w * if c < 0 || c >= ny as i64 { edge } else { tmp[c as usize * nx + j] };
+            }
+            grid[i * nx + j] = s;
+        }
+    }
+}
+
+/// Viscoelastic recovery behind a moving dot. At a point of the gel the imposed indentation
+/// `U(t)` passes as the dot does; each Prony term's share follows it through a first-order lag of
+/// its time constant. Where the board presses, the surface is the board's (a one-sided contact);
+/// where it lets go, the surface is the elastic share plus the lagging shares:
+/// `max(U, (1 - sum g) U + sum g L_tau(U))`. In the dot's frame the lag is an exponential filter
+/// along x of length speed x tau, running towards the side where the dot has been.
+fn recover(
+    u: &mut [f64],
+    nx: usize,
+    ny: usize,
+    motion: StampMotion,
+    pitch_mm: f64,
+    terms: &[crate::sensor::PronyTerm],
+) {
+    let g: f64 = terms.iter().map(|t| t.fraction).sum();
+    let mut out: Vec<f64> = u.iter().map(|v| (1.0 - g) * v).collect();
+    let columns: Vec<usize> = if motion.direction >= 0.0 { (0..nx).collect() } else { (0..nx).rev().collect() };
+    for t in terms {
+        let length = motion.speed_mm_s * t.tau_s;
+        let e = (-pitch_mm / length).exp();
+        for i in 0..ny {
+            let mut lagged = 0.0;
+            for &j in &columns {
+                let v = u[i * nx + j];
+                lagged = e * lagged + (1.0 - e) * v;
+                out[i * nx + j] += t.fraction * lagged;
             }
         }
-        grid.copy_from_slice(&tmp);
+    }
+    for (v, o) in u.iter_mut().zip(out) {
+        *v = v.max(o);
+    }
+}
+
+/// Frictional drag: the board pulls the gel's surface tangentially towards the board's motion in
+/// the sensor's frame (against `direction`), by `drag_mm` at the contact's edge, falling as `a / r`
+/// outside and as `r / a` inside (where the dot imposes the shape, the drag only moves material
+/// along it: this keeps the displacement continuous). The surface shape moves with it.
+#[allow(clippy::too_many_arguments)]
+fn drag(
+    u: &mut [f64],
+    nx: usize,
+    ny: usize,
+    x_lo: usize,
+    half: usize,
+    pitch_mm: f64,
+    a: f64,
+    drag_mm: f64,
+    direction: f64,
+) {
+    let src = u.to_vec();
+    for i in 0..ny {
+        let y = (i as f64 - half as f64) * pitch_mm;
+        for j in 0..nx {
+            let x = (j as f64 - x_lo as f64) * pitch_mm;
+            let r = (x * x + y * y).sqrt();
+            let shift = if r < a { drag_mm * r / a } else { drag_mm * a / r };
+            // Material now at x came from x + direction * shift (it moved by -direction * shift).
+            let fx = j as f64 + direction * shift / pitch_mm;
+            let j0 = fx.floor();
+            let t = fx - j0;
+            let at = |jj: f64| if jj < 0.0 || jj >= nx as f64 { 0.0 } else { src[i * nx + jj as usize] };
+            u[i * nx + j] = at(j0) * (1.0 - t) + at(j0 + 1.0) * t;
+        }
     }
 }
 
 impl Stamp {
     /// The stamp of a dot (sphere radius `r`, height `h`) pressed `d` into the gel, for pixels of
-    /// `pitch_mm`; `optics_px_scale` converts the optics blur from 640-pixel-wide pixels.
-    pub fn new(gel: &GelConfig, r: f64, h: f64, d: f64, pitch_mm: f64, optics_px_scale: f64) -> Stamp {
+    /// `pitch_mm`; `optics_px_scale` converts the optics blur from 640-pixel-wide pixels. `motion`
+    /// sets the gel's lag and drag (none for a gel without dynamics or a dot at rest).
+    pub fn new(
+        gel: &GelConfig,
+        r: f64,
+        h: f64,
+        d: f64,
+        pitch_mm: f64,
+        optics_px_scale: f64,
+        motion: StampMotion,
+    ) -> Stamp {
         let a = contact_radius_mm(gel, r, h, d);
         let amplitude = indentation_mm(gel, r, h, d);
+        let dynamics = &gel.dynamics;
         let optics_px = gel.optics_blur_px * optics_px_scale;
         let margin = 3.5 * gel.gel_blur_mm + 3.5 * optics_px * pitch_mm + 2.0 * pitch_mm;
+        let drag_mm =
+            if motion.speed_mm_s > 0.0 { dynamics.drag_mm(dynamics.hertz_force_n(r, d.min(h)), a) } else { 0.0 };
+        // The trailing smear: each relaxing term's share recovers over speed x tau behind the dot
+        // (up to four lengths, at most 4 mm, where what is left is under 2% of it).
+        let smear_mm = if motion.speed_mm_s > 0.0 {
+            dynamics.relaxation.iter().map(|t| 4.0 * motion.speed_mm_s * t.tau_s).fold(0.0, f64::max).min(4.0)
+        } else {
+            0.0
+        };
         let half = ((a + margin) / pitch_mm).ceil() as usize + 1;
-        let n = 2 * half + 1;
+        let reach = ((a + margin + 2.0 * drag_mm) / pitch_mm).ceil() as usize + 1;
+        let tail = (smear_mm / pitch_mm).ceil() as usize;
+        // The smear trails on the side the sensor moves towards (where the dot has been, in the
+        // sensor's frame); the drag pulls the surface the other way.
+        let (x_lo, x_hi) = if motion.direction >= 0.0 { (reach, reach + tail) } else { (reach + tail, reach) };
+        let (ny, nx) = (2 * half + 1, x_lo + x_hi + 1);
         // Surface height towards the camera.
-        let mut u = vec![0.0f64; n * n];
+        let mut u = vec![0.0f64; nx * ny];
+        let x_of = |j: usize| (j as f64 - x_lo as f64) * pitch_mm;
+        let y_of = |i: usize| (i as f64 - half as f64) * pitch_mm;
         if a > 0.0 {
-            for i in 0..n {
-                for j in 0..n {
-                    let (y, x) = ((i as f64 - half as f64) * pitch_mm, (j as f64 - half as f64) * pitch_mm);
-                    let q = (x * x + y * y) / (a * a);
+            for i in 0..ny {
+                for j in 0..nx {
+                    let q = (x_of(j).powi(2) + y_of(i).powi(2)) / (a * a);
                     if q < 1.0 {
-                        u[i * n + j] = amplitude * (1.0 - q);
+                        u[i * nx + j] = amplitude * (1.0 - q);
                     }
                 }
             }
         }
-        blur(&mut u, n, gel.gel_blur_mm / pitch_mm, 0.0);
-        // Phong shading relative to the flat gel, summed over the lights around the gel.
-        let el = gel.light_elevation_deg.to_radians();
-        let lights: Vec<([f64; 3], [f64; 3])> = (0..gel.light_count)
-            .map(|k| {
-                let az = gel.light_azimuth_deg.to_radians() + std::f64::consts::TAU * k as f64 / gel.light_count as f64;
-                let l = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
-                let v = [l[0], l[1], l[2] + 1.0];
-                let m = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                (l, [v[0] / m, v[1] / m, v[2] / m])
-            })
-            .collect();
-        let share = 1.0 / gel.light_count as f64;
-        let shade = |nx: f64, ny: f64, nz: f64| {
-            lights.iter().fold(gel.ambient, |acc, (l, hv)| {
-                let d = (nx * l[0] + ny * l[1] + nz * l[2]).max(0.0);
-                let s = (nx * hv[0] + ny * hv[1] + nz * hv[2]).max(0.0).powf(gel.shininess);
-                acc + share * (gel.diffuse * d + gel.specular * s)
-            })
-        };
-        let flat = shade(0.0, 0.0, 1.0);
-        let mut intensity = vec![1.0f64; n * n];
-        for i in 1..n - 1 {
-            for j in 1..n - 1 {
-                let gx = (u[i * n + j + 1] - u[i * n + j - 1]) / (2.0 * pitch_mm);
-                let gy = (u[(i + 1) * n + j] - u[(i - 1) * n + j]) / (2.0 * pitch_mm);
-                let m = (gx * gx + gy * gy + 1.0).sqrt();
-                intensity[i * n + j] = shade(-gx / m, -gy / m, 1.0 / m) / flat;
+        blur(&mut u, nx, ny, gel.gel_blur_mm / pitch_mm, 0.0);
+        if smear_mm > 0.0 {
+            recover(&mut u, nx, ny, motion, pitch_mm, &dynamics.relaxation);
+        }
+        if drag_mm > 0.0 {
+            drag(&mut u, nx, ny, x_lo, half, pitch_mm, a, drag_mm, motion.direction);
+        }
+        let shading = Shading::new(gel);
+        let mut intensity = vec![1.0f64; nx * ny];
+        for i in 1..ny - 1 {
+            for j in 1..nx - 1 {
+                let gx = (u[i * nx + j + 1] - u[i * nx + j - 1]) / (2.0 * pitch_mm);
+                let gy = (u[(i + 1) * nx + j] - u[(i - 1) * nx + j]) / (2.0 * pitch_mm);
+                intensity[i * nx + j] = shading.relative(gx, gy);
             }
         }
-        blur(&mut intensity, n, optics_px, 1.0);
+        blur(&mut intensity, nx, ny, optics_px, 1.0);
         let values = intensity
             .iter()
             .map(|&v| {
@@ -145,21 +302,21 @@ impl Stamp {
                 if s.abs() < 1e-4 { 0.0 } else { s as f32 }
             })
             .collect();
-        Stamp { half, values, contact_radius_mm: a }
+        Stamp { half, x_lo, x_hi, values, contact_radius_mm: a, drag_mm }
     }
 
     /// Bilinear value at an offset from the dot's centre, in pixels (x along the row).
     #[inline]
     pub fn at(&self, dx_px: f64, dy_px: f64) -> f32 {
-        let n = 2 * self.half + 1;
-        let fx = dx_px + self.half as f64;
+        let (nx, ny) = (self.x_lo + self.x_hi + 1, 2 * self.half + 1);
+        let fx = dx_px + self.x_lo as f64;
         let fy = dy_px + self.half as f64;
-        if fx < 0.0 || fy < 0.0 || fx >= (n - 1) as f64 || fy >= (n - 1) as f64 {
+        if fx < 0.0 || fy < 0.0 || fx >= (nx - 1) as f64 || fy >= (ny - 1) as f64 {
             return 0.0;
         }
         let (x0, y0) = (fx as usize, fy as usize);
         let (tx, ty) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
-        let v = |y: usize, x: usize| self.values[y * n + x];
+        let v = |y: usize, x: usize| self.values[y * nx + x];
         let top = v(y0, x0) * (1.0 - tx) + v(y0, x0 + 1) * tx;
         let bottom = v(y0 + 1, x0) * (1.0 - tx) + v(y0 + 1, x0 + 1) * tx;
         top * (1.0 - ty) + bottom * ty
@@ -168,7 +325,7 @@ impl Stamp {
     /// Width of the region (through the centre, along x) where the brightness differs from the
     /// flat gel by more than `min_contrast` log units, in pixels.
     pub fn width_px(&self, min_contrast: f32) -> usize {
-        let n = 2 * self.half + 1;
+        let n = self.x_lo + self.x_hi + 1;
         let row = &self.values[self.half * n..(self.half + 1) * n];
         match (row.iter().position(|v| v.abs() > min_contrast), row.iter().rposition(|v| v.abs() > min_contrast)) {
             (Some(a), Some(b)) => b - a + 1,
@@ -197,7 +354,7 @@ mod tests {
     #[test]
     fn stamps_are_zero_far_away_and_contrast_near_the_dot() {
         let g = GelConfig::default();
-        let s = Stamp::new(&g, 0.5, 0.5, 0.6, 18.6 / 640.0, 1.0);
+        let s = Stamp::new(&g, 0.5, 0.5, 0.6, 18.6 / 640.0, 1.0, StampMotion::STILL);
         assert_eq!(s.at(s.half as f64 + 5.0, 0.0), 0.0);
         let peak = s.values.iter().map(|v| v.abs()).fold(0.0f32, f32::max);
         assert!(peak > 0.3, "peak contrast {peak}");

@@ -1,8 +1,8 @@
-//! The eight checks of SIMULATOR.md on fresh simulated scans (physics only; no classifier).
+//! The checks of SIMULATOR.md on fresh simulated scans at the `clean` and `nominal` presets
+//! (physics only; no classifier), and the nuisances of the `nominal` preset.
 
-use encoders::Polarity;
-use sim::checks::{self, PAPER_DEPTH_GAIN, SPEEDS_MM_S};
-use sim::{Board, BoardGeometry, BoardKind, CameraConfig, Direction, GelConfig, ScanConfig, Sensor, simulate};
+use sim::checks::{self, SPEEDS_MM_S};
+use sim::{Board, BoardGeometry, BoardKind, CameraConfig, GelConfig, Realism, ScanConfig, Sensor, simulate};
 
 fn quiet() -> Sensor {
     Sensor::new(CameraConfig::default().without_noise(), GelConfig::default(), 1).unwrap()
@@ -16,120 +16,77 @@ fn steady(depth_mm: f64, speed_mm_s: f64) -> ScanConfig {
     ScanConfig { depth_mm, speed_mm_s, speed_ripple: 0.0, misalignment_sigma_mm: 0.0, seed: 1, ..ScanConfig::default() }
 }
 
-#[test]
-fn check1_depth_gain_matches_the_papers_measurement() {
-    let (gain, per_dot) = checks::depth(&GelConfig::default(), 4).unwrap();
-    for (d, target) in PAPER_DEPTH_GAIN {
-        let g = gain[&format!("{d:.1}")];
-        assert!((g - target).abs() <= 0.10, "depth {d}: gain {g:.3}, paper {target}");
-    }
-    // no plateau above the dot height (0.5 mm): events keep growing
-    let n: Vec<f64> = per_dot.values().copied().collect();
-    assert!(n.windows(2).all(|w| w[1] > w[0]), "{per_dot:?}");
+/// The checks of SIMULATOR.md and the gel's own (lag and smear, press and release, spread across
+/// sensor builds), each held to its bounds by `CheckReport::failures`.
+fn checks_pass(realism: Realism) {
+    let report = checks::run(realism, 2).unwrap();
+    let failures = report.failures();
+    assert!(failures.is_empty(), "{realism}: {failures:#?}");
 }
 
 #[test]
-fn check2_speed_keeps_events_per_pass_and_sets_the_column_lag() {
-    // The lag is measured on a board printed without position errors, so that it tests the
-    // motion and the measurement, not one board's tolerances.
-    let exact = BoardGeometry { position_sigma_mm: 0.0, ..BoardGeometry::default() };
-    let c = Board::new(BoardKind::Text("C".into()), exact, 3).unwrap();
-    let (dot, sensor) = (text("A", 3), quiet());
-    let mut passes = Vec::new();
-    let mut rates = Vec::new();
+fn the_checks_pass_at_clean() {
+    checks_pass(Realism::Clean);
+}
+
+#[test]
+fn the_checks_pass_at_nominal() {
+    checks_pass(Realism::Nominal);
+}
+
+#[test]
+fn the_gel_smears_a_dot_behind_it_and_lags_on_release() {
+    let report = checks::run(Realism::Nominal, 1).unwrap();
+    // The recovery spreads a dot's events over more of the board than the bare stamp does, and the
+    // lag of the surface on release is a fraction of the relaxing share of the depth.
     for v in SPEEDS_MM_S {
-        let s = simulate(&dot, &sensor, &steady(1.0, v)).unwrap();
-        let tl = s.truth.timeline;
-        passes.push(s.events.len() as f64);
-        rates.push(s.events.len() as f64 / (tl.slide_end_s - tl.slide_start_s));
-        let lag = checks::column_lag_ms(&simulate(&c, &sensor, &steady(1.0, v)).unwrap(), 10).unwrap();
-        let expected = 2.5 / v * 1000.0;
-        assert!((lag / expected - 1.0).abs() < 0.05, "{v} mm/s: lag {lag:.1} ms, expected {expected:.1}");
+        assert!(report.dot_smear_px[&format!("{v:.0}")] > 0.5, "{:?}", report.dot_smear_px);
     }
-    let mean = passes.iter().sum::<f64>() / passes.len() as f64;
-    assert!(passes.iter().all(|n| (n / mean - 1.0).abs() <= 0.15), "{passes:?}");
-    assert!(rates.windows(2).all(|w| w[1] > w[0]), "event rate must grow with speed: {rates:?}");
+    let p = &report.press_release;
+    let g = Realism::Nominal.setup().gel.dynamics.relaxing_fraction();
+    assert!(p.max_surface_lag_mm > 0.0 && p.max_surface_lag_mm < g * p.depth_mm, "{}", p.max_surface_lag_mm);
+    // Pressing follows the indenter; the force on release is below the force on loading.
+    let (load, unload) = (&p.loading, &p.unloading);
+    let mid = load.len() / 2;
+    let back = unload.iter().min_by(|a, b| (a.0 - load[mid].0).abs().total_cmp(&(b.0 - load[mid].0).abs())).unwrap();
+    assert!(back.1 < load[mid].1, "release {back:?} against press {:?}", load[mid]);
 }
 
 #[test]
-fn check3_polarity_balance_and_edges() {
-    let (dot, sensor) = (text("A", 3), quiet());
-    let s = simulate(&dot, &sensor, &steady(1.0, 8.0)).unwrap();
-    let on = s.events.iter().filter(|e| e.polarity == Polarity::On).count() as f64;
-    let ratio = on / (s.events.len() as f64 - on);
-    assert!((0.9..=1.2).contains(&ratio), "ON/OFF {ratio:.3}");
-    let fwd = checks::edge_polarities(&s.events);
-    let rev = checks::edge_polarities(
-        &simulate(&dot, &sensor, &ScanConfig { direction: Direction::Reverse, ..steady(1.0, 8.0) }).unwrap().events,
-    );
-    // leading and trailing edges differ; reversing the scan swaps which physical edge leads, so
-    // each edge of the dot changes polarity
-    assert_ne!(fwd.0, fwd.1);
-    assert_ne!(rev.0, rev.1);
-    assert_eq!(fwd.0, rev.0);
+fn nuisances_are_drawn_per_trial_and_clean_scans_keep_their_events() {
+    let setup = Realism::Nominal.setup();
+    let board = Board::new(BoardKind::Text("AB".into()), setup.geometry.clone(), 1).unwrap();
+    let sensor = setup.sensor(encoders::Resolution::new(160, 120), 3).unwrap();
+    let a = simulate(&board, &sensor, &setup.scan(16.0, 1.0, 0, 1)).unwrap();
+    let b = simulate(&board, &sensor, &setup.scan(16.0, 1.0, 0, 2)).unwrap();
+    assert_ne!(a.truth.yaw_deg, b.truth.yaw_deg);
+    assert_ne!(a.truth.depth_profile_mm, b.truth.depth_profile_mm);
+    assert_eq!(a.truth.depth_profile_mm.len(), 3);
+    assert!(a.truth.depth_profile_mm.iter().all(|d| (d - 1.0).abs() < 0.3), "{:?}", a.truth.depth_profile_mm);
+    assert_eq!(a.events, simulate(&board, &sensor, &setup.scan(16.0, 1.0, 0, 1)).unwrap().events);
+    // A hand-held slide changes speed along the row but keeps its mean and never stops.
+    let hand = ScanConfig { speed_variation: 0.4, ..setup.scan(16.0, 1.0, 0, 1) };
+    let h = simulate(&board, &sensor, &hand).unwrap();
+    let slide = h.truth.timeline.slide_end_s - h.truth.timeline.slide_start_s;
+    assert!((slide * 16.0 / 195.0 - 1.0).abs() < 0.2, "{slide} s for 195 mm at 16 mm/s on average");
+    assert!(h.events.windows(2).all(|w| w[0].t_us <= w[1].t_us));
 }
 
 #[test]
-fn check4_blob_width_and_every_letter_readable() {
-    let (dot, sensor) = (text("A", 3), quiet());
-    let width = |d| checks::blob_width_px(&simulate(&dot, &sensor, &steady(d, 8.0)).unwrap(), 10, 640);
-    let w02 = width(0.2);
-    assert!((22.0..=32.0).contains(&w02), "0.2 mm: {w02} px (paper: about 27)");
-    for d in [0.6, 1.0, 1.5] {
-        let w = width(d);
-        assert!((34.0..=55.0).contains(&w), "{d} mm: {w} px (paper: 34-55)");
-    }
-    let letters = Board::new(
-        BoardKind::Text("ABCDEFGHIJKLM/NOPQRSTUVWXYZ".into()),
-        BoardGeometry { cell_spacing_mm: 10.0, ..BoardGeometry::default() },
-        5,
-    )
-    .unwrap();
-    for row in 0..2 {
-        let s = simulate(&letters, &sensor, &ScanConfig { row, ..steady(1.0, 16.0) }).unwrap();
-        for (letter, cell) in checks::recover_cells(&s) {
-            assert_eq!(Some(cell), sim::braille::cell_of(letter), "letter {letter}");
-        }
-    }
-}
-
-#[test]
-fn check5_noise_floor_without_contact() {
-    let sensor = Sensor::new(CameraConfig::default(), GelConfig::default(), 1).unwrap();
-    let s = simulate(&text(" ", 1), &sensor, &steady(1.0, 8.0)).unwrap();
-    let rate = s.events.len() as f64 / s.truth.timeline.end_s;
-    let expected = sensor.camera.noise_rate_hz();
-    assert!((rate / expected - 1.0).abs() < 0.03, "{rate:.1} Hz against {expected:.1} Hz");
-}
-
-#[test]
-fn check6_static_hold_falls_silent() {
-    let dot = text("A", 3);
-    let stop = ScanConfig { slide_mm: Some(dot.characters[0].x_mm), hold_s: 0.2, ..steady(1.0, 8.0) };
-    let s = simulate(&dot, &quiet(), &stop).unwrap();
-    let tl = s.truth.timeline;
-    let (end, lift) = ((tl.slide_end_s * 1e6) as i64, (tl.lift_start_s * 1e6) as i64);
-    let late: Vec<i64> = s.events.iter().filter(|e| e.t_us > end + 6_000 && e.t_us < lift).map(|e| e.t_us).collect();
-    assert!(
-        late.is_empty(),
-        "events {:?} ms after the stop",
-        late.iter().map(|t| (t - end) / 1000).collect::<Vec<_>>()
-    );
-    assert!(
-        s.events.iter().any(|e| e.t_us >= end && e.t_us <= end + 6_000),
-        "the photoreceptor settles with a few events"
-    );
-}
-
-#[test]
-fn check7_readout_grid_and_refractory() {
-    let sensor = Sensor::new(CameraConfig::default(), GelConfig::default(), 1).unwrap();
-    let s =
-        simulate(&text("GH", 6), &sensor, &ScanConfig { speed_mm_s: 32.0, seed: 9, ..ScanConfig::default() }).unwrap();
-    let (gap, on_grid) = checks::readout(&s, 200);
-    assert!(on_grid);
-    assert!(gap >= sensor.camera.refractory_us, "{gap} us");
-    assert!(s.events.windows(2).all(|w| w[0].t_us <= w[1].t_us));
+fn the_readout_stretches_frames_under_overload_and_drops_nothing() {
+    // A readout limited to 1 M events/s against a busy scan: frames stretch, so events arrive
+    // later than on the free grid, and none is lost.
+    let setup = Realism::Nominal.setup();
+    let board = Board::new(BoardKind::Text("HELP".into()), setup.geometry.clone(), 1).unwrap();
+    let free = setup.sensor(encoders::Resolution::new(320, 240), 3).unwrap();
+    let mut slow = free.clone();
+    slow.camera.event_rate_limit_hz = Some(2e5);
+    let scan = setup.scan(32.0, 1.5, 0, 4);
+    let (a, b) = (simulate(&board, &free, &scan).unwrap(), simulate(&board, &slow, &scan).unwrap());
+    assert_eq!(a.events.len(), b.events.len());
+    let late = a.events.iter().zip(&b.events).filter(|(x, y)| y.t_us > x.t_us).count();
+    assert!(late > a.events.len() / 10, "{late} of {} late", a.events.len());
+    assert!(b.events.windows(2).all(|w| w[0].t_us <= w[1].t_us));
 }
 
 #[test]

@@ -4,7 +4,7 @@
 
 use crate::Progress;
 use crate::chars::{CharModel, Score};
-use crate::datasets::{CharSetSpec, Task, build, build_many};
+use crate::datasets::{CharSetSpec, Task, World, build, build_many};
 use crate::error::{Error, Result};
 use pipeline::input::CharInput;
 use serde::Serialize;
@@ -43,6 +43,8 @@ pub struct CharsReport {
     /// Word rows: the EV board at 1.5 mm, per speed in `ev_speeds_mm_s`, one score per entry.
     pub ev_speeds_mm_s: Vec<f64>,
     pub ev: Vec<Vec<Score>>,
+    /// The simulated world of the test scans.
+    pub world: World,
 }
 
 impl CharsReport {
@@ -59,6 +61,7 @@ pub fn chars_report(
     depths: &[f64],
     trials: u64,
     seed: u64,
+    world: &World,
     progress: &dyn Progress,
 ) -> Result<CharsReport> {
     let depths = if depths.is_empty() { DEPTHS_MM.to_vec() } else { depths.to_vec() };
@@ -105,6 +108,7 @@ pub fn chars_report(
             seed,
             task: Task::Chars,
             jitter_ms: 0.0,
+            world: world.clone(),
         };
         let (scores, n) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter_mut().zip(scores) {
@@ -125,6 +129,7 @@ pub fn chars_report(
             seed,
             task: Task::Chars,
             jitter_ms: 0.0,
+            world: world.clone(),
         };
         let (row, _) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter().zip(&row) {
@@ -143,6 +148,7 @@ pub fn chars_report(
         entries,
         ev_speeds_mm_s: ev_speeds,
         ev,
+        world: world.clone(),
     })
 }
 
@@ -158,6 +164,13 @@ pub fn markdown(r: &CharsReport) -> Result<String> {
         r.seed,
         r.windows.get(at).copied().unwrap_or(0)
     )?;
+    if r.world.realism != sim::Realism::Clean {
+        writeln!(
+            md,
+            "Simulator preset: `{}`; test scans by sensor builds {:?}, which no model was trained on (docs/simulator.md).\n",
+            r.world.realism, r.world.sensors
+        )?;
+    }
     writeln!(md, "## Table I: RAB at {} mm\n", r.depths_mm[at])?;
     writeln!(md, "| model | accuracy | macro F1 | loss |")?;
     writeln!(md, "| --- | --- | --- | --- |")?;

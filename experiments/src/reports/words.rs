@@ -36,6 +36,7 @@ pub fn words_report(
     depth_mm: f64,
     trials: u64,
     seed: u64,
+    world: &crate::datasets::World,
     progress: &dyn Progress,
 ) -> Result<WordsReport> {
     let archs = [Arch::Resnet, Arch::Snn];
@@ -49,7 +50,7 @@ pub fn words_report(
     let refs: Vec<&ReaderModels> = readers.iter().collect();
     let mut scores = Vec::new();
     for &speed in speeds {
-        let spec = WordsSpec { board: BoardKind::Ev, speed_mm_s: speed, depth_mm, trials, seed };
+        let spec = WordsSpec { board: BoardKind::Ev, speed_mm_s: speed, depth_mm, trials, seed, world: world.clone() };
         let lines = read_scans(&spec, &refs, progress)?;
         scores.push((0..archs.len()).map(|k| score(archs[k], k, &lines, speed, depth_mm)).collect());
     }

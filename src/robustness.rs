@@ -1,0 +1,64 @@
+//! `braille robustness`: each architecture's shipped character classifier against one nuisance
+//! of the virtual Evetac at a time (SIMULATED): Markdown, JSON and a PNG per nuisance.
+
+use crate::common::Bar;
+use anyhow::{Context, Result};
+use experiments::chars::CharModel;
+use experiments::robustness::{Nuisance, SweepSpec, markdown, sweep};
+use sim::{BoardKind, Realism};
+use snn::model_file::Arch;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Nuisances to sweep [default: all].
+    #[arg(long, value_enum, value_delimiter = ',')]
+    nuisances: Vec<Nuisance>,
+    /// The preset the other nuisances stay at: `clean`, the world the shipped models were trained
+    /// in, until they are retrained on `nominal`.
+    #[arg(long, value_enum, default_value_t = Realism::Clean)]
+    realism: Realism,
+    /// Board scanned (the paper's test board).
+    #[arg(long, default_value = "RAB")]
+    board: BoardKind,
+    /// Scans per board row and level.
+    #[arg(long, default_value_t = 4)]
+    trials: u64,
+    #[arg(long, default_value_t = 8.0)]
+    speed: f64,
+    #[arg(long, default_value_t = 1.5)]
+    depth: f64,
+    /// Scan seed (training used others).
+    #[arg(long, default_value_t = 2_000_003)]
+    seed: u64,
+    /// Where to write `robustness.md`, `robustness.json` and `robustness_*.png`.
+    #[arg(long, default_value = "docs/results")]
+    out: PathBuf,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let models_dir = crate::common::repo_path("models");
+    let mut models = Vec::new();
+    for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
+        let path = models_dir.join(experiments::chars::default_path(arch).file_name().unwrap_or_default());
+        models.push((name.to_string(), CharModel::load(&path).with_context(|| format!("loading {}", path.display()))?));
+    }
+    let spec = SweepSpec {
+        base: args.realism,
+        nuisances: if args.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { args.nuisances.clone() },
+        board: args.board.clone(),
+        speed_mm_s: args.speed,
+        depth_mm: args.depth,
+        trials: args.trials,
+        seed: args.seed,
+    };
+    let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
+    let report = sweep(&spec, &refs, &Bar::default())?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let md = markdown(&report);
+    std::fs::write(args.out.join("robustness.md"), &md)?;
+    std::fs::write(args.out.join("robustness.json"), serde_json::to_string_pretty(&report)? + "\n")?;
+    crate::charts::robustness_figures(&report, &args.out)?;
+    print!("{md}");
+    Ok(())
+}
