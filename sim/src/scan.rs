@@ -1,13 +1,16 @@
 //! The scan protocol and event generation: lower the sensor onto a row to a depth, slide along
 //! it, hold, lift; every pixel turns the brightness it sees into events.
 //!
-//! The board moves rigidly under the sensor, so each pixel row sees one brightness profile along
-//! the board, and each of its pixels traverses that profile shifted by its position. The profile
-//! is built once per pixel row from the dots' stamps and filtered by the photoreceptor (in the
-//! coordinate of travel, at the nominal speed); each pixel then finds the crossings of its own
-//! thresholds along it, whose positions convert to times through the (rippled) motion. Crossing
-//! times are exact for the piecewise-linear profile, quantised to the readout grid, with the
-//! refractory period applied per pixel. Noise (leak, shot, hot pixels) is added on top.
+//! Each dot's image moves with the board under the sensor (its stamp carries the gel's trailing
+//! smear and drag for the slide's direction and speed, and the depth under it when it passes the
+//! sensor's centre), so each pixel row sees one brightness profile along the board, and each of
+//! its pixels traverses that profile shifted by its position. The profile is built once per pixel
+//! row from the dots' stamps and filtered by the photoreceptor (in the coordinate of travel, at
+//! the nominal speed); each pixel then finds the crossings of its own thresholds along it, whose
+//! positions convert to times through the motion (ripple and hand-held swings). Crossing times are
+//! exact for the piecewise-linear profile, quantised to the readout grid, with the refractory
+//! period applied per pixel. The print texture under the board's face adds its own events per
+//! pixel; noise (leak, shot, hot pixels), latency jitter and the readout's frames come on top.
 
 use crate::board::Board;
 use crate::error::{Error, Result, check};

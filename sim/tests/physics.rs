@@ -134,3 +134,28 @@ fn trials_in_parallel_equal_trials_one_by_one() {
     let parallel: Vec<_> = (0..6u64).into_par_iter().map(scan).collect();
     assert_eq!(sequential, parallel);
 }
+
+#[test]
+fn the_print_texture_shows_only_where_the_board_face_presses_the_gel() {
+    // A blank row: no dots, noise off, so every event is the texture's.
+    let setup = Realism::Nominal.setup();
+    let blank = Board::new(BoardKind::Text(" ".into()), setup.geometry.clone(), 1).unwrap();
+    let sensor = setup.sensor(encoders::Resolution::new(160, 120), 5).unwrap().without_noise();
+    let steady = |depth_mm: f64| ScanConfig {
+        depth_wander_sigma_mm: 0.0,
+        depth_tilt_sigma_mm_per_100mm: 0.0,
+        ..setup.scan(16.0, depth_mm, 0, 1)
+    };
+    // Above the dot height (0.38 mm) the face does not touch the gel.
+    assert!(simulate(&blank, &sensor, &steady(0.3)).unwrap().events.is_empty());
+    let deep = simulate(&blank, &sensor, &steady(1.5)).unwrap().events.len();
+    assert!(deep > 0, "the face at 1.1 mm into the gel shows its texture");
+    // A smooth print shows nothing at any depth.
+    let smooth = Board::new(
+        BoardKind::Text(" ".into()),
+        sim::BoardGeometry { texture_amplitude_mm: 0.0, ..setup.geometry.clone() },
+        1,
+    )
+    .unwrap();
+    assert!(simulate(&smooth, &sensor, &steady(1.5)).unwrap().events.is_empty());
+}
