@@ -15,6 +15,7 @@ pub mod labeling;
 pub mod lexicon;
 pub mod models;
 pub mod reader;
+pub mod speed;
 pub mod spelling;
 pub mod words;
 
