@@ -205,13 +205,16 @@ fn words(args: WordsArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         println!(
-            "SIMULATED {} at {} mm/s, {} mm, {} lines, {} architecture, spelling {:?}: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            "SIMULATED {} at {} mm/s, {} mm, {} lines, {} architecture, spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
             r.board,
             args.speed,
             args.depth,
             s.lines,
             s.arch,
             args.spell,
+            r.word_accuracy,
+            r.word_error_rate,
+            r.char_error_rate,
             r.words_per_line,
             r.letters_per_word,
             r.correct_words,

@@ -46,6 +46,12 @@ pub struct WordsScore {
 #[derive(Debug, Clone, Serialize)]
 pub struct SpellScore {
     pub spell: Spell,
+    /// Unconditional, over every printed word: words read right (aligned to the line), and the
+    /// word and character error rates.
+    pub word_accuracy: f64,
+    pub word_error_rate: f64,
+    pub char_error_rate: f64,
+    /// The paper's four conditional metrics.
     pub words_per_line: f64,
     pub letters_per_word: f64,
     pub correct_words: f64,
@@ -182,6 +188,9 @@ pub fn score(arch: Arch, k: usize, lines: &[Vec<LineRead>], speed_mm_s: f64, dep
         .zip(metrics)
         .map(|(&spell, m)| SpellScore {
             spell,
+            word_accuracy: m.word_accuracy(),
+            word_error_rate: m.word_error_rate(),
+            char_error_rate: m.char_error_rate(),
             words_per_line: m.words_per_line(),
             letters_per_word: m.letters_per_word(),
             correct_words: m.correct_words_rate(),
@@ -311,6 +320,11 @@ pub struct EvalWords {
     pub data: &'static str,
     pub board: String,
     pub spell: Spell,
+    /// Unconditional, over every printed word.
+    pub word_accuracy: f64,
+    pub word_error_rate: f64,
+    pub char_error_rate: f64,
+    /// The paper's conditional metrics.
     pub words_per_line: f64,
     pub letters_per_word: f64,
     pub correct_words: f64,
@@ -333,6 +347,9 @@ pub fn eval_words(
         data: "simulated (virtual Evetac)",
         board: spec.board.name(),
         spell,
+        word_accuracy: m.word_accuracy,
+        word_error_rate: m.word_error_rate,
+        char_error_rate: m.char_error_rate,
         words_per_line: m.words_per_line,
         letters_per_word: m.letters_per_word,
         correct_words: m.correct_words,

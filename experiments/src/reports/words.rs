@@ -70,14 +70,14 @@ pub fn markdown(r: &WordsReport) -> String {
     let mut m = String::new();
     let _ = writeln!(
         m,
-        "# Reading words at four speeds (SIMULATED)\n\nAll figures on **simulated** scans (virtual Evetac) of the EV board (two rows: RIGHT LEFT EXIT OPEN, PUSH PULL STOP HELP WATER), {} scans per row and speed, {} mm deep, seed {}. Regenerate: `braille words-report --trials {}` (or `bash scripts/words.sh`).\n\nEach architecture reads every scan from the raw event stream: the segmentation network on every frame, the character classifier where it says a character is present, the paper's temporal filter (4 frames, 70 ms, 1 s at 8 mm/s; durations scale with 8 mm/s / speed), then the spelling. The four metrics are the paper's, each on the subset that passed the one before. TextBlob is the paper's corrector; the lexicon decoder is ours (Braille dot confusions, the classifier's letter probabilities, insertions and deletions).\n",
+        "# Reading words at four speeds (SIMULATED)\n\nAll figures on **simulated** scans (virtual Evetac) of the EV board (two rows: RIGHT LEFT EXIT OPEN, PUSH PULL STOP HELP WATER), {} scans per row and speed, {} mm deep, seed {}. Regenerate: `braille words-report --trials {}` (or `bash scripts/words.sh`).\n\nEach architecture reads every scan from the raw event stream: the segmentation network on every frame, the character classifier where it says a character is present, the paper's temporal filter (4 frames, 70 ms, 1 s at 8 mm/s; durations scale with 8 mm/s / speed), then the spelling. The first three columns are unconditional, over every printed word: words read right (aligned to the printed line by edit distance), and the word and character error rates (edits over printed words, or printed characters with spaces). The paper's four metrics follow, each on the subset that passed the one before. TextBlob is the paper's corrector; the lexicon decoder is ours (Braille dot confusions, the classifier's letter probabilities, insertions and deletions).\n",
         r.trials, r.depth_mm, r.seed, r.trials
     );
     let _ = writeln!(
         m,
-        "| speed | architecture | spelling | words per line | letters per word | correct words | correct letters | paper, correct words |"
+        "| speed | architecture | spelling | **word accuracy** | **WER** | **CER** | words per line | letters per word | correct words | correct letters | paper, correct words |"
     );
-    let _ = writeln!(m, "| --- | --- | --- | --- | --- | --- | --- | --- |");
+    let _ = writeln!(m, "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
     for (i, row) in r.scores.iter().enumerate() {
         let speed = r.speeds_mm_s[i];
         let paper_idx = [8.0, 16.0, 24.0, 32.0].iter().position(|&s| s == speed);
@@ -90,8 +90,16 @@ pub fn markdown(r: &WordsReport) -> String {
                 };
                 let _ = writeln!(
                     m,
-                    "| {speed} mm/s | {} | {:?} | {:.3} | {:.3} | {:.3} | {:.3} | {paper} |",
-                    s.arch, b.spell, b.words_per_line, b.letters_per_word, b.correct_words, b.correct_letters
+                    "| {speed} mm/s | {} | {:?} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {paper} |",
+                    s.arch,
+                    b.spell,
+                    b.word_accuracy,
+                    b.word_error_rate,
+                    b.char_error_rate,
+                    b.words_per_line,
+                    b.letters_per_word,
+                    b.correct_words,
+                    b.correct_letters
                 );
             }
         }
