@@ -108,6 +108,10 @@ pub struct SpeedEstimator {
     last: Option<SpeedEstimate>,
     /// Candidate image speeds, pixels per microsecond.
     speeds_px_us: Vec<f64>,
+    /// The image of moved events: columns wide enough for the fastest candidate's shift either
+    /// way (`max_shift_px` each side), rows of y bins times two polarities.
+    max_shift_px: f64,
+    cols: usize,
     hist: Vec<u32>,
     touched: Vec<u32>,
     /// Estimates given so far.
@@ -120,19 +124,25 @@ impl SpeedEstimator {
         let px_per_mm = resolution.width as f64 / cfg.fov_width_mm;
         let n = cfg.candidates;
         let ratio = (cfg.max_mm_s / cfg.min_mm_s).ln();
-        let speeds_px_us =
+        let speeds_px_us: Vec<f64> =
             (0..n).map(|k| cfg.min_mm_s * (ratio * k as f64 / (n - 1) as f64).exp() * px_per_mm * 1e-6).collect();
+        let window_us = (cfg.window_ms * 1e3) as i64;
+        let max_shift_px = speeds_px_us[n - 1] * window_us as f64;
+        let cols = ((resolution.width as f64 + 2.0 * max_shift_px) / cfg.bin_x_px as f64) as usize + 2;
+        let rows = (resolution.height / cfg.bin_y_px + 1) as usize * 2;
         Ok(SpeedEstimator {
             width: resolution.width,
             height: resolution.height,
-            window_us: (cfg.window_ms * 1e3) as i64,
+            window_us,
             update_us: (cfg.update_ms * 1e3).max(1.0) as i64,
             events: VecDeque::new(),
             cap: 2_000_000,
             next_update_us: None,
             last: None,
             speeds_px_us,
-            hist: Vec::new(),
+            max_shift_px,
+            cols,
+            hist: vec![0; cols * rows],
             touched: Vec::new(),
             estimates: 0,
             cfg,
@@ -188,16 +198,10 @@ impl SpeedEstimator {
     /// Sharpness of the window's events moved to `t_ref` at `v` pixels per microsecond (signed:
     /// negative for an image moving towards decreasing x).
     fn sharpness(&mut self, t_ref: i64, v: f64, stride: usize) -> f64 {
-        let bx = self.cfg.bin_x_px as f64;
-        let max_shift = self.speeds_px_us.last().copied().unwrap_or(0.0) * self.window_us as f64;
-        let cols = ((self.width as f64 + 2.0 * max_shift) / bx) as usize + 2;
-        let rows = (self.height / self.cfg.bin_y_px + 1) as usize * 2;
-        if self.hist.len() != cols * rows {
-            self.hist = vec![0; cols * rows];
-        }
+        let (bx, cols) = (self.cfg.bin_x_px as f64, self.cols);
         for &(t, x, yb) in self.events.iter().step_by(stride) {
             // where the event's pixel content is at t_ref
-            let x_ref = x as f64 + v * (t_ref - t) as f64 + max_shift;
+            let x_ref = x as f64 + v * (t_ref - t) as f64 + self.max_shift_px;
             let c = ((x_ref / bx) as usize).min(cols - 1);
             let i = yb as usize * cols + c;
             if self.hist[i] == 0 {
