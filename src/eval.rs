@@ -9,6 +9,7 @@ use experiments::tactile::SplitChoice;
 use experiments::words::WordsSpec;
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::Spell;
+use pipeline::reader::TimingMode;
 use sim::BoardKind;
 use snn::engine::Mode;
 use snn::model_file::Arch;
@@ -165,11 +166,20 @@ fn chars(args: CharsArgs) -> Result<()> {
 pub struct WordsArgs {
     #[arg(long, value_enum, default_value = "snn")]
     arch: Arch,
-    /// Board: SAB, UN, RAB, EV, or text:"ANY WORDS" (`/` starts a new row).
+    /// Board: SAB, UN, RAB, VAL (validation), EV, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
     #[arg(long, default_value = "EV")]
     board: BoardKind,
+    /// The scans' mean speed, mm/s.
     #[arg(long, default_value_t = 16.0)]
     speed: f64,
+    /// Hand-held scans: how far the speed swings around its mean along the row (relative
+    /// amplitude; 0 for the arm).
+    #[arg(long, default_value_t = 0.0)]
+    hand_variation: f64,
+    /// Where the reader's speed comes from: `estimated` from the events, `paper` (fixed 10 ms,
+    /// 70 ms, 1 s), or `given` (the simulator's true mean speed: an oracle).
+    #[arg(long, value_enum, default_value_t = TimingMode::Estimated)]
+    timing: TimingMode,
     #[arg(long, default_value_t = 1.5)]
     depth: f64,
     /// Scans per board row.
@@ -194,23 +204,33 @@ fn words(args: WordsArgs) -> Result<()> {
     let spec = WordsSpec {
         board: args.board.clone(),
         speed_mm_s: args.speed,
+        speed_variation: args.hand_variation,
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
         world: args.realism.test_world(),
     };
-    let r = experiments::words::eval_words(&spec, &readers, args.spell, &Bar::default())?;
+    let r = experiments::words::eval_words(&spec, &readers, args.timing, args.spell, &Bar::default())?;
     let s = &r.score;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         println!(
-            "SIMULATED {} at {} mm/s, {} mm, {} lines, {} architecture, spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
             r.board,
             args.speed,
+            if args.hand_variation > 0.0 {
+                format!(" hand-held ±{:.0}%", 100.0 * args.hand_variation)
+            } else {
+                String::new()
+            },
             args.depth,
             s.lines,
             s.arch,
+            args.timing,
+            100.0 * s.speed_error.median,
+            100.0 * s.speed_error.mean_abs,
+            s.speed_error.chars,
             args.spell,
             r.word_accuracy,
             r.word_error_rate,

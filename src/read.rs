@@ -2,11 +2,11 @@
 //! by the segmentation network, a character classifier (the ResNet or the SNN) and the temporal
 //! filter, then spell-corrected.
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use encoders::Resolution;
 use encoders::formats::{self, OpenOptions};
 use pipeline::classify::{ReaderModels, SnnRunner};
-use pipeline::reader::Spell;
+use pipeline::reader::{Spell, Timing, TimingMode};
 use snn::model_file::Arch;
 use std::io::Write;
 use std::path::PathBuf;
@@ -19,8 +19,12 @@ pub struct Args {
     arch: Arch,
     #[arg(long, value_enum, default_value = "lexicon")]
     spell: Spell,
-    /// Scanning speed in mm/s [default: the speed in the file's ground truth, FILE.truth.json, as
-    /// `braille simulate` writes it].
+    /// Where the scanning speed comes from: `estimated` from the events themselves, `paper` (the
+    /// paper's fixed 10 ms bins, 70 ms and 1 s), or `given` with --speed.
+    #[arg(long, value_enum, default_value_t = TimingMode::Estimated)]
+    timing: TimingMode,
+    /// Scanning speed in mm/s: a hint the estimate replaces (estimated timing), or the speed to
+    /// read at (given timing). Nothing is read from a ground-truth file.
     #[arg(long)]
     speed: Option<f64>,
     /// Segmentation network [default: the architecture's shipped one].
@@ -41,20 +45,8 @@ pub struct Args {
     json: bool,
 }
 
-fn speed_of(args: &Args) -> Result<f64> {
-    if let Some(s) = args.speed {
-        return Ok(s);
-    }
-    if args.file.as_os_str() != "-"
-        && let Some(s) = experiments::words::truth_speed(&crate::common::truth_path(&args.file))?
-    {
-        return Ok(s);
-    }
-    bail!("give the scanning speed with --speed (mm/s): {} has no ground truth beside it", args.file.display())
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let speed = speed_of(&args)?;
+    let timing = Timing::from_mode(args.timing, args.speed)?;
     let (ds, dc) = experiments::words::default_models(args.arch, &crate::common::repo_path("models"));
     let readers = ReaderModels::load(
         args.segmenter.as_deref().unwrap_or(&ds),
@@ -83,19 +75,28 @@ pub fn run(args: Args) -> Result<()> {
         lock.flush().map_err(io)
     };
     let name = args.file.display().to_string();
-    let s =
-        experiments::words::read_source(source.as_mut(), &name, &readers, speed, resolution, args.spell, &mut on_word)?;
+    let s = experiments::words::read_source(
+        source.as_mut(),
+        &name,
+        &readers,
+        timing,
+        resolution,
+        args.spell,
+        &mut on_word,
+    )?;
     if args.json {
         println!("{}", serde_json::to_string(&s)?);
     } else {
         println!(
-            "read {:?} from {:.1} s of stream in {:.2} s ({} architecture, spelling {:?}, {} mm/s); {} frames, segmentation network on {} ({:.0} ms), classifier on {} ({:.0} ms)",
+            "read {:?} from {:.1} s of stream in {:.2} s ({} architecture, spelling {:?}, {} timing, read at {} at the end, {} speed estimates); {} frames, segmentation network on {} ({:.0} ms), classifier on {} ({:.0} ms)",
             s.text,
             s.stream_s,
             s.read_s,
             s.arch,
             s.spell,
-            s.speed_mm_s,
+            args.timing,
+            s.speed_mm_s.map_or("no speed".into(), |v| format!("{v:.1} mm/s")),
+            s.stats.speed_estimates,
             s.stats.frames,
             s.stats.segmenter_calls,
             s.segmenter_ms,

@@ -71,7 +71,7 @@ pub fn run(args: Args) -> Result<()> {
         },
     )?;
     let labels = step(&mut times, "labeling pipeline", "[label_check.md](label_check.md)", || {
-        let rows = experiments::labeling::label_check(if q { 1 } else { 4 }, 0)?;
+        let rows = experiments::labeling::label_check(if q { 1 } else { 30 }, 1_000_003, &args.realism.test_world())?;
         let md = experiments::labeling::label_check_markdown(&rows);
         write("label_check.md", &md)?;
         Ok(md)
@@ -126,16 +126,20 @@ pub fn run(args: Args) -> Result<()> {
         },
     )?;
     step(&mut times, "the speed table", "[words.md](words.md), words_speed.png", || {
-        let speeds: &[f64] = if q { &[16.0, 32.0] } else { &[8.0, 16.0, 24.0, 32.0] };
-        let r = experiments::reports::words::words_report(
-            &models,
-            speeds,
-            1.5,
-            if q { 1 } else { 30 },
-            1_000_003,
-            &args.realism.test_world(),
-            &bar,
-        )?;
+        use pipeline::reader::TimingMode;
+        let spec = experiments::reports::words::WordsReportSpec {
+            speeds_mm_s: if q { vec![16.0, 64.0] } else { vec![8.0, 16.0, 24.0, 32.0, 48.0, 64.0] },
+            hand_speeds_mm_s: if q { vec![16.0] } else { vec![16.0, 32.0] },
+            hand_speed_variation: 0.4,
+            timings: vec![TimingMode::Estimated, TimingMode::Paper, TimingMode::Given],
+            depth_mm: 1.5,
+            trials: if q { 1 } else { 30 },
+            seed: 1_000_003,
+            world: args.realism.test_world(),
+            unseen_rows: if q { 1 } else { 4 },
+            unseen_trials: if q { 1 } else { 10 },
+        };
+        let r = experiments::reports::words::words_report(&models, &spec, &bar)?;
         crate::charts::write_words_report(&r, out)
     })?;
     let runs = step(&mut times, "one stream read by each architecture", "read_resnet.jsonl, read_snn.jsonl", || {
@@ -207,7 +211,7 @@ fn read_scan(scan: &Path, arch: Arch, models: &Path, out: &Path) -> Result<ReadS
         source.as_mut(),
         &name,
         &readers,
-        16.0,
+        pipeline::reader::Timing::ESTIMATED,
         resolution,
         Spell::Lexicon,
         &mut on_word,

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Board: SAB, UN, RAB, EV, or text:"ANY WORDS" (`/` starts a new row).
+    /// Board: SAB, UN, RAB, VAL (validation), EV, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
     #[arg(long, default_value = "EV")]
     pub board: BoardKind,
     /// Sliding speed (the paper: 8-32 mm/s).

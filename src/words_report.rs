@@ -3,7 +3,8 @@
 
 use crate::common::Bar;
 use anyhow::Result;
-use experiments::reports::words::words_report;
+use experiments::reports::words::{WordsReportSpec, words_report};
+use pipeline::reader::TimingMode;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -14,8 +15,24 @@ pub struct Args {
     /// EV scans per row and speed (the paper: 30).
     #[arg(long, default_value_t = 30)]
     trials: u64,
-    #[arg(long, value_delimiter = ',', default_value = "8,16,24,32")]
+    /// Speeds of the arm, mm/s.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,24,32,48,64")]
     speeds: Vec<f64>,
+    /// Mean speeds of hand-held scans, mm/s (none: `--hand-speeds` with no value).
+    #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "16,32")]
+    hand_speeds: Vec<f64>,
+    /// How far a hand-held scan's speed swings around its mean (relative amplitude).
+    #[arg(long, default_value_t = 0.4)]
+    hand_variation: f64,
+    /// Where the reader's speed comes from; every timing reads the same scans.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "estimated,paper,given")]
+    timings: Vec<TimingMode>,
+    /// Rows of a text board of words no training row used, read at the arm's speeds (0: none).
+    #[arg(long, default_value_t = 4)]
+    unseen_rows: usize,
+    /// Scans per row of the unseen words.
+    #[arg(long, default_value_t = 10)]
+    unseen_trials: u64,
     #[arg(long, default_value_t = 1.5)]
     depth: f64,
     #[arg(long, default_value_t = 1_000_003)]
@@ -27,6 +44,18 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let models = crate::common::repo_path("models");
     let world = args.realism.test_world();
-    let r = words_report(&models, &args.speeds, args.depth, args.trials, args.seed, &world, &Bar::default())?;
+    let spec = WordsReportSpec {
+        speeds_mm_s: args.speeds,
+        hand_speeds_mm_s: args.hand_speeds,
+        hand_speed_variation: args.hand_variation,
+        timings: args.timings,
+        depth_mm: args.depth,
+        trials: args.trials,
+        seed: args.seed,
+        world,
+        unseen_rows: args.unseen_rows,
+        unseen_trials: args.unseen_trials,
+    };
+    let r = words_report(&models, &spec, &Bar::default())?;
     crate::charts::write_words_report(&r, &args.out)
 }

@@ -197,7 +197,7 @@ fn simulate_runs_trials_into_a_folder_and_names_bad_boards() {
     names.sort();
     assert_eq!(names.len(), 8, "{names:?}"); // 2 rows x 2 trials x (events + truth)
     let o = braille(&["simulate", "--board", "XYZ", "--out", "x.aedat4"]);
-    assert!(!o.status.success() && text(&o).1.contains("SAB, UN, RAB, EV"), "{}", text(&o).1);
+    assert!(!o.status.success() && text(&o).1.contains("SAB, UN, RAB, VAL, EV"), "{}", text(&o).1);
 }
 
 #[test]

@@ -35,13 +35,18 @@ fn read_a_scan_with_both_architectures_and_both_snn_runners() {
     let dir = tempfile::tempdir().unwrap();
     let f = scan(dir.path(), "text:HELP WATER", "help.aedat4");
     let f = f.to_str().unwrap();
-    // the speed comes from the ground truth beside the file
+    // the reader gets the events only: the truth beside the file is not read, the speed is
+    // estimated from the events
+    std::fs::remove_file(dir.path().join("help.truth.json")).unwrap();
     let o = braille(&["read", f, "--arch", "snn", "--json"]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let (words, summary) = lines(&out);
     assert_eq!(summary["text"], "HELP WATER", "{out}");
-    assert_eq!(summary["speed_mm_s"], 32.0);
+    assert_eq!(summary["timing"]["mode"], "estimated");
+    let speed = summary["speed_mm_s"].as_f64().unwrap();
+    assert!((speed / 32.0 - 1.0).abs() < 0.06, "estimated {speed} mm/s");
+    assert!(summary["speed_estimates"].as_u64() > Some(10), "{summary}");
     assert_eq!(words.len(), 2);
     let c = &words[0]["chars"][0];
     assert!(c["t_registered_us"].as_i64() > c["t_end_us"].as_i64(), "{c}");
@@ -58,11 +63,14 @@ fn read_a_scan_with_both_architectures_and_both_snn_runners() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(out.contains("resnet architecture, spelling Textblob"), "{out}");
-    // without ground truth the speed must be given
-    std::fs::remove_file(dir.path().join("help.truth.json")).unwrap();
-    let o = braille(&["read", f]);
+    // the paper's fixed timing reads at 8 mm/s whatever the speed; a given timing needs a speed
+    let o = braille(&["read", f, "--timing", "paper", "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(lines(&out).1["speed_mm_s"], 8.0);
+    let o = braille(&["read", f, "--timing", "given"]);
     let (_, err) = text(&o);
-    assert!(!o.status.success() && err.contains("--speed") && err.contains("help.aedat4"), "{err}");
+    assert!(!o.status.success() && err.contains("needs a speed"), "{err}");
 }
 
 #[test]
@@ -112,10 +120,15 @@ fn eval_words_prints_the_papers_metrics() {
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["data"], "simulated (virtual Evetac)");
     assert_eq!(v["lines"], 2);
-    for key in ["words_per_line", "letters_per_word", "correct_words", "correct_letters"] {
+    assert_eq!(v["timing"], "estimated");
+    for key in ["word_accuracy", "wer", "cer", "words_per_line", "letters_per_word", "correct_words", "correct_letters"]
+    {
         let x = v[key].as_f64().unwrap();
         assert!((0.0..=1.0).contains(&x), "{key}: {x}");
     }
+    // the speed each character was read at, against the truth under the sensor
+    let e = &v["speed_error"];
+    assert!(e["chars"].as_u64() > Some(3) && e["mean_abs"].as_f64() < Some(0.2), "{e}");
     // a free-text board works as well, and a bad board is named
     let o = braille(&["eval", "words", "--board", "text:PULL", "--speed", "32", "--trials", "1"]);
     let (out, err) = text(&o);
@@ -129,12 +142,31 @@ fn eval_words_prints_the_papers_metrics() {
 fn words_report_writes_the_speed_table() {
     let dir = tempfile::tempdir().unwrap();
     let out_dir = dir.path().join("docs");
-    let o = braille(&["words-report", "--trials", "1", "--speeds", "32", "--out", out_dir.to_str().unwrap()]);
+    let o = braille(&[
+        "words-report",
+        "--trials",
+        "1",
+        "--speeds",
+        "32",
+        "--hand-speeds",
+        "16",
+        "--timings",
+        "estimated,paper",
+        "--unseen-rows",
+        "1",
+        "--unseen-trials",
+        "1",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let md = std::fs::read_to_string(out_dir.join("words.md")).unwrap();
     assert!(md.contains("SIMULATED") && md.contains("| 32 mm/s | snn | Lexicon |"), "{md}");
     assert!(md.contains("| 32 mm/s | resnet | None |"), "{md}");
+    assert!(md.contains("| 16 mm/s hand-held (±40%) | snn |"), "{md}");
+    assert!(md.contains("## The paper's fixed timing") && !md.contains("## Oracle"), "{md}");
+    assert!(md.contains("## The speed estimate") && md.contains("## Unseen words"), "{md}");
     assert!(out_dir.join("words_speed.png").exists() && out_dir.join("words.json").exists());
 }
 

@@ -304,19 +304,28 @@ pub fn scans(spec: &CharSetSpec, setup: &Setup) -> Result<Vec<(Board, usize, u64
     Ok(out)
 }
 
-/// `rows` board rows of random English words in capitals (uniform over the 3000 most frequent
-/// words of TextBlob's list with 2-8 letters, none of them in `exclude`), each at most
-/// `max_chars` long, joined by `/` as a text board takes them. Seeded.
-pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&str]) -> String {
-    use rand::{Rng, SeedableRng};
-    let words: Vec<String> = pipeline::spelling::Norvig::textblob()
+/// How many of TextBlob's most frequent words training rows draw from; the next as many are the
+/// unseen words of test boards.
+pub const TRAINING_WORDS: usize = 3000;
+
+/// TextBlob's words of 2-8 capital letters by falling frequency, none of them in `exclude`:
+/// `take` of them after the first `skip`.
+fn word_pool(skip: usize, take: usize, exclude: &[&str]) -> Vec<String> {
+    pipeline::spelling::Norvig::textblob()
         .most_frequent(usize::MAX)
         .into_iter()
         .map(|(w, _)| w.to_uppercase())
         .filter(|w| (2..=8).contains(&w.len()) && w.bytes().all(|b| b.is_ascii_uppercase()))
         .filter(|w| !exclude.iter().any(|e| e.eq_ignore_ascii_case(w)))
-        .take(3000)
-        .collect();
+        .skip(skip)
+        .take(take)
+        .collect()
+}
+
+/// `rows` rows of words drawn uniformly from `words`, each at most `max_chars` long, joined by
+/// `/` as a text board takes them. Seeded.
+fn rows_of(words: &[String], seed: u64, rows: usize, max_chars: usize) -> String {
+    use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut out = Vec::with_capacity(rows);
     for _ in 0..rows {
@@ -336,6 +345,19 @@ pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&st
     out.join("/")
 }
 
+/// `rows` board rows of random English words in capitals (uniform over the
+/// [`TRAINING_WORDS`] most frequent words of TextBlob's list with 2-8 letters, none of them in
+/// `exclude`), each at most `max_chars` long, joined by `/` as a text board takes them. Seeded.
+pub fn random_word_rows(seed: u64, rows: usize, max_chars: usize, exclude: &[&str]) -> String {
+    rows_of(&word_pool(0, TRAINING_WORDS, exclude), seed, rows, max_chars)
+}
+
+/// Rows of words no training row can hold: drawn from the next [`TRAINING_WORDS`] of TextBlob's
+/// list after those training rows draw from (less frequent, still everyday words). Seeded.
+pub fn unseen_word_rows(seed: u64, rows: usize, max_chars: usize) -> String {
+    rows_of(&word_pool(TRAINING_WORDS, TRAINING_WORDS, &EV_WORDS), seed, rows, max_chars)
+}
+
 /// Windows cropped for one or more model inputs, with where each came from.
 #[derive(Debug, Clone, Default)]
 pub struct Windows {
@@ -346,6 +368,17 @@ pub struct Windows {
     /// Scans simulated, and those skipped because the labeler's window count was off.
     pub scans: usize,
     pub skipped_scans: usize,
+    /// Characters printed on every scan's row (skipped scans included): the windows there would
+    /// be had the labeler found every character.
+    pub printed: usize,
+}
+
+impl Windows {
+    /// Accuracy over every printed character, from `right` windows classified correctly: the
+    /// characters of skipped scans count as errors.
+    pub fn accuracy_all(&self, right: usize) -> f64 {
+        if self.printed == 0 { 0.0 } else { right as f64 / self.printed as f64 }
+    }
 }
 
 /// Windows of `spec`'s scans for one input (see [`build_many`]).
@@ -381,6 +414,8 @@ pub fn build_many_in(
     }
     let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
     let list = scans(spec, setup)?;
+    let printed =
+        list.iter().map(|(board, row, _)| board.rows[*row].chars().filter(|&c| class_of(c).is_some()).count()).sum();
     progress.start("simulating scans", list.len() as u64);
     type Kept = (usize, Vec<Vec<f32>>, ScanId);
     let per_scan: Vec<Option<Vec<Kept>>> = list
@@ -412,7 +447,7 @@ pub fn build_many_in(
         }
         origin.push(scan);
     }
-    Ok(Windows { sets, origin, scans: list.len(), skipped_scans })
+    Ok(Windows { sets, origin, scans: list.len(), skipped_scans, printed })
 }
 
 /// Words of the EV board, kept out of the random word rows so that EV stays a test board.
@@ -510,6 +545,18 @@ mod tests {
         for r in rows {
             assert!(!r.is_empty() && r.len() <= 22, "{r}");
             assert!(r.split(' ').all(|w| w != "THE" && w != "OF" && w.len() >= 2), "{r}");
+        }
+    }
+
+    #[test]
+    fn unseen_words_are_none_a_training_row_can_hold() {
+        let training: std::collections::HashSet<String> = word_pool(0, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let unseen = unseen_word_rows(1_000_003, 4, 25);
+        assert_eq!(unseen, unseen_word_rows(1_000_003, 4, 25));
+        let words: Vec<&str> = unseen.split(['/', ' ']).collect();
+        assert!(words.len() >= 8, "{unseen}");
+        for w in words {
+            assert!(!training.contains(w) && !EV_WORDS.contains(&w), "{w} could be in a training row");
         }
     }
 }

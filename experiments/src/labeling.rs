@@ -67,10 +67,13 @@ pub struct LabelCheckRow {
 
 /// The labeling pipeline against the ground truth, `trials` scans per row: the paper's training
 /// boards at its training condition, the test board over depth, and every board kind over speed.
-pub fn label_check(trials: u64, seed: u64) -> crate::Result<Vec<LabelCheckRow>> {
+/// The scans are `world`'s, seeded as its test sets are (with the tests' seed and trials, the
+/// very scans Table I and the depth curve score).
+pub fn label_check(trials: u64, seed: u64, world: &crate::datasets::World) -> crate::Result<Vec<LabelCheckRow>> {
     use rayon::prelude::*;
-    use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
-    let sensor = crate::datasets::sensor(encoders::Resolution::DVXPLORER, 1)?;
+    use sim::BoardKind;
+    let setup = world.setup();
+    let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let cfg = LabelerConfig::default();
     let mut conditions: Vec<(BoardKind, f64, f64)> = vec![(BoardKind::Sab, 8.0, 1.5), (BoardKind::Un, 8.0, 1.5)];
     conditions.extend([0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5].map(|d| (BoardKind::Rab, 8.0, d)));
@@ -79,18 +82,14 @@ pub fn label_check(trials: u64, seed: u64) -> crate::Result<Vec<LabelCheckRow>> 
     conditions
         .par_iter()
         .map(|(kind, speed, depth)| {
-            let board = Board::new(kind.clone(), BoardGeometry::default(), Board::default_seed(kind))?;
+            let board = world.board(&setup, kind)?;
             let (mut chars, mut correct, mut matched, mut scans) = (0, 0, 0, 0);
             for row in 0..board.rows.len() {
                 for trial in 0..trials {
-                    let scan = ScanConfig {
-                        speed_mm_s: *speed,
-                        depth_mm: *depth,
-                        row,
-                        seed: crate::datasets::trial_seed(seed, row, trial),
-                        ..ScanConfig::default()
-                    };
-                    let s = sim::simulate(&board, &sensor, &scan)?;
+                    let scan_seed = world.scan_seed(seed, kind, row, trial, *speed, *depth);
+                    let scan = setup.scan(*speed, *depth, row, scan_seed);
+                    let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+                    let s = sim::simulate(&board, sensor, &scan)?;
                     // the true count labels; the score says whether the labeler found it
                     let n = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).count();
                     let l = pipeline::labeling::label(&s.events, sensor.camera.resolution, *speed, n, &cfg)?;

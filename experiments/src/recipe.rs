@@ -201,8 +201,9 @@ impl SnnRecipe {
             },
             // models/snn-chars.safetensors: the paper's training protocol (SAB and UN)
             "chars" => SnnRecipe { trials: 40, epochs: 30, ..windows },
-            // models/snn-words.safetensors: also word rows and shifted windows, time stretch
-            "words" => SnnRecipe { word_rows: 80, trials: 5, jitter_ms: 40.0, epochs: 12, stretch: 0.15, ..windows },
+            // models/snn-words.safetensors: also word rows and shifted windows; no time stretch
+            // (chosen on the VAL board, docs/training.md)
+            "words" => SnnRecipe { word_rows: 80, trials: 5, jitter_ms: 40.0, epochs: 12, ..windows },
             // models/snn-segment.safetensors: character present against background
             "segment" => SnnRecipe {
                 task: Task::Segment,

@@ -6,7 +6,7 @@ use crate::Progress;
 use crate::error::Result;
 use crate::scoring::WordMetrics;
 use pipeline::classify::ReaderModels;
-use pipeline::reader::{ReadWord, ReaderStats, Spell, Speller};
+use pipeline::reader::{ReadWord, ReaderStats, Spell, Speller, Timing, TimingMode};
 use rayon::prelude::*;
 use serde::Serialize;
 use sim::BoardKind;
@@ -21,9 +21,16 @@ pub const SPELLS: [Spell; 3] = [Spell::None, Spell::Textblob, Spell::Lexicon];
 #[derive(Debug, Clone, Serialize)]
 pub struct WordsScore {
     pub arch: Arch,
+    /// Where the reader's speed came from (`given` is the simulator's truth: an oracle).
+    pub timing: TimingMode,
     pub speed_mm_s: f64,
+    /// Hand-held swings of the speed along the row (relative amplitude; 0 for the arm).
+    pub speed_variation: f64,
     pub depth_mm: f64,
     pub lines: usize,
+    /// The speed each character was read at against the true speed under the sensor then
+    /// (relative error, over every character read).
+    pub speed_error: SpeedError,
     /// Per spelling (none, textblob, lexicon): the paper's four metrics.
     pub by_spell: Vec<SpellScore>,
     /// Seconds of stream read, and the wall time reading took (segmentation, classifier,
@@ -59,6 +66,52 @@ pub struct SpellScore {
     pub counts: WordMetrics,
 }
 
+/// The relative error of the speed the reader read at, over the characters read.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SpeedError {
+    pub chars: usize,
+    /// Signed median, and the mean and 90th percentile of the absolute error.
+    pub median: f64,
+    pub mean_abs: f64,
+    pub p90_abs: f64,
+    pub max_abs: f64,
+}
+
+impl SpeedError {
+    pub fn of(errors: &[f64]) -> SpeedError {
+        if errors.is_empty() {
+            return SpeedError::default();
+        }
+        let mut e = errors.to_vec();
+        e.sort_by(f64::total_cmp);
+        let mut a: Vec<f64> = e.iter().map(|x| x.abs()).collect();
+        a.sort_by(f64::total_cmp);
+        let q = |v: &[f64], p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+        SpeedError {
+            chars: e.len(),
+            median: q(&e, 0.5),
+            mean_abs: a.iter().sum::<f64>() / a.len() as f64,
+            p90_abs: q(&a, 0.9),
+            max_abs: a[a.len() - 1],
+        }
+    }
+}
+
+/// The true speed under the sensor at stream time `t_s`: from the two truth cells whose centres
+/// passed the sensor's centre nearest before and after it (a whole row's mean speed when fewer
+/// than two did).
+pub fn truth_speed_at(truth: &sim::ScanTruth, t_s: f64) -> f64 {
+    let mut c: Vec<(f64, f64)> =
+        truth.characters.iter().filter_map(|c| c.t_cell_center_s.map(|t| (t, c.x_mm))).collect();
+    c.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if c.len() < 2 {
+        return truth.scan.speed_mm_s;
+    }
+    let k = c.partition_point(|p| p.0 < t_s).clamp(1, c.len() - 1);
+    let (a, b) = (c[k - 1], c[k]);
+    if b.0 > a.0 { ((b.1 - a.1) / (b.0 - a.0)).abs() } else { truth.scan.speed_mm_s }
+}
+
 /// One simulated scan, read.
 pub struct LineRead {
     /// The row's words as printed.
@@ -72,6 +125,8 @@ pub struct LineRead {
     pub seg_ns: u64,
     pub cls_ns: u64,
     pub synops: u64,
+    /// Per character read: the speed it was read at over the true speed then, minus one.
+    pub speed_errors: Vec<f64>,
 }
 
 /// Which scans to read.
@@ -79,6 +134,8 @@ pub struct LineRead {
 pub struct WordsSpec {
     pub board: BoardKind,
     pub speed_mm_s: f64,
+    /// Hand-held swings of the speed along the row (relative amplitude; 0 for the arm).
+    pub speed_variation: f64,
     pub depth_mm: f64,
     /// Scans per board row.
     pub trials: u64,
@@ -97,9 +154,16 @@ pub fn default_models(arch: Arch, models: &Path) -> (PathBuf, PathBuf) {
     (models.join(s), models.join(c))
 }
 
-/// The scans of every row of the board, `trials` each, read by each of `readers` (each scan
-/// simulated once for all; the models are shared by the threads); `[scan][reader]`.
-pub fn read_scans(spec: &WordsSpec, readers: &[&ReaderModels], progress: &dyn Progress) -> Result<Vec<Vec<LineRead>>> {
+/// The scans of every row of the board, `trials` each, read by each of `readers` with each of
+/// `timings` (each scan simulated once for all; the models are shared by the threads);
+/// `[scan][timing * readers.len() + reader]`. The readers get the events only; with
+/// [`TimingMode::Given`] they are told the scan's mean speed (an oracle).
+pub fn read_scans(
+    spec: &WordsSpec,
+    readers: &[&ReaderModels],
+    timings: &[TimingMode],
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<LineRead>>> {
     let (board, speed_mm_s, depth_mm) = (&spec.board, spec.speed_mm_s, spec.depth_mm);
     let setup = spec.world.setup();
     let b = spec.world.board(&setup, board)?;
@@ -112,14 +176,34 @@ pub fn read_scans(spec: &WordsSpec, readers: &[&ReaderModels], progress: &dyn Pr
         .map(|&(row, trial)| -> Result<Vec<LineRead>> {
             let scan_seed = spec.world.scan_seed(spec.seed, board, row, trial, speed_mm_s, depth_mm);
             let sensor = &sensors[(trial % sensors.len() as u64) as usize];
-            let s = sim::simulate(&b, sensor, &setup.scan(speed_mm_s, depth_mm, row, scan_seed))?;
+            let scan = sim::ScanConfig {
+                speed_variation: spec.speed_variation,
+                ..setup.scan(speed_mm_s, depth_mm, row, scan_seed)
+            };
+            let s = sim::simulate(&b, sensor, &scan)?;
+
             let truth: Vec<String> = s.truth.row_text.split_whitespace().map(str::to_string).collect();
             let stream_s = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
             let mut out = Vec::new();
-            for r in readers {
+            for (&mode, r) in timings.iter().flat_map(|m| readers.iter().map(move |r| (m, r))) {
+                let timing = match mode {
+                    TimingMode::Estimated => Timing::ESTIMATED,
+                    TimingMode::Paper => Timing::Paper,
+                    TimingMode::Given => Timing::Given { speed_mm_s },
+                };
                 let t = Instant::now();
-                let read = r.read(&s.events, sensor.camera.resolution, speed_mm_s, &speller)?;
+                let read = r.read(&s.events, sensor.camera.resolution, timing, &speller)?;
+                let speed_errors = read
+                    .words
+                    .iter()
+                    .flat_map(|w| &w.chars)
+                    .filter_map(|c| {
+                        let t_s = 0.5 * (c.t_start_us + c.t_end_us) as f64 / 1e6;
+                        c.speed_mm_s.map(|v| v / truth_speed_at(&s.truth, t_s) - 1.0)
+                    })
+                    .collect();
                 out.push(LineRead {
+                    speed_errors,
                     truth: truth.clone(),
                     words: read.words,
                     stats: read.stats,
@@ -138,16 +222,21 @@ pub fn read_scans(spec: &WordsSpec, readers: &[&ReaderModels], progress: &dyn Pr
     Ok(lines)
 }
 
-/// Scores the lines of reader `k` (`lines[scan][k]`), an `arch` reader.
-pub fn score(arch: Arch, k: usize, lines: &[Vec<LineRead>], speed_mm_s: f64, depth_mm: f64) -> WordsScore {
+/// Scores the lines of reader `k` (`lines[scan][k]`), an `arch` reader with `timing`.
+pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], spec: &WordsSpec) -> WordsScore {
     let spellers: Vec<Speller> = SPELLS.iter().map(|&s| Speller::new(s)).collect();
     let mut metrics = vec![WordMetrics::default(); SPELLS.len()];
     let (mut delays, mut examples) = (Vec::new(), Vec::new());
     let mut s = WordsScore {
         arch,
-        speed_mm_s,
-        depth_mm,
+        timing,
+        speed_mm_s: spec.speed_mm_s,
+        speed_variation: spec.speed_variation,
+        depth_mm: spec.depth_mm,
         lines: lines.len(),
+        speed_error: SpeedError::of(
+            &lines.iter().flat_map(|scan| scan[k].speed_errors.iter().copied()).collect::<Vec<_>>(),
+        ),
         by_spell: Vec::new(),
         stream_s: 0.0,
         read_s: 0.0,
@@ -210,7 +299,10 @@ pub struct ReadSummary {
     pub data: String,
     pub arch: Arch,
     pub spell: Spell,
-    pub speed_mm_s: f64,
+    pub timing: Timing,
+    /// The speed the reader was reading at when the stream ended (its estimate, with estimated
+    /// timing).
+    pub speed_mm_s: Option<f64>,
     /// The last thousand words read (an endless stream keeps no more).
     pub text: String,
     pub stream_s: f64,
@@ -239,7 +331,7 @@ pub fn read_source(
     source: &mut dyn encoders::EventSource,
     name: &str,
     readers: &ReaderModels,
-    speed_mm_s: f64,
+    timing: Timing,
     resolution: encoders::Resolution,
     spell: Spell,
     on_word: &mut dyn FnMut(&ReadWord) -> Result<()>,
@@ -247,7 +339,7 @@ pub fn read_source(
     use pipeline::reader::ReadOutput;
     let speller = Speller::new(spell);
     let started = Instant::now();
-    let mut reader = readers.stream(speed_mm_s, resolution, &speller)?;
+    let mut reader = readers.stream(timing, resolution, &speller)?;
     let (mut out, mut text) = (Vec::new(), std::collections::VecDeque::<String>::new());
     let (mut first, mut last) = (None, 0i64);
     let mut emit = |out: &mut Vec<ReadOutput>, text: &mut std::collections::VecDeque<String>| -> Result<()> {
@@ -281,7 +373,8 @@ pub fn read_source(
         data: name.to_string(),
         arch: readers.classifier.arch(),
         spell,
-        speed_mm_s,
+        timing,
+        speed_mm_s: stats.speed_mm_s,
         text: text.into_iter().collect::<Vec<_>>().join(" "),
         stream_s: first.map_or(0.0, |f| (last - f) as f64 / 1e6),
         read_s: started.elapsed().as_secs_f64(),
@@ -300,19 +393,6 @@ pub fn read_source(
     })
 }
 
-/// The scanning speed a simulated scan's ground truth gives (`FILE.truth.json` beside it, as
-/// `braille simulate` writes it), if there is one.
-pub fn truth_speed(truth: &Path) -> Result<Option<f64>> {
-    if !truth.exists() {
-        return Ok(None);
-    }
-    let text =
-        std::fs::read_to_string(truth).map_err(|source| crate::Error::Io { path: truth.to_path_buf(), source })?;
-    let t: sim::ScanTruth =
-        serde_json::from_str(&text).map_err(|source| crate::Error::Json { path: truth.to_path_buf(), source })?;
-    Ok(Some(t.scan.speed_mm_s))
-}
-
 /// A reader's words on a board's SIMULATED scans (`braille eval words`): the paper's four metrics
 /// with the spelling asked for, and the score with every spelling.
 #[derive(Debug, Clone, Serialize)]
@@ -320,9 +400,12 @@ pub struct EvalWords {
     pub data: &'static str,
     pub board: String,
     pub spell: Spell,
-    /// Unconditional, over every printed word.
+    /// Unconditional, over every printed word: words read right, and the word and character
+    /// error rates (edit distance over the line).
     pub word_accuracy: f64,
+    #[serde(rename = "wer")]
     pub word_error_rate: f64,
+    #[serde(rename = "cer")]
     pub char_error_rate: f64,
     /// The paper's conditional metrics.
     pub words_per_line: f64,
@@ -333,15 +416,16 @@ pub struct EvalWords {
     pub score: WordsScore,
 }
 
-/// Reads every scan of `spec` with `readers` and scores it.
+/// Reads every scan of `spec` with `readers` and `timing`, and scores it.
 pub fn eval_words(
     spec: &WordsSpec,
     readers: &ReaderModels,
+    timing: TimingMode,
     spell: Spell,
     progress: &dyn Progress,
 ) -> Result<EvalWords> {
-    let lines = read_scans(spec, &[readers], progress)?;
-    let score = score(readers.classifier.arch(), 0, &lines, spec.speed_mm_s, spec.depth_mm);
+    let lines = read_scans(spec, &[readers], &[timing], progress)?;
+    let score = score(readers.classifier.arch(), timing, 0, &lines, spec);
     let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
     Ok(EvalWords {
         data: "simulated (virtual Evetac)",

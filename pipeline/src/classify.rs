@@ -248,16 +248,17 @@ impl WindowModel {
         };
         let [_, h, wd] = input.shape();
         let n = w.n_bins();
-        // the window's bins, cropped once each (the cache holds consecutive bins)
-        let first = w.t_end_us - (n as i64 - 1) * w.bin_us;
+        // the window's bins, cropped once each (the cache holds consecutive bins, known by their
+        // end times: a reader following its speed estimate changes the bins' length)
+        let ends: Vec<i64> = w.bin_ends_us().collect();
+        let first = ends.first().copied().unwrap_or(w.t_end_us);
         while bins.front().is_some_and(|b| b.t_end_us < first) {
             bins.pop_front();
         }
         if bins.front().is_some_and(|b| b.t_end_us != first) {
             bins.clear();
         }
-        for (k, cells) in w.bins().enumerate() {
-            let t = first + k as i64 * w.bin_us;
+        for (cells, &t) in w.bins().zip(&ends) {
             if bins.back().is_none_or(|b| b.t_end_us < t) {
                 let cells = crop_bin(input, cells, w.height, w.width, scratch);
                 let (mass, moment) = cells
@@ -377,11 +378,11 @@ impl ReaderModels {
         Ok(ReaderModels { segmenter: seg, classifier: cls })
     }
 
-    /// The reader's configuration at `speed_mm_s`, with the models' windowing.
-    pub fn config(&self, speed_mm_s: f64) -> crate::reader::ReaderConfig {
+    /// The reader's configuration with this timing and the models' windowing.
+    pub fn config(&self, timing: crate::reader::Timing) -> crate::reader::ReaderConfig {
         crate::reader::ReaderConfig {
             labeler: self.classifier.input().labeler.clone(),
-            ..crate::reader::ReaderConfig::new(speed_mm_s)
+            ..crate::reader::ReaderConfig::new(timing)
         }
     }
 
@@ -390,26 +391,20 @@ impl ReaderModels {
         &self,
         events: &[encoders::Event],
         resolution: encoders::Resolution,
-        speed_mm_s: f64,
+        timing: crate::reader::Timing,
         speller: &crate::reader::Speller,
     ) -> Result<crate::reader::ReadAll<WindowState, WindowState>> {
-        crate::reader::read_all(events, self.config(speed_mm_s), resolution, &self.segmenter, &self.classifier, speller)
+        crate::reader::read_all(events, self.config(timing), resolution, &self.segmenter, &self.classifier, speller)
     }
 
     /// A streaming reader of one stream.
     pub fn stream<'m>(
         &'m self,
-        speed_mm_s: f64,
+        timing: crate::reader::Timing,
         resolution: encoders::Resolution,
         speller: &'m crate::reader::Speller,
     ) -> Result<crate::reader::StreamReader<'m>> {
-        crate::reader::StreamReader::new(
-            self.config(speed_mm_s),
-            resolution,
-            &self.segmenter,
-            &self.classifier,
-            speller,
-        )
+        crate::reader::StreamReader::new(self.config(timing), resolution, &self.segmenter, &self.classifier, speller)
     }
 }
 
@@ -424,6 +419,37 @@ mod tests {
         shared::<ReaderModels>();
         fn movable<T: Send>() {}
         movable::<WindowState>();
+    }
+
+    #[test]
+    fn a_reader_whose_speed_changes_reads_the_same_with_both_snn_runners() {
+        // the shipped SNN segmentation network on a stream whose speed jumps between 8 and 40 mm/s:
+        // the reader retunes its bins within a window, and the sliding runner's cache of bins
+        // (known by their end times) must give what running every window from rest gives
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+        let seg = models.join("snn-segment.safetensors");
+        let mut ev = Vec::new();
+        for (k, speed) in [8.0, 24.0, 12.0, 40.0, 16.0, 32.0].into_iter().enumerate() {
+            let part = crate::speed::tests::moving(speed, true, 0.05, 0.7, k as u64);
+            ev.extend(part.into_iter().map(|e| encoders::Event { t_us: e.t_us + k as i64 * 700_000, ..e }));
+        }
+        let speller = crate::reader::Speller::new(crate::reader::Spell::None);
+        let run = |runner: SnnRunner| {
+            let m = WindowModel::load(&seg, runner).unwrap();
+            let cfg = crate::reader::ReaderConfig {
+                labeler: m.input().labeler.clone(),
+                ..crate::reader::ReaderConfig::new(crate::reader::Timing::ESTIMATED)
+            };
+            let r = crate::reader::read_all(&ev, cfg, encoders::Resolution::DVXPLORER, &m, &m, &speller).unwrap();
+            (r.words, r.stats)
+        };
+        let (sliding, stats) = run(SnnRunner::Sliding);
+        assert!(stats.speed_changes >= 5 && stats.segmenter_calls > 100, "{stats:?}");
+        let s = stats.speed_mm_s.unwrap();
+        assert!((s / 32.0 - 1.0).abs() < 0.06, "read at {s} mm/s at the end");
+        let (engine, engine_stats) = run(SnnRunner::Engine);
+        assert_eq!(sliding, engine);
+        assert_eq!(stats.segmenter_calls, engine_stats.segmenter_calls);
     }
 
     #[test]

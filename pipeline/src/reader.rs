@@ -2,7 +2,10 @@
 //! inference.
 //!
 //! Events are binned as the labeler bins them (10 ms at 8 mm/s, scaled with speed; pooled by 4;
-//! columns outside the active region masked). Every closed bin is a frame: the window of the
+//! columns outside the active region masked). The speed comes from a [`Timing`]: by default the
+//! reader estimates it from the events themselves ([`SpeedEstimator`]) and retunes its bins and
+//! the filter's durations as the estimate moves; the paper's fixed timing and a given speed are
+//! the alternatives. Every closed bin is a frame: the window of the
 //! last `frames` bins goes to the segmentation network, and only where it says a character is
 //! present to the character classifier; the temporal filter turns the detections into characters
 //! and words, and a speller corrects each finished word. The reader holds one window of sparse
@@ -16,6 +19,7 @@ use crate::classify::WindowModel;
 use crate::error::{Error, Result};
 use crate::labeling::LabelerConfig;
 use crate::lexicon::LexiconDecoder;
+use crate::speed::{SpeedEstimate, SpeedEstimator, SpeedEstimatorConfig};
 use crate::spelling::Norvig;
 use crate::words::{Detection, FilterOutput, ReadChar, TemporalFilter, TemporalFilterConfig};
 use encoders::pooling::PoolMap;
@@ -33,17 +37,25 @@ pub struct Cell {
 pub struct Window<'a> {
     /// The end of the newest bin.
     pub t_end_us: i64,
+    /// The newest bin's length (a reader that follows its speed estimate may have changed it
+    /// within the window: [`bin_ends_us`](Self::bin_ends_us) has every bin's end).
     pub bin_us: i64,
     /// The pooled grid.
     pub height: usize,
     pub width: usize,
     bins: [&'a [Vec<Cell>]; 2],
+    ends_us: [&'a [i64]; 2],
 }
 
 impl Window<'_> {
     /// The bins, oldest first.
     pub fn bins(&self) -> impl Iterator<Item = &[Cell]> {
         self.bins[0].iter().chain(self.bins[1]).map(Vec::as_slice)
+    }
+
+    /// The end of each bin, oldest first.
+    pub fn bin_ends_us(&self) -> impl Iterator<Item = i64> + '_ {
+        self.ends_us[0].iter().chain(self.ends_us[1]).copied()
     }
 
     pub fn n_bins(&self) -> usize {
@@ -157,12 +169,89 @@ pub enum ReadOutput {
     Word(ReadWord),
 }
 
+/// Where the reader's bin length and filter durations come from. The labeler's durations are
+/// given at a reference speed (the paper's 10 ms bins, 70 ms segment gap and 1 s word gap at
+/// 8 mm/s) and scale by `reference / speed`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "mode", rename_all = "lowercase")]
+pub enum Timing {
+    /// The speed estimated online from the events themselves ([`SpeedEstimator`]); nothing the
+    /// simulator knows. Until the first estimate the reader reads at `hint_mm_s` when given, and
+    /// otherwise holds the events (at most [`ReaderConfig::hold_ms`] of stream) and reads them
+    /// once the estimate comes, so none is lost.
+    Estimated { hint_mm_s: Option<f64> },
+    /// A speed told to the reader and kept (the simulator's truth makes it an oracle: a bound on
+    /// what estimating the speed costs, not a deployable reader).
+    Given { speed_mm_s: f64 },
+    /// The paper's fixed settings whatever the speed: the reference speed's bins and gaps
+    /// (10 ms, 70 ms, 1 s), for a like-for-like comparison with its table.
+    Paper,
+}
+
+impl Timing {
+    /// The reader's default: estimated, with no hint.
+    pub const ESTIMATED: Timing = Timing::Estimated { hint_mm_s: None };
+
+    /// The mode and speed as a command line gives them: `speed_mm_s` is the hint when estimated
+    /// and required when given.
+    pub fn from_mode(mode: TimingMode, speed_mm_s: Option<f64>) -> Result<Timing> {
+        match (mode, speed_mm_s) {
+            (TimingMode::Estimated, hint_mm_s) => Ok(Timing::Estimated { hint_mm_s }),
+            (TimingMode::Given, Some(speed_mm_s)) => Ok(Timing::Given { speed_mm_s }),
+            (TimingMode::Given, None) => Err(Error::Config("timing `given` needs a speed".into())),
+            (TimingMode::Paper, _) => Ok(Timing::Paper),
+        }
+    }
+
+    pub fn mode(&self) -> TimingMode {
+        match self {
+            Timing::Estimated { .. } => TimingMode::Estimated,
+            Timing::Given { .. } => TimingMode::Given,
+            Timing::Paper => TimingMode::Paper,
+        }
+    }
+}
+
+/// [`Timing`] without its speeds, as a command line or a report names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum TimingMode {
+    /// Speed estimated from the events (the default; a given speed is a hint).
+    Estimated,
+    /// The paper's fixed 10 ms bins, 70 ms and 1 s.
+    Paper,
+    /// A speed given and kept (with the simulator's truth: an oracle).
+    Given,
+}
+
+impl std::fmt::Display for TimingMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TimingMode::Estimated => "estimated",
+            TimingMode::Paper => "paper",
+            TimingMode::Given => "given",
+        })
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReaderConfig {
     /// Binning and window length: the labeler's, as the classifiers were trained on.
     pub labeler: LabelerConfig,
-    /// The scanning speed: bins and the filter's durations scale by `reference / speed`.
-    pub speed_mm_s: f64,
+    /// Where the scanning speed comes from.
+    pub timing: Timing,
+    /// The online speed estimator (with [`Timing::Estimated`]).
+    #[serde(default)]
+    pub estimator: SpeedEstimatorConfig,
+    /// With [`Timing::Estimated`] and no hint: the most stream time held before the first
+    /// estimate; past it the reader starts at the reference speed.
+    #[serde(default = "default_hold_ms")]
+    pub hold_ms: f64,
+    /// The reader's speed follows the median of the last three estimates, and changes (at a bin
+    /// boundary) when that median differs from it by more than this fraction.
+    #[serde(default = "default_retune_fraction")]
+    pub retune_fraction: f64,
     /// The temporal filter at the labeler's reference speed (the paper's: 4 frames, 70 ms, 1 s
     /// at 8 mm/s).
     pub filter: TemporalFilterConfig,
@@ -178,25 +267,73 @@ fn default_max_word_chars() -> usize {
     64
 }
 
+fn default_hold_ms() -> f64 {
+    1000.0
+}
+
+fn default_retune_fraction() -> f64 {
+    0.05
+}
+
+/// At most this many events are held before the first speed estimate (a 1 s hold of the
+/// busiest readout stays under 32 MB).
+const MAX_HELD_EVENTS: usize = 2_000_000;
+
 impl ReaderConfig {
-    pub fn new(speed_mm_s: f64) -> ReaderConfig {
+    pub fn new(timing: Timing) -> ReaderConfig {
         ReaderConfig {
             labeler: LabelerConfig::default(),
-            speed_mm_s,
+            timing,
+            estimator: SpeedEstimatorConfig::default(),
+            hold_ms: default_hold_ms(),
+            retune_fraction: default_retune_fraction(),
             filter: TemporalFilterConfig::default(),
             present_threshold: 0.5,
             max_word_chars: default_max_word_chars(),
         }
     }
 
-    /// The filter's durations at this speed.
-    pub fn scaled_filter(&self) -> TemporalFilterConfig {
-        let k = self.labeler.reference_speed_mm_s / self.speed_mm_s;
+    /// A reader told the speed (the tests', and an oracle's).
+    pub fn at_speed(speed_mm_s: f64) -> ReaderConfig {
+        ReaderConfig::new(Timing::Given { speed_mm_s })
+    }
+
+    /// The filter's durations at `speed_mm_s`.
+    pub fn scaled_filter(&self, speed_mm_s: f64) -> TemporalFilterConfig {
+        let k = self.labeler.reference_speed_mm_s / speed_mm_s;
         TemporalFilterConfig {
             min_frames: self.filter.min_frames,
             max_gap_ms: self.filter.max_gap_ms * k,
             word_gap_ms: self.filter.word_gap_ms * k,
         }
+    }
+
+    /// The speed reading starts at, if known before any event.
+    fn initial_speed_mm_s(&self) -> Option<f64> {
+        match self.timing {
+            Timing::Estimated { hint_mm_s } => hint_mm_s,
+            Timing::Given { speed_mm_s } => Some(speed_mm_s),
+            Timing::Paper => Some(self.labeler.reference_speed_mm_s),
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        let speed_ok = |v: f64| v > 0.0 && v.is_finite();
+        if let Some(v) = self.initial_speed_mm_s()
+            && !speed_ok(v)
+        {
+            return Err(Error::Config(format!("the speed must be positive, got {v} mm/s")));
+        }
+        if self.labeler.frames == 0 {
+            return Err(Error::Config("the window needs at least one frame".into()));
+        }
+        if !(self.hold_ms > 0.0 && self.retune_fraction >= 0.0) {
+            return Err(Error::Config(format!(
+                "hold_ms must be positive and retune_fraction not negative, got {} and {}",
+                self.hold_ms, self.retune_fraction
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -213,17 +350,34 @@ pub struct ReaderStats {
     pub classifier_calls: u64,
     pub characters: u64,
     pub words: u64,
+    /// Speed estimates given by the estimator, and changes of the reader's speed they caused.
+    pub speed_estimates: u64,
+    pub speed_changes: u64,
+    /// The speed the reader was reading at when the stream ended.
+    pub speed_mm_s: Option<f64>,
 }
 
 /// The streaming reader of one stream: the shared models, and this stream's state of each.
 pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifier = WindowModel> {
     cfg: ReaderConfig,
+    /// The speed being read at (`None` while events are held for the first estimate), and the
+    /// bin length it gives.
+    speed_mm_s: Option<f64>,
     bin_us: i64,
+    /// With [`Timing::Estimated`]: the estimator, its last three estimates (a ring) and their
+    /// median, the speed the reader moves to at the next bin boundary.
+    estimator: Option<SpeedEstimator>,
+    recent_mm_s: Vec<f64>,
+    recent_head: usize,
+    wanted_mm_s: Option<f64>,
+    /// Events held before the first estimate.
+    held: Vec<Event>,
     frames: usize,
     map: PoolMap,
     cells: usize,
-    /// The last `frames` bins, a ring: `ring[head]` is the oldest once full.
+    /// The last `frames` bins, a ring: `ring[head]` is the oldest once full; and the end of each.
     ring: Vec<Vec<Cell>>,
+    ring_end_us: Vec<i64>,
     head: usize,
     /// The bin being filled: dense counts and the cells touched.
     acc: Vec<f32>,
@@ -252,28 +406,36 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         classifier: &'m C,
         speller: &'m Speller,
     ) -> Result<StreamReader<'m, S, C>> {
-        if !(cfg.speed_mm_s > 0.0 && cfg.speed_mm_s.is_finite()) {
-            return Err(Error::Config(format!("the speed must be positive, got {} mm/s", cfg.speed_mm_s)));
-        }
-        if cfg.labeler.frames == 0 {
-            return Err(Error::Config("the window needs at least one frame".into()));
-        }
+        cfg.validate()?;
         let map = PoolMap::new(resolution, cfg.labeler.pool, Some(&cfg.labeler.active_cols))?;
         let cells = map.output.pixels();
         let frames = cfg.labeler.frames;
+        let estimator = match cfg.timing {
+            Timing::Estimated { .. } => Some(SpeedEstimator::new(cfg.estimator.clone(), resolution)?),
+            Timing::Given { .. } | Timing::Paper => None,
+        };
+        let speed_mm_s = cfg.initial_speed_mm_s();
+        let reference = cfg.labeler.reference_speed_mm_s;
         Ok(StreamReader {
-            bin_us: cfg.labeler.bin_us(cfg.speed_mm_s),
+            bin_us: cfg.labeler.bin_us(speed_mm_s.unwrap_or(reference)),
+            filter: TemporalFilter::new(&cfg.scaled_filter(speed_mm_s.unwrap_or(reference))),
+            speed_mm_s,
+            estimator,
+            recent_mm_s: Vec::with_capacity(3),
+            recent_head: 0,
+            wanted_mm_s: None,
+            held: Vec::new(),
             frames,
             cells,
             map,
             ring: Vec::with_capacity(frames),
+            ring_end_us: Vec::with_capacity(frames),
             head: 0,
             acc: vec![0.0; 2 * cells],
             touched: Vec::new(),
             bin_start: None,
             nonempty: 0,
             last_t: i64::MIN,
-            filter: TemporalFilter::new(&cfg.scaled_filter()),
             cfg,
             segmenter_state: segmenter.new_state(),
             classifier_state: classifier.new_state(),
@@ -282,24 +444,38 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             speller,
             word: Vec::new(),
             pending: Vec::new(),
-            stats: ReaderStats::default(),
+            stats: ReaderStats { speed_mm_s, ..ReaderStats::default() },
         })
     }
 
-    /// Bytes the reader holds (its window, the bin being filled, the open segment and word): what
-    /// bounds its memory on an endless stream.
+    /// Bytes the reader holds (its window, the bin being filled, the open segment and word, the
+    /// speed estimator's window and any events held for its first estimate): what bounds its
+    /// memory on an endless stream.
     pub fn memory_bytes(&self) -> usize {
         let cell = std::mem::size_of::<Cell>();
         self.ring.iter().map(|b| b.capacity() * cell).sum::<usize>()
+            + self.ring_end_us.capacity() * 8
             + self.acc.capacity() * 4
             + self.touched.capacity() * 4
             + self.word.iter().map(|c| std::mem::size_of::<ReadChar>() + c.probs.capacity() * 4).sum::<usize>()
             + self.pending.capacity() * std::mem::size_of::<FilterOutput>()
+            + self.estimator.as_ref().map_or(0, SpeedEstimator::memory_bytes)
+            + self.held.capacity() * std::mem::size_of::<Event>()
     }
 
-    /// The frame (bin) length at this speed.
+    /// The frame (bin) length at the speed being read at.
     pub fn bin_us(&self) -> i64 {
         self.bin_us
+    }
+
+    /// The speed being read at (`None` while waiting for the first estimate).
+    pub fn speed_mm_s(&self) -> Option<f64> {
+        self.speed_mm_s
+    }
+
+    /// The estimator's latest estimate (with [`Timing::Estimated`]).
+    pub fn last_estimate(&self) -> Option<SpeedEstimate> {
+        self.estimator.as_ref().and_then(SpeedEstimator::last)
     }
 
     /// This stream's state of the segmentation network and of the classifier.
@@ -323,6 +499,74 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         }
         self.last_t = e.t_us;
         self.stats.events += 1;
+        if let Some(est) = self.estimator.as_mut() {
+            est.push(e);
+            if est.due(e.t_us)
+                && let Some(x) = est.update(e.t_us)
+            {
+                self.estimated(x);
+            }
+        }
+        if self.speed_mm_s.is_none() {
+            self.held.push(*e);
+            let span_us = e.t_us - self.held[0].t_us;
+            if self.wanted_mm_s.is_none()
+                && (span_us as f64) < self.cfg.hold_ms * 1e3
+                && self.held.len() < MAX_HELD_EVENTS
+            {
+                return Ok(());
+            }
+            return self.release_held(out);
+        }
+        self.bin_event(e, out)
+    }
+
+    /// Starts reading at the first estimate (or, without one, at the reference speed) and reads
+    /// the events held until then.
+    fn release_held(&mut self, out: &mut Vec<ReadOutput>) -> Result<()> {
+        let speed = self.wanted_mm_s.unwrap_or(self.cfg.labeler.reference_speed_mm_s);
+        self.set_speed(speed);
+        for e in std::mem::take(&mut self.held) {
+            self.bin_event(&e, out)?;
+        }
+        Ok(())
+    }
+
+    /// An estimate: the median of the last three is the speed to read at.
+    fn estimated(&mut self, x: SpeedEstimate) {
+        self.stats.speed_estimates += 1;
+        if self.recent_mm_s.len() < 3 {
+            self.recent_mm_s.push(x.speed_mm_s);
+        } else {
+            self.recent_mm_s[self.recent_head] = x.speed_mm_s;
+            self.recent_head = (self.recent_head + 1) % 3;
+        }
+        let mut r = self.recent_mm_s.clone();
+        r.sort_by(f64::total_cmp);
+        self.wanted_mm_s = Some(if r.len() == 2 { 0.5 * (r[0] + r[1]) } else { r[r.len() / 2] });
+    }
+
+    fn set_speed(&mut self, speed_mm_s: f64) {
+        if self.speed_mm_s.is_some() {
+            self.stats.speed_changes += 1;
+        }
+        self.speed_mm_s = Some(speed_mm_s);
+        self.stats.speed_mm_s = Some(speed_mm_s);
+        self.bin_us = self.cfg.labeler.bin_us(speed_mm_s);
+        self.filter.set_durations(&self.cfg.scaled_filter(speed_mm_s));
+    }
+
+    /// At a bin boundary: moves to the wanted speed when it is far enough from the current one.
+    fn retune(&mut self) {
+        if let (Some(now), Some(want)) = (self.speed_mm_s, self.wanted_mm_s)
+            && (want / now - 1.0).abs() > self.cfg.retune_fraction
+        {
+            self.set_speed(want);
+        }
+    }
+
+    /// One event into the bin being filled.
+    fn bin_event(&mut self, e: &Event, out: &mut Vec<ReadOutput>) -> Result<()> {
         let start = *self.bin_start.get_or_insert(e.t_us);
         if e.t_us >= start + self.bin_us {
             self.advance_to(e.t_us, out)?;
@@ -340,22 +584,31 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     }
 
     /// Hands in events in time order (a chunk of a stream): [`push`](Self::push) for each, with
-    /// the events inside one bin accumulated in a tight loop.
+    /// the events inside one bin (and before the estimator's next update) accumulated in a tight
+    /// loop.
     pub fn push_all(&mut self, events: &[Event], out: &mut Vec<ReadOutput>) -> Result<()> {
         let mut k = 0;
         while k < events.len() {
             self.push(&events[k], out)?;
             k += 1;
+            if self.speed_mm_s.is_none() {
+                continue;
+            }
             let end = self.bin_start.map_or(i64::MIN, |s| s + self.bin_us);
+            let due = self.estimator.as_ref().map_or(i64::MAX, |s| s.next_update_us().unwrap_or(i64::MIN));
             let cells = self.cells as u32;
             let (mut last, mut masked, start) = (self.last_t, 0u64, k);
-            let (map, acc, touched) = (&self.map, &mut self.acc[..], &mut self.touched);
+            let (map, acc, touched, mut est) =
+                (&self.map, &mut self.acc[..], &mut self.touched, self.estimator.as_mut());
             while k < events.len() {
                 let e = &events[k];
-                if e.t_us >= end || e.t_us < last {
+                if e.t_us >= end || e.t_us < last || e.t_us >= due {
                     break;
                 }
                 last = e.t_us;
+                if let Some(s) = est.as_deref_mut() {
+                    s.push(e);
+                }
                 match map.cell(e.x, e.y) {
                     Some(cell) => {
                         let i = (e.polarity.index() as u32 * cells + cell) as usize;
@@ -383,6 +636,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         while t_us >= start + self.bin_us {
             self.close_bin(start + self.bin_us, out)?;
             start += self.bin_us;
+            self.retune();
             // a long silence: once the window is empty, skip to the bin holding `t_us` (the
             // filter still sees the time pass)
             if self.nonempty == 0 && self.touched.is_empty() && t_us >= start + self.bin_us {
@@ -404,9 +658,12 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         Ok(())
     }
 
-    /// The stream has ended: the bin being filled closes and the open character and word are
-    /// given out.
+    /// The stream has ended: events still held are read, the bin being filled closes and the
+    /// open character and word are given out.
     pub fn finish(&mut self, out: &mut Vec<ReadOutput>) -> Result<()> {
+        if self.speed_mm_s.is_none() && !self.held.is_empty() {
+            self.release_held(out)?;
+        }
         if let Some(start) = self.bin_start {
             self.close_bin(start + self.bin_us, out)?;
             self.bin_start = Some(start + self.bin_us);
@@ -436,8 +693,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         self.nonempty += usize::from(!bin.is_empty());
         if self.ring.len() < self.frames {
             self.ring.push(bin);
+            self.ring_end_us.push(t_end_us);
         } else {
             self.ring[self.head] = bin;
+            self.ring_end_us[self.head] = t_end_us;
             self.head = (self.head + 1) % self.frames;
         }
         self.stats.frames += 1;
@@ -455,12 +714,14 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             return Ok(());
         }
         let (a, b) = self.ring.split_at(self.head);
+        let (ea, eb) = self.ring_end_us.split_at(self.head);
         let window = Window {
             t_end_us,
             bin_us: self.bin_us,
             height: self.map.output.height as usize,
             width: self.map.output.width as usize,
             bins: [b, a],
+            ends_us: [eb, ea],
         };
         self.stats.segmenter_calls += 1;
         let seg = self.segmenter.classify(&mut self.segmenter_state, &window)?;
@@ -484,7 +745,8 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     fn drain(&mut self, out: &mut Vec<ReadOutput>) {
         for o in std::mem::take(&mut self.pending) {
             match o {
-                FilterOutput::Char { c, new_word } => {
+                FilterOutput::Char { mut c, new_word } => {
+                    c.speed_mm_s = self.speed_mm_s;
                     if new_word && !self.word.is_empty() {
                         self.end_word(out);
                     }
@@ -596,7 +858,7 @@ mod tests {
         let mut ev = burst(20, 0, 100); // U
         ev.extend(burst(21, 400, 500)); // V, 300 ms later: same word
         ev.extend(burst(22, 2_000, 2_100)); // W, after more than 1 s of silence: a new word
-        let (words, stats) = read(ev, ReaderConfig::new(8.0));
+        let (words, stats) = read(ev, ReaderConfig::at_speed(8.0));
         let text: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
         assert_eq!(text, ["UV", "W"]);
         assert!(stats.frames_empty > 0 && stats.segmenter_calls > 0);
@@ -613,9 +875,9 @@ mod tests {
         // between bursts splits words; at 8 mm/s it does not
         let mut ev = burst(20, 0, 60);
         ev.extend(burst(21, 400, 460));
-        let (words, _) = read(ev.clone(), ReaderConfig::new(32.0));
+        let (words, _) = read(ev.clone(), ReaderConfig::at_speed(32.0));
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["U", "V"]);
-        let (words, _) = read(ev, ReaderConfig::new(8.0));
+        let (words, _) = read(ev, ReaderConfig::at_speed(8.0));
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UV"]);
     }
 
@@ -624,12 +886,12 @@ mod tests {
         let mut ev = burst(20, 0, 100);
         ev.push(Event { t_us: 50_000, x: 80, y: 10, polarity: Polarity::Off });
         let speller = Speller::new(Spell::None);
-        let e = read_all(&ev, ReaderConfig::new(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller)
+        let e = read_all(&ev, ReaderConfig::at_speed(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller)
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("event 20") && e.contains("back in time"), "{e}");
-        let (words, stats) = read(burst(5, 0, 100), ReaderConfig::new(8.0));
+        let (words, stats) = read(burst(5, 0, 100), ReaderConfig::at_speed(8.0));
         assert!(words.is_empty());
         assert_eq!(stats.events_masked, 20);
     }
@@ -640,7 +902,8 @@ mod tests {
         // silence; an hour of it, handed in a chunk of a second at a time as a live sensor would
         let speller = Speller::new(Spell::None);
         let mut r =
-            StreamReader::new(ReaderConfig::new(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller).unwrap();
+            StreamReader::new(ReaderConfig::at_speed(8.0), Resolution::DVXPLORER, &Count(1.0), &Column, &speller)
+                .unwrap();
         let (mut out, mut words, mut peak, mut chunk) = (Vec::new(), 0usize, 0usize, Vec::new());
         let mut t_ms = 0i64;
         let word_ms = 5 * 600 + 1500;
@@ -674,7 +937,7 @@ mod tests {
                 (0..5i64).flat_map(|k| burst(20 + (s + k as u16) % 7, k * 700 + s as i64 * 13, k * 700 + 120)).collect()
             })
             .collect();
-        let one = |ev: &Vec<Event>| read(ev.clone(), ReaderConfig::new(8.0));
+        let one = |ev: &Vec<Event>| read(ev.clone(), ReaderConfig::at_speed(8.0));
         let sequential: Vec<_> = streams.iter().map(one).collect();
         let parallel: Vec<_> = std::thread::scope(|sc| {
             let handles: Vec<_> = streams.iter().map(|ev| sc.spawn(move || one(ev))).collect();
@@ -690,10 +953,95 @@ mod tests {
         for k in 0..10 {
             ev.extend(burst(20 + (k % 3) as u16, k * 600, k * 600 + 100));
         }
-        let cfg = ReaderConfig { max_word_chars: 4, ..ReaderConfig::new(8.0) };
+        let cfg = ReaderConfig { max_word_chars: 4, ..ReaderConfig::at_speed(8.0) };
         let (words, stats) = read(ev, cfg);
         assert_eq!(words.iter().map(|w| w.raw.as_str()).collect::<Vec<_>>(), ["UVWU", "VWUV", "WU"]);
         assert_eq!(stats.characters, 10);
+    }
+
+    /// Events of `events` in masked columns (what `events_masked` counts once each is binned).
+    fn masked(events: &[Event]) -> u64 {
+        let l = LabelerConfig::default();
+        let map = PoolMap::new(Resolution::DVXPLORER, l.pool, Some(&l.active_cols)).unwrap();
+        events.iter().filter(|e| map.cell(e.x, e.y).is_none()).count() as u64
+    }
+
+    #[test]
+    fn the_reader_reads_at_the_speed_it_estimates_and_loses_no_held_event() {
+        let speller = Speller::new(Spell::None);
+        for (speed, forward) in [(8.0, true), (32.0, false), (64.0, true)] {
+            let ev = crate::speed::tests::moving(speed, forward, 0.05, 1.5, 11);
+            let mut r = StreamReader::new(
+                ReaderConfig::new(Timing::ESTIMATED),
+                Resolution::DVXPLORER,
+                &Count(1.0),
+                &Column,
+                &speller,
+            )
+            .unwrap();
+            let mut out = Vec::new();
+            // in chunks, as a live sensor hands them in
+            for chunk in ev.chunks(7_777) {
+                r.push_all(chunk, &mut out).unwrap();
+            }
+            let read_at = r.speed_mm_s().unwrap();
+            assert!((read_at / speed - 1.0).abs() < 0.06, "{speed} mm/s read at {read_at}");
+            let bin = 10_000.0 * 8.0 / speed;
+            assert!((r.bin_us() as f64 / bin - 1.0).abs() < 0.06, "{speed} mm/s: {} us bins", r.bin_us());
+            r.finish(&mut out).unwrap();
+            assert_eq!(r.stats.events, ev.len() as u64);
+            assert_eq!(r.stats.events_masked, masked(&ev), "every event held for the first estimate is read");
+            assert!(r.stats.speed_estimates > 10, "{:?}", r.stats);
+            // characters carry the speed they were read at
+            for o in &out {
+                if let ReadOutput::Char(c) = o {
+                    assert!(c.speed_mm_s.is_some_and(|v| (v / speed - 1.0).abs() < 0.3), "{c:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn without_an_estimate_reading_starts_at_the_reference_speed_after_the_hold() {
+        // noise alone never gives an estimate: after 1 s of stream held the reader starts at
+        // 8 mm/s, and reads every event
+        let ev: Vec<Event> = crate::speed::tests::moving(8.0, true, 0.5, 2.0, 3)
+            .into_iter()
+            .filter(|e| e.polarity == Polarity::Off)
+            .collect();
+        let speller = Speller::new(Spell::None);
+        let cfg = ReaderConfig::new(Timing::ESTIMATED);
+        let mut r = StreamReader::new(cfg, Resolution::DVXPLORER, &Count(1e9), &Column, &speller).unwrap();
+        let mut out = Vec::new();
+        r.push_all(&ev[..ev.len() / 4], &mut out).unwrap();
+        assert_eq!(r.speed_mm_s(), None, "still holding");
+        r.push_all(&ev[ev.len() / 4..], &mut out).unwrap();
+        assert_eq!(r.speed_mm_s(), Some(8.0));
+        r.finish(&mut out).unwrap();
+        assert_eq!(r.stats.events_masked, masked(&ev));
+        assert_eq!(r.stats.speed_estimates, 0);
+    }
+
+    #[test]
+    fn paper_timing_is_fixed_and_a_hint_starts_reading_at_once() {
+        let speller = Speller::new(Spell::None);
+        let new =
+            |t: Timing| StreamReader::new(ReaderConfig::new(t), Resolution::DVXPLORER, &Count(1.0), &Column, &speller);
+        let paper = new(Timing::Paper).unwrap();
+        assert_eq!((paper.bin_us(), paper.speed_mm_s()), (10_000, Some(8.0)));
+        let hinted = new(Timing::Estimated { hint_mm_s: Some(16.0) }).unwrap();
+        assert_eq!((hinted.bin_us(), hinted.speed_mm_s()), (5_000, Some(16.0)));
+        assert!(new(Timing::Given { speed_mm_s: -1.0 }).is_err());
+        assert!(Timing::from_mode(TimingMode::Given, None).is_err());
+        assert_eq!(
+            Timing::from_mode(TimingMode::Estimated, Some(3.0)).unwrap(),
+            Timing::Estimated { hint_mm_s: Some(3.0) }
+        );
+        // a paper reader of a 32 mm/s stream keeps 10 ms bins: the paper's protocol
+        let ev = crate::speed::tests::moving(32.0, true, 0.05, 1.0, 5);
+        let r = read_all(&ev, ReaderConfig::new(Timing::Paper), Resolution::DVXPLORER, &Count(1.0), &Column, &speller)
+            .unwrap();
+        assert_eq!((r.stats.speed_estimates, r.stats.speed_mm_s), (0, Some(8.0)));
     }
 
     #[test]
@@ -718,7 +1066,7 @@ mod tests {
                 polarity: if k % 3 == 0 { Polarity::Off } else { Polarity::On },
             })
             .collect();
-        let cfg = ReaderConfig::new(8.0);
+        let cfg = ReaderConfig::at_speed(8.0);
         let speller = Speller::new(Spell::None);
         let grabbed = read_all(&ev, cfg.clone(), Resolution::DVXPLORER, &Grab, &Column, &speller).unwrap().segmenter;
         assert!(grabbed.len() > 10);

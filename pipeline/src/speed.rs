@@ -167,6 +167,12 @@ impl SpeedEstimator {
         }
     }
 
+    /// The stream time of the next update (`None` before the first event).
+    #[inline]
+    pub fn next_update_us(&self) -> Option<i64> {
+        self.next_update_us
+    }
+
     /// Whether an update is due at stream time `t_us`.
     #[inline]
     pub fn due(&self, t_us: i64) -> bool {
@@ -258,7 +264,7 @@ impl SpeedEstimator {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use encoders::Polarity;
     use rand::{Rng, SeedableRng};
@@ -266,7 +272,7 @@ mod tests {
 
     /// Edges at random places of a board moving under the sensor at `speed` mm/s (forward: the
     /// image moves towards x = 0), plus uniform noise at `noise_hz` per pixel.
-    fn moving(speed: f64, forward: bool, noise_hz: f64, seconds: f64, seed: u64) -> Vec<Event> {
+    pub(crate) fn moving(speed: f64, forward: bool, noise_hz: f64, seconds: f64, seed: u64) -> Vec<Event> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let px_per_mm = 640.0 / 18.6;
         let board_px = (speed * seconds * px_per_mm + 700.0) as usize;

@@ -50,6 +50,10 @@ pub struct ReadChar {
     /// the detections carried none); what the lexicon decoder reads.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub probs: Vec<f32>,
+    /// The scanning speed the reader was reading at when the character registered (its own
+    /// estimate, a hint, or the paper's fixed reference); `None` from the filter alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mm_s: Option<f64>,
 }
 
 /// What the filter gives as the stream goes on.
@@ -91,6 +95,14 @@ impl TemporalFilter {
             word_open_until: None,
             last_char_end: None,
         }
+    }
+
+    /// New durations (a reader retunes them as its speed estimate changes): the open segment and
+    /// word are kept and judged by the new gaps from now on.
+    pub fn set_durations(&mut self, cfg: &TemporalFilterConfig) {
+        self.max_gap_us = (cfg.max_gap_ms * 1e3) as i64;
+        self.word_gap_us = (cfg.word_gap_ms * 1e3) as i64;
+        self.min_frames = cfg.min_frames;
     }
 
     /// A frame at `t_us` with a detection, with the classifier's probabilities when it gives
@@ -173,7 +185,16 @@ impl TemporalFilter {
                 (letter, sum / n as f32)
             }
         };
-        let c = ReadChar { letter, t_start_us: start, t_end_us: end, confidence, frames, t_registered_us: t_us, probs };
+        let c = ReadChar {
+            letter,
+            t_start_us: start,
+            t_end_us: end,
+            confidence,
+            frames,
+            t_registered_us: t_us,
+            probs,
+            speed_mm_s: None,
+        };
         let new_word = self.last_char_end.is_none_or(|e| start - e > self.word_gap_us);
         if new_word && self.word_open_until.take().is_some() {
             out.push(FilterOutput::WordEnd);

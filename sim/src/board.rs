@@ -1,5 +1,6 @@
-//! Braille boards: the paper's four (SAB, UN, RAB, EV) or any text, as dots with positions and
-//! heights, including manufacturing tolerances drawn from the board's own seed.
+//! Braille boards: the paper's four (SAB, UN, RAB, EV), a validation board (VAL) or any text,
+//! as dots with positions and heights, including manufacturing tolerances drawn from the board's
+//! own seed.
 
 use crate::braille::{Cell, cell_of};
 use crate::error::{Error, Result, check};
@@ -17,6 +18,9 @@ pub enum BoardKind {
     Un,
     /// The 26 letters in a fixed random order over three rows (9, 9, 8), spread evenly.
     Rab,
+    /// The validation board: like RAB, another fixed random order, printed with its own seed.
+    /// Recipes, epochs and augmentation are chosen on it, never on RAB or EV (the test boards).
+    Val,
     /// Everyday vocabulary: "RIGHT LEFT EXIT OPEN" / "PUSH PULL STOP HELP WATER", as text.
     Ev,
     /// Any text; `/` starts a new row. Letters and spaces only.
@@ -29,6 +33,7 @@ impl BoardKind {
             BoardKind::Sab => "SAB".into(),
             BoardKind::Un => "UN".into(),
             BoardKind::Rab => "RAB".into(),
+            BoardKind::Val => "VAL".into(),
             BoardKind::Ev => "EV".into(),
             BoardKind::Text(t) => format!("text:{t}"),
         }
@@ -40,10 +45,11 @@ impl BoardKind {
         match self {
             BoardKind::Sab => (vec!["ABCDEFGHI".into(), "JKLMNOPQR".into(), "STUVWXYZ".into()], true),
             BoardKind::Un => (vec!["UNIVERSITY".into(), "OF".into(), "DARMSTADT".into()], true),
-            BoardKind::Rab => {
+            BoardKind::Rab | BoardKind::Val => {
                 // A fixed permutation: the same on every run and machine.
                 let mut letters: Vec<char> = ('A'..='Z').collect();
-                let mut rng = ChaCha8Rng::seed_from_u64(0x5241_4221);
+                let seed = if *self == BoardKind::Rab { 0x5241_4221 } else { 0x5641_4c21 };
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
                 for i in (1..letters.len()).rev() {
                     letters.swap(i, rng.random_range(0..=i));
                 }
@@ -72,8 +78,9 @@ impl std::str::FromStr for BoardKind {
             "SAB" => Ok(BoardKind::Sab),
             "UN" => Ok(BoardKind::Un),
             "RAB" => Ok(BoardKind::Rab),
+            "VAL" => Ok(BoardKind::Val),
             "EV" => Ok(BoardKind::Ev),
-            _ => Err(format!("unknown board {s:?}: expected SAB, UN, RAB, EV or text:\"ANY WORDS\"")),
+            _ => Err(format!("unknown board {s:?}: expected SAB, UN, RAB, VAL, EV or text:\"ANY WORDS\"")),
         }
     }
 }
@@ -216,6 +223,26 @@ pub struct Board {
     pub dots: Vec<Dot>,
 }
 
+/// `text` broken at spaces into rows of at most `fits` characters (a word longer than a row is
+/// left whole, for the caller to refuse).
+fn wrap(text: &str, fits: usize) -> Vec<String> {
+    let mut rows: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > fits {
+            rows.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() || rows.is_empty() {
+        rows.push(line);
+    }
+    rows
+}
+
 /// A stable 64-bit hash (FNV-1a), for seeds derived from names.
 pub fn stable_hash(s: &str) -> u64 {
     s.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
@@ -228,6 +255,13 @@ impl Board {
         geometry.validate()?;
         let (rows, spread) = kind.rows();
         let usable = geometry.row_length_mm - 2.0 * geometry.margin_mm;
+        // Rows of words wrap at spaces onto as many rows as they need, as a printed page does.
+        let rows = if spread {
+            rows
+        } else {
+            let fits = (usable / geometry.cell_spacing_mm + 1e-9).floor() as usize + 1;
+            rows.iter().flat_map(|r| wrap(r, fits)).collect()
+        };
         let mut characters = Vec::new();
         for (r, text) in rows.iter().enumerate() {
             let n = text.chars().count();
@@ -329,9 +363,30 @@ mod tests {
     #[test]
     fn parsing_names_the_choices() {
         assert_eq!("ev".parse::<BoardKind>().unwrap(), BoardKind::Ev);
-        assert!("XYZ".parse::<BoardKind>().unwrap_err().contains("SAB, UN, RAB, EV"));
+        assert!("XYZ".parse::<BoardKind>().unwrap_err().contains("SAB, UN, RAB, VAL, EV"));
+        // the validation board: every letter once, in another order than RAB's
+        let (val, rab) = (BoardKind::Val.rows().0, BoardKind::Rab.rows().0);
+        let mut letters: Vec<char> = val.concat().chars().collect();
+        letters.sort();
+        assert_eq!(letters, ('A'..='Z').collect::<Vec<_>>());
+        assert_ne!(val, rab);
         assert!("text:HI 2".parse::<BoardKind>().is_err());
         let too_long = BoardKind::Text("A".repeat(40));
-        assert!(Board::new(too_long, BoardGeometry::default(), 1).is_err());
+        assert!(Board::new(too_long, BoardGeometry::default(), 1).is_err(), "a word longer than a row");
+    }
+
+    #[test]
+    fn text_longer_than_a_row_wraps_at_spaces() {
+        // 35 characters need 206.5 mm at 6 mm a cell; the row has 155 mm
+        let text = "THE QUICK BROWN FOX JUMPS OVER DOGS";
+        let g = BoardGeometry::default();
+        let b = Board::new(BoardKind::Text(text.into()), g.clone(), 1).unwrap();
+        assert_eq!(b.rows, ["THE QUICK BROWN FOX JUMPS", "OVER DOGS"]);
+        assert_eq!(b.rows.join(" "), text);
+        let last = b.characters.iter().map(|c| c.x_mm).fold(0.0, f64::max);
+        assert!(last <= g.row_length_mm - g.margin_mm, "every cell on the board: {last} mm");
+        // explicit rows are kept, and wrapped each on its own
+        let b = Board::new(BoardKind::Text("HI/THERE".into()), BoardGeometry::default(), 1).unwrap();
+        assert_eq!(b.rows, ["HI", "THERE"]);
     }
 }
