@@ -114,6 +114,8 @@ pub struct SpeedEstimator {
     cols: usize,
     hist: Vec<u32>,
     touched: Vec<u32>,
+    /// The events of one update, as the candidates move them (reused).
+    sample: Vec<(f64, f64, u32)>,
     /// Estimates given so far.
     pub estimates: u64,
 }
@@ -144,6 +146,7 @@ impl SpeedEstimator {
             cols,
             hist: vec![0; cols * rows],
             touched: Vec::new(),
+            sample: Vec::new(),
             estimates: 0,
             cfg,
         })
@@ -199,17 +202,19 @@ impl SpeedEstimator {
     pub fn memory_bytes(&self) -> usize {
         self.events.capacity() * std::mem::size_of::<(i64, u16, u16)>()
             + (self.hist.capacity() + self.touched.capacity()) * 4
+            + self.sample.capacity() * std::mem::size_of::<(f64, f64, u32)>()
     }
 
-    /// Sharpness of the window's events moved to `t_ref` at `v` pixels per microsecond (signed:
-    /// negative for an image moving towards decreasing x).
-    fn sharpness(&mut self, t_ref: i64, v: f64, stride: usize) -> f64 {
+    /// Sharpness of the sampled events (`sample`: x, time before `t_ref` and the row's offset in
+    /// the image) moved to `t_ref` at `v` pixels per microsecond (signed: negative for an image
+    /// moving towards decreasing x).
+    fn sharpness(&mut self, sample: &[(f64, f64, u32)], v: f64) -> f64 {
         let (bx, cols) = (self.cfg.bin_x_px as f64, self.cols);
-        for &(t, x, yb) in self.events.iter().step_by(stride) {
+        for &(x, dt, row) in sample {
             // where the event's pixel content is at t_ref
-            let x_ref = x as f64 + v * (t_ref - t) as f64 + self.max_shift_px;
+            let x_ref = x + v * dt + self.max_shift_px;
             let c = ((x_ref / bx) as usize).min(cols - 1);
-            let i = yb as usize * cols + c;
+            let i = row as usize + c;
             if self.hist[i] == 0 {
                 self.touched.push(i as u32);
             }
@@ -231,14 +236,25 @@ impl SpeedEstimator {
         }
         let stride = n.div_ceil(self.cfg.max_events);
         let k = self.speeds_px_us.len();
+        // every stride-th event, taken once for all candidates
+        let cols = self.cols;
+        let mut sample = std::mem::take(&mut self.sample);
+        sample.clear();
+        sample.extend(
+            self.events
+                .iter()
+                .step_by(stride)
+                .map(|&(t, x, yb)| (x as f64, (t_ref - t) as f64, yb as u32 * cols as u32)),
+        );
         // [forward candidates..., reverse candidates...]
         let mut s = Vec::with_capacity(2 * k);
         for dir in [-1.0, 1.0] {
             for j in 0..k {
                 let v = dir * self.speeds_px_us[j];
-                s.push(self.sharpness(t_ref, v, stride));
+                s.push(self.sharpness(&sample, v));
             }
         }
+        self.sample = sample;
         let (best, &peak) = s.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
         let mut sorted = s.clone();
         sorted.sort_by(f64::total_cmp);
