@@ -1,6 +1,7 @@
 //! `braille`: read Braille from event-based touch. Subcommands inspect, convert and encode event
 //! streams; `demo` shows what works on built-in defaults.
 
+mod baselines;
 mod bench;
 mod chars_report;
 mod charts;
@@ -58,6 +59,9 @@ enum Command {
     Bench(bench::Args),
     /// Train a classifier (the SNN on a tactile dataset folder) and save it as a model file.
     Train(Box<train::Args>),
+    /// The non-spiking floors of a tactile dataset folder (ridge and logistic regression on
+    /// binned event counts), chosen on the SNN search's validation hold-out.
+    Baselines(baselines::Args),
     /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
     /// engine), or `eval chars` on simulated scans of a board.
     Eval(eval::Args),
@@ -101,6 +105,7 @@ fn main() -> ExitCode {
         Command::Robustness(a) => robustness::run(a),
         Command::Train(a) => train::run(*a),
         Command::Eval(a) => eval::run(a),
+        Command::Baselines(a) => baselines::run(a),
         Command::IcubReport(a) => icub_report::run(a),
         Command::CharsReport(a) => chars_report::run(a),
         Command::Read(a) => read::run(a),

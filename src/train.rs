@@ -2,14 +2,20 @@
 //! recipe (`--recipe NAME|FILE.json`, `experiments::recipe`) whose fields the flags override.
 
 use crate::common::{Bar, Epochs};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
+use encoders::dataset::Dataset;
 use experiments::chars::{ResnetPreset, ResnetTraining};
 use experiments::datasets::Task;
 use experiments::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice};
+use experiments::search::{
+    DataProfile, SearchObserver, SearchSpace, Shard, Trial, derived_recipe, final_models, final_recipe, read_logs,
+    report_markdown, run_combination, run_trials, trials_markdown, winner,
+};
+use experiments::train::{EvalTest, TactileData, train_on};
 use pipeline::augment::Preprocess;
 use snn::model_file::{Arch, Readout};
 use snn::neuron::Reset;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -20,9 +26,41 @@ pub struct Args {
     #[arg(long)]
     data: Option<PathBuf>,
     /// The SNN's recipe: a preset (default, raw1350, th10, chars, words, segment) or a JSON file of
-    /// one (missing fields take the defaults); the flags below override its fields.
-    #[arg(long, default_value = "default")]
-    recipe: String,
+    /// one (missing fields take the defaults); the flags below override its fields. Without it,
+    /// with --data: the recipe derived from the data (docs/training.md); without --data: `default`.
+    #[arg(long)]
+    recipe: Option<String>,
+    /// With --data: a validation-driven search around the derived recipe (on a hold-out of the
+    /// training split), then the winner retrained on the whole training split once per seed.
+    #[arg(long)]
+    search: bool,
+    /// --search: start no trial after this many minutes.
+    #[arg(long)]
+    budget_min: Option<f64>,
+    /// --search / --collect: the final models' seeds, 1..=K (the first is written to --out, seed K
+    /// to OUT.seedK.safetensors).
+    #[arg(long, default_value_t = 1)]
+    seeds: u64,
+    /// --search: trials at most (trial 0 is the derived recipe).
+    #[arg(long, default_value_t = 16)]
+    search_trials: usize,
+    /// --search: epochs at most per trial (each stops early after 15 without a better
+    /// validation accuracy).
+    #[arg(long, default_value_t = 60)]
+    search_epochs: usize,
+    /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
+    /// then `--collect DIR` picks the winner from every shard's log.
+    #[arg(long)]
+    shard: Option<String>,
+    /// Pick the winner from the trial logs in DIR (all shards) and train the final models.
+    #[arg(long, conflicts_with = "search")]
+    collect: Option<PathBuf>,
+    /// --search: the folder of the trial logs [default: OUT with the extension `.search`].
+    #[arg(long)]
+    search_dir: Option<PathBuf>,
+    /// Score the test split after training (by default the test split is not looked at).
+    #[arg(long)]
+    eval_test: bool,
     /// Print the recipe the flags make, as JSON, and stop.
     #[arg(long)]
     print_recipe: bool,
@@ -161,9 +199,13 @@ pub struct Args {
     quiet: bool,
 }
 
-/// The recipe named by `--recipe`, with every given flag written over it.
-fn recipe(a: &Args) -> Result<SnnRecipe> {
-    let mut r = SnnRecipe::load(&a.recipe)?;
+/// The recipe named by `--recipe` (or `base`), with every given flag written over it.
+fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
+    let mut r = match (&a.recipe, base) {
+        (Some(name), _) => SnnRecipe::load(name)?,
+        (None, Some(b)) => b,
+        (None, None) => SnnRecipe::default(),
+    };
     macro_rules! set {
         ($($field:ident <- $flag:expr),* $(,)?) => { $( if let Some(v) = $flag.clone() { r.$field = v; } )* };
     }
@@ -189,15 +231,35 @@ fn recipe(a: &Args) -> Result<SnnRecipe> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let r = recipe(&args)?;
+    // a dataset folder: its profile, and the recipe derived from it when none is named
+    let dataset = match (&args.data, args.arch) {
+        (Some(d), Arch::Snn) => {
+            let named = args.recipe.as_deref().map(SnnRecipe::load).transpose()?;
+            let period = args.period_us.or(named.map(|r| r.period_us)).unwrap_or(SnnRecipe::default().period_us);
+            Some(Dataset::load(d, period)?)
+        }
+        _ => None,
+    };
+    let profile = dataset.as_ref().map(DataProfile::of).transpose()?;
+    let r = recipe(&args, profile.as_ref().map(derived_recipe))?;
     if args.print_recipe {
+        if let Some(p) = &profile {
+            eprintln!("{}", describe(p));
+        }
         println!("{}", serde_json::to_string_pretty(&r)?);
         return Ok(());
     }
     let out = args.out.clone().expect("clap requires --out");
+    if args.search || args.collect.is_some() {
+        let (Some(dataset), Some(profile)) = (&dataset, &profile) else {
+            bail!("--search and --collect need --data (a tactile dataset folder) and the SNN");
+        };
+        return search(&args, dataset, profile, &r, &out);
+    }
     if out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }
+    let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
     let mut epochs = Epochs::new(args.quiet);
     let bar = Bar::default();
     let trained = match (args.arch, &args.data) {
@@ -240,7 +302,15 @@ pub fn run(args: Args) -> Result<()> {
             return Ok(());
         }
         (Arch::Snn, None) => experiments::train::train_windows(&r, &mut epochs, &bar)?,
-        (Arch::Snn, Some(d)) => experiments::train::train_tactile(&r, d, &mut epochs)?,
+        (Arch::Snn, Some(_)) => {
+            let dataset = dataset.as_ref().expect("loaded above for the SNN");
+            if args.recipe.is_none()
+                && let Some(p) = &profile
+            {
+                eprintln!("{}; the recipe derived from it (--print-recipe shows it)", describe(p));
+            }
+            train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, &mut epochs)?
+        }
     };
     let d = &trained.data;
     eprintln!(
@@ -272,22 +342,168 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         format!("best epoch {} (validation {:.1}%)", trained.best_epoch, 100.0 * trained.best_val_accuracy)
     };
-    if d.test.is_some() {
-        eprintln!(
-            "{kept}; test accuracy on the event-driven engine: {:.2}% of {}",
-            100.0 * trained.engine_accuracy,
-            trained.engine_n
-        );
-    } else {
-        eprintln!(
+    match (d.test, trained.engine_accuracy) {
+        (Some(_), Some(a)) => {
+            eprintln!("{kept}; test accuracy on the event-driven engine: {:.2}% of {}", 100.0 * a, trained.engine_n)
+        }
+        (Some(_), None) => eprintln!("{kept}; the test split was not looked at (--eval-test scores it)"),
+        (None, a) => eprintln!(
             "{kept}: {:.1}% of the validation windows on the event-driven engine (SIMULATED)",
-            100.0 * trained.engine_accuracy
-        );
+            100.0 * a.unwrap_or(f64::NAN)
+        ),
     }
     experiments::train::save_model(&trained.model, &out, args.force)?;
     if let Some(h) = &args.history {
         experiments::write_json(h, &trained.history, args.force)?;
     }
     eprintln!("wrote {} (peak RSS {:.0} MB)", out.display(), experiments::peak_rss_mb().unwrap_or(f64::NAN));
+    Ok(())
+}
+
+/// The data's profile in a line.
+fn describe(p: &DataProfile) -> String {
+    format!(
+        "{}: {} data, {} channels, {} classes, {} training samples, duration (95th percentile) {:.0} ms{}{}",
+        p.data,
+        p.kind,
+        p.channels,
+        p.classes,
+        p.train_samples,
+        p.duration_us as f64 / 1000.0,
+        p.events_per_sample.map_or(String::new(), |e| format!(", {e:.1} events per sample")),
+        p.signal_step.map_or(String::new(), |v| format!(", signal step {v} (the sigma-delta threshold)"))
+    )
+}
+
+/// Reports each trial as it ends (and its epochs, unless quiet).
+struct TrialLines {
+    quiet: bool,
+}
+
+impl SearchObserver for TrialLines {
+    fn trial_begin(&mut self, trial: usize, of: usize, r: &SnnRecipe) {
+        eprintln!(
+            "trial {trial}/{of}: hidden {:?}{}, tau_mem {:.0} ms, tau_out {:.0} ms, dropout {}, lr {}, init gain {}",
+            r.hidden,
+            if r.recurrent { " recurrent from zero" } else { " feed-forward" },
+            r.tau_mem_us / 1000.0,
+            r.tau_out_us / 1000.0,
+            r.dropout,
+            r.lr,
+            r.init_gain
+        );
+    }
+    fn epoch(&mut self, e: &learn::train::EpochReport) {
+        if !self.quiet {
+            eprintln!(
+                "  epoch {:>3}: train acc {:5.1}% | val acc {:5.1}% | {:.1} s",
+                e.epoch,
+                100.0 * e.train_accuracy,
+                100.0 * e.val_accuracy,
+                e.seconds
+            );
+        }
+    }
+    fn trial_end(&mut self, t: &Trial) {
+        eprintln!(
+            "trial {}: score {:.2}% (best {:.2}% at epoch {} of {}), {:.1} min",
+            t.trial,
+            100.0 * t.score,
+            100.0 * t.best_val_accuracy,
+            t.best_epoch,
+            t.epochs_run,
+            t.seconds / 60.0
+        );
+    }
+}
+
+/// The model file of the final model with `seed` (seed 1 is `out` itself).
+fn seed_path(out: &Path, seed: u64) -> PathBuf {
+    if seed == 1 {
+        return out.to_path_buf();
+    }
+    let stem = out.file_stem().map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}.seed{seed}.safetensors"))
+}
+
+/// `--search` (this shard's trials, then, unsharded, the final models) and `--collect`.
+fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecipe, out: &Path) -> Result<()> {
+    let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
+    let space = SearchSpace { trials: args.search_trials, epochs: args.search_epochs, ..SearchSpace::default() };
+    let dir = args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search"));
+    let shard = args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
+    let finishing = args.collect.is_some() || shard.count == 1;
+    if finishing {
+        for seed in 1..=args.seeds.max(1) {
+            let p = seed_path(out, seed);
+            if p.exists() && !args.force {
+                bail!("{}: exists; pass --force to replace it", p.display());
+            }
+        }
+    }
+    eprintln!("{}", describe(profile));
+    let data = TactileData::encode(dataset, base)?;
+    if args.search {
+        let budget = args.budget_min.map(|m| std::time::Duration::from_secs_f64(60.0 * m.max(0.0)));
+        let ran = run_trials(&data, profile, base, &space, shard, &dir, budget, &mut TrialLines { quiet: args.quiet })?;
+        if !finishing {
+            println!("{}", trials_markdown(&ran));
+            eprintln!(
+                "shard {shard}: {} trials in {}; when every shard is done: braille train --data {} --collect {} --out {}",
+                ran.len(),
+                dir.display(),
+                dataset.dir.display(),
+                dir.display(),
+                out.display()
+            );
+            return Ok(());
+        }
+    }
+    let trials = read_logs(&dir)?;
+    if let Some(t) = trials.first()
+        && t.profile != *profile
+    {
+        bail!("{}: the trials were run on {}, not on {}", dir.display(), t.profile.data, profile.data);
+    }
+    // each dimension at its best neighbour's value, if that point was not run
+    let trials = match run_combination(&data, profile, base, &space, &dir, &mut TrialLines { quiet: args.quiet })? {
+        Some(_) => read_logs(&dir)?,
+        None => trials,
+    };
+    let Some(w) = winner(&trials) else { bail!("{}: no trials logged", dir.display()) };
+    println!("{}", trials_markdown(&trials));
+    let f = final_recipe(w, 1);
+    eprintln!(
+        "chosen: trial {} (score {:.2}%); training it on the whole training split for {} epochs (averaged over the last {}), seeds 1..={}",
+        w.trial,
+        100.0 * w.score,
+        f.epochs,
+        f.average_epochs,
+        args.seeds.max(1)
+    );
+    let data = if (w.recipe.dt_us, w.recipe.sigma_delta) == (base.dt_us, base.sigma_delta) {
+        data
+    } else {
+        TactileData::encode(dataset, &w.recipe)?
+    };
+    let mut epochs = Epochs::new(args.quiet);
+    let finals = final_models(&data, w, args.seeds, eval_test, &mut epochs)?;
+    for (seed, t) in &finals {
+        let p = seed_path(out, *seed);
+        experiments::train::save_model(&t.model, &p, args.force)?;
+        eprintln!(
+            "seed {seed}: {}; wrote {}",
+            t.engine_accuracy.map_or("test split not looked at (--eval-test)".into(), |a| format!(
+                "test accuracy on the engine {:.2}%",
+                100.0 * a
+            )),
+            p.display()
+        );
+    }
+    let refs: Vec<(u64, &experiments::train::TrainedSnn)> = finals.iter().map(|(s, t)| (*s, t)).collect();
+    let md = report_markdown(profile, &space, &trials, &refs);
+    let report = dir.join("search.md");
+    std::fs::write(&report, &md).with_context(|| format!("writing {}", report.display()))?;
+    eprintln!("wrote {}", report.display());
     Ok(())
 }

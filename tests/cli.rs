@@ -258,6 +258,7 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
         "16",
         "--val-seed",
         "3",
+        "--eval-test",
         "--quiet",
         "--out",
         m,
@@ -490,4 +491,146 @@ fn export_to_nir_and_import_back() {
     };
     let (a, b) = (acc(&model), acc(&back));
     assert!((a - b).abs() <= 0.01, "original {a}, imported {b}");
+}
+
+/// A small event dataset in the documented layout: `classes` classes told apart by which of 3
+/// channels fires, 2 s samples, 8 per class (6 train, 2 test), seeded noise events.
+fn tiny_event_dataset(dir: &Path, classes: usize) {
+    let (mut samples, mut events, mut split) = (
+        String::from("sample,letter,label,n_events\n"),
+        String::from("sample,taxel,pol,t_s\n"),
+        String::from("sample,split\n"),
+    );
+    let mut k = 0u64;
+    for c in 0..classes {
+        for r in 0..8u64 {
+            let n = 12;
+            samples += &format!("{k},C{c},{c},{n}\n");
+            for e in 0..n {
+                let t = 0.1 + 1.8 * e as f64 / n as f64 + 0.01 * ((k * 7 + e) % 5) as f64;
+                let taxel = if e % 3 == 2 { (k as usize + e as usize) % 3 } else { c % 3 };
+                events += &format!("{k},{taxel},{},{t:.4}\n", (c / 3 + e as usize) % 2);
+            }
+            split += &format!("{k},{}\n", if r < 6 { "train" } else { "test" });
+            k += 1;
+        }
+    }
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("samples.csv"), samples).unwrap();
+    std::fs::write(dir.join("events.csv"), events).unwrap();
+    std::fs::write(dir.join("split.csv"), split).unwrap();
+}
+
+#[test]
+fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    tiny_event_dataset(&data, 3);
+    let d = data.to_str().unwrap();
+    let logs = dir.path().join("logs");
+    let out = dir.path().join("m.safetensors");
+    // the recipe is derived from the data: samples of about 1.9 s give 10 ms steps
+    let o = braille(&["train", "--data", d, "--print-recipe"]);
+    let (json, err) = text(&o);
+    assert!(o.status.success() && err.contains("3 channels, 3 classes, 18 training samples"), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(r["dt_us"], 10_000, "1.9 s / 100 -> 10 ms");
+    // two shards of three trials, then the winner from both logs
+    for shard in ["0/2", "1/2"] {
+        let o = braille(&[
+            "train",
+            "--data",
+            d,
+            "--search",
+            "--search-trials",
+            "3",
+            "--search-epochs",
+            "2",
+            "--shard",
+            shard,
+            "--search-dir",
+            logs.to_str().unwrap(),
+            "--hidden",
+            "8",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let (table, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        assert!(err.contains("--collect"), "{err}");
+        assert_eq!(
+            table.lines().filter(|l| l.starts_with("| ") && l.as_bytes()[2].is_ascii_digit()).count(),
+            if shard == "0/2" { 2 } else { 1 }
+        );
+        assert!(!out.exists(), "a shard trains no final model");
+    }
+    let logged: usize = std::fs::read_dir(&logs)
+        .unwrap()
+        .map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap().lines().count())
+        .sum();
+    assert_eq!(logged, 3);
+    let o = braille(&[
+        "train",
+        "--data",
+        d,
+        "--collect",
+        logs.to_str().unwrap(),
+        "--seeds",
+        "2",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("chosen: trial") && err.contains("test split not looked at"), "{err}");
+    assert!(out.exists() && dir.path().join("m.seed2.safetensors").exists());
+    let report = std::fs::read_to_string(logs.join("search.md")).unwrap();
+    assert!(report.contains("**chosen**") && report.contains("not looked at"), "{report}");
+    // a rerun of a shard finds its trials logged and runs none again
+    let o = braille(&[
+        "train",
+        "--data",
+        d,
+        "--search",
+        "--search-trials",
+        "3",
+        "--search-epochs",
+        "2",
+        "--shard",
+        "1/2",
+        "--search-dir",
+        logs.to_str().unwrap(),
+        "--hidden",
+        "8",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success() && !text(&o).1.contains("trial 1/3:"), "{}", text(&o).1);
+    // trials of another dataset are refused
+    let other = dir.path().join("other");
+    tiny_event_dataset(&other, 4);
+    let o = braille(&[
+        "train",
+        "--data",
+        other.to_str().unwrap(),
+        "--collect",
+        logs.to_str().unwrap(),
+        "--out",
+        dir.path().join("other.safetensors").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success() && text(&o).1.contains("were run on data"), "{}", text(&o).1);
+    // the floors, on the same hold-out; the test split only when asked
+    let o = braille(&["baselines", "--data", d, "--json"]);
+    let (json, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["baselines"].as_array().unwrap().len(), 2);
+    assert!(v["baselines"][0]["test_accuracy"].is_null());
+    let o = braille(&["baselines", "--data", d, "--eval-test", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&text(&o).0).unwrap();
+    let ridge = v["baselines"][0]["test_accuracy"].as_f64().unwrap();
+    assert!(ridge > 0.8, "the channel tells the class: ridge reads {ridge}");
 }

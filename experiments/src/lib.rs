@@ -6,6 +6,7 @@
 //!
 //! Everything here that runs on simulated scans is SIMULATED data and says so in what it returns.
 
+pub mod baselines;
 pub mod bench;
 pub mod chars;
 pub mod datasets;
@@ -16,6 +17,7 @@ pub mod reports;
 pub mod robustness;
 pub mod scans;
 pub mod scoring;
+pub mod search;
 pub mod tactile;
 pub mod train;
 pub mod words;

@@ -93,59 +93,136 @@ pub struct TrainedSnn {
     /// The averaged weights' validation accuracy and whether they were chosen.
     pub average: Option<(f64, bool)>,
     pub data: DataSummary,
-    /// Tactile datasets: test accuracy on the engine. Simulated windows: the validation
-    /// windows' accuracy on the engine.
-    pub engine_accuracy: f64,
+    /// Accuracy on the event-driven engine: tactile datasets, the test split, only when asked
+    /// ([`EvalTest`]); simulated windows, the validation windows.
+    pub engine_accuracy: Option<f64>,
     pub engine_n: usize,
+    /// Seconds of training (without loading and scoring).
+    pub seconds: f64,
 }
 
 fn events_per_sample(s: &SpikeSet) -> f64 {
     s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64
 }
 
+/// Whether training scores the test split. Test hygiene: nothing is chosen on it, and it is
+/// looked at only when asked (`braille train --eval-test`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EvalTest {
+    No,
+    Yes,
+}
+
+/// A tactile dataset folder encoded by a recipe: the training split, the folder's own
+/// validation split if it has one, and the test split (kept aside).
+pub struct TactileData {
+    pub dir: std::path::PathBuf,
+    pub classes: Vec<String>,
+    pub encoding: TactileEncoding,
+    pub train: SpikeSet,
+    /// The folder's own validation split (`split.csv` rows marked `val`), if any.
+    pub validation: Option<SpikeSet>,
+    pub test: SpikeSet,
+}
+
+impl TactileData {
+    /// Loads and encodes `data_dir` with the recipe's sampling period, sigma-delta threshold and
+    /// step.
+    pub fn load(data_dir: &Path, r: &SnnRecipe) -> Result<TactileData> {
+        let data = Dataset::load(data_dir, r.period_us)?;
+        TactileData::encode(&data, r)
+    }
+
+    /// Encodes a loaded dataset with the recipe's sigma-delta threshold and step.
+    pub fn encode(data: &Dataset, r: &SnnRecipe) -> Result<TactileData> {
+        let sd = SigmaDeltaConfig { threshold: r.sigma_delta, interpolate: r.interpolate };
+        let encoding = TactileEncoding::fit(data, sd, r.dt_us)?;
+        let validation = encoding.encode(data, Some(Split::Validation))?;
+        Ok(TactileData {
+            dir: data.dir.clone(),
+            classes: data.classes.clone(),
+            train: encoding.encode(data, Some(Split::Train))?,
+            validation: (!validation.is_empty()).then_some(validation),
+            test: encoding.encode(data, Some(Split::Test))?,
+            encoding,
+        })
+    }
+
+    /// The recipe's training and validation sets: the folder's validation split if it has one
+    /// (and the recipe validates at all), else a stratified hold-out of `val_fraction` of the
+    /// training split with `val_seed`.
+    pub fn train_val(&self, r: &SnnRecipe) -> (SpikeSet, SpikeSet) {
+        match &self.validation {
+            _ if r.val_fraction <= 0.0 => (self.train.clone(), self.train.subset(&[])),
+            Some(v) => (self.train.clone(), v.clone()),
+            None => self.train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed)),
+        }
+    }
+}
+
 /// Trains the recipe on a tactile dataset folder (iCub layout: any channel and class count).
-pub fn train_tactile(r: &SnnRecipe, data_dir: &Path, observer: &mut dyn Observer) -> Result<TrainedSnn> {
-    let data = Dataset::load(data_dir, r.period_us)?;
-    let sd = SigmaDeltaConfig { threshold: r.sigma_delta, interpolate: r.interpolate };
-    let encoding = TactileEncoding::fit(&data, sd, r.dt_us)?;
-    let all_train = encoding.encode(&data, Some(Split::Train))?;
-    let test = encoding.encode(&data, Some(Split::Test))?;
-    let (train, val) = if r.val_fraction > 0.0 {
-        all_train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed))
-    } else {
-        (all_train.clone(), all_train.subset(&[]))
-    };
+pub fn train_tactile(
+    r: &SnnRecipe,
+    data_dir: &Path,
+    eval_test: EvalTest,
+    observer: &mut dyn Observer,
+) -> Result<TrainedSnn> {
+    train_on(r, &TactileData::load(data_dir, r)?, eval_test, observer)
+}
+
+/// Trains the recipe on an encoded tactile dataset (its encoding must be the recipe's).
+pub fn train_on(
+    r: &SnnRecipe,
+    data: &TactileData,
+    eval_test: EvalTest,
+    observer: &mut dyn Observer,
+) -> Result<TrainedSnn> {
+    if data.encoding.dt_us != r.dt_us {
+        return Err(Error::Invalid(format!(
+            "{}: encoded with {} us steps, the recipe steps {} us",
+            data.dir.display(),
+            data.encoding.dt_us,
+            r.dt_us
+        )));
+    }
+    let (train, val) = data.train_val(r);
     let summary = DataSummary {
-        data: data_dir.display().to_string(),
+        data: data.dir.display().to_string(),
         classes: data.classes.len(),
-        inputs: encoding.n_inputs(),
-        steps: encoding.steps,
-        dt_us: encoding.dt_us,
+        inputs: data.encoding.n_inputs(),
+        steps: data.encoding.steps,
+        dt_us: data.encoding.dt_us,
         train: train.len(),
         validation: val.len(),
-        test: Some(test.len()),
-        input_events_per_sample: events_per_sample(&all_train),
+        test: Some(data.test.len()),
+        input_events_per_sample: events_per_sample(&data.train),
         scans: None,
         skipped_scans: None,
     };
-    let spec = network_spec(r, encoding.n_inputs(), data.classes.len())?;
+    let spec = network_spec(r, data.encoding.n_inputs(), data.classes.len())?;
     let fit = fit(r, spec, &train, &val, observer)?;
-    let scored = snn_accuracy(&fit.network, &fit.config, &test, Mode::Stepped)?;
+    let scored = match eval_test {
+        EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
+        EvalTest::No => None,
+    };
     let mut extra = serde_json::json!({
-        "data": data_dir.file_name().map(|n| n.to_string_lossy().into_owned()),
-        "test_accuracy": scored.accuracy,
+        "data": data.dir.file_name().map(|n| n.to_string_lossy().into_owned()),
     });
+    if let Some(s) = &scored {
+        extra["test_accuracy"] = s.accuracy.into();
+    }
     if let Some(v) = r.val_seed {
         extra["val_seed"] = v.into();
     }
     let model = SnnModel {
-        preprocess: serde_json::to_value(&encoding).map_err(|e| Error::Invalid(e.to_string()))?,
+        preprocess: serde_json::to_value(&data.encoding).map_err(|e| Error::Invalid(e.to_string()))?,
         classes: data.classes.clone(),
         provenance: provenance(r, &fit, extra),
         config: fit.config.clone(),
         network: fit.network.clone(),
     };
-    Ok(fit.into_trained(model, summary, scored.accuracy, scored.n))
+    let n = scored.as_ref().map_or(0, |s| s.n);
+    Ok(fit.into_trained(model, summary, scored.map(|s| s.accuracy), n))
 }
 
 /// Trains the recipe on the SIMULATED character windows (SAB and UN, 8 mm/s, 1.5 mm, the same
@@ -203,7 +280,7 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         config: fit.config.clone(),
         network: fit.network.clone(),
     };
-    Ok(fit.into_trained(model, summary, scored.accuracy, scored.n))
+    Ok(fit.into_trained(model, summary, Some(scored.accuracy), scored.n))
 }
 
 /// A finished fit: the chosen weights as an engine network.
@@ -216,8 +293,15 @@ struct Fit {
 }
 
 impl Fit {
-    fn into_trained(self, model: SnnModel, data: DataSummary, engine_accuracy: f64, engine_n: usize) -> TrainedSnn {
+    fn into_trained(
+        self,
+        model: SnnModel,
+        data: DataSummary,
+        engine_accuracy: Option<f64>,
+        engine_n: usize,
+    ) -> TrainedSnn {
         TrainedSnn {
+            seconds: self.seconds,
             model,
             best_epoch: self.outcome.best_epoch,
             best_val_accuracy: self.outcome.best_val_accuracy,
