@@ -289,12 +289,15 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
     // no overwrite without --force
     let o = braille(&args);
     assert!(!o.status.success() && text(&o).1.contains("--force"));
-    // a recurrent scale without recurrence is refused before training
+    // a recurrent scale without recurrence is refused before training (the default recipe is
+    // feed-forward; the recipe derived from the data is recurrent)
     let other = dir.path().join("other.safetensors");
     let o = braille(&[
         "train",
         "--data",
         data.to_str().unwrap(),
+        "--recipe",
+        "default",
         "--recurrent-init-gain",
         "0",
         "--out",

@@ -28,7 +28,7 @@ pub struct Baseline {
 /// Bin counts tried.
 pub const BINS: [usize; 3] = [5, 10, 20];
 /// Ridge penalties tried (on standardised features).
-pub const RIDGE_ALPHAS: [f64; 6] = [0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0];
+pub const RIDGE_ALPHAS: [f64; 8] = [0.001, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0];
 /// Logistic regression's L2 penalties tried.
 pub const LOGISTIC_L2: [f64; 3] = [1e-4, 1e-3, 1e-2];
 
@@ -266,7 +266,8 @@ pub fn baselines(data: &TactileData, val_fraction: f64, val_seed: u64, eval_test
         let (xt, xv) = prepared(&train, &[&val], bins);
         for alpha in RIDGE_ALPHAS {
             let acc = ridge(&xt, &train.labels, classes, alpha)?.accuracy(&xv[0], &val.labels);
-            if acc > best.2 {
+            // ties go to the stronger penalty
+            if acc > best.2 || (acc == best.2 && bins == best.0) {
                 best = (bins, alpha, acc);
             }
         }
