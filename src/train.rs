@@ -48,6 +48,10 @@ pub struct Args {
     /// validation accuracy).
     #[arg(long, default_value_t = 60)]
     search_epochs: usize,
+    /// --search: seeds per trial; a trial's score is their mean (a recipe that trains well only
+    /// with some seeds loses), and the final models train for the most epochs any of them ran.
+    #[arg(long, default_value_t = 1)]
+    trial_seeds: u64,
     /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
     /// then `--collect DIR` picks the winner from every shard's log.
     #[arg(long)]
@@ -429,7 +433,12 @@ fn seed_path(out: &Path, seed: u64) -> PathBuf {
 /// `--search` (this shard's trials, then, unsharded, the final models) and `--collect`.
 fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecipe, out: &Path) -> Result<()> {
     let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
-    let space = SearchSpace { trials: args.search_trials, epochs: args.search_epochs, ..SearchSpace::default() };
+    let space = SearchSpace {
+        trials: args.search_trials,
+        epochs: args.search_epochs,
+        trial_seeds: args.trial_seeds.max(1),
+        ..SearchSpace::default()
+    };
     let dir = args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search"));
     let shard = args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
     let finishing = args.collect.is_some() || shard.count == 1;

@@ -625,6 +625,38 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
         dir.path().join("other.safetensors").to_str().unwrap(),
     ]);
     assert!(!o.status.success() && text(&o).1.contains("were run on data"), "{}", text(&o).1);
+    // seeds per trial: the score is their mean, each seed's shown and logged
+    let logs2 = dir.path().join("logs2");
+    let o = braille(&[
+        "train",
+        "--data",
+        d,
+        "--search",
+        "--search-trials",
+        "1",
+        "--search-epochs",
+        "2",
+        "--trial-seeds",
+        "2",
+        "--shard",
+        "0/2",
+        "--search-dir",
+        logs2.to_str().unwrap(),
+        "--hidden",
+        "8",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (table, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(table.contains("(seeds "), "{table}");
+    let line = std::fs::read_to_string(logs2.join("trials-0-of-2.jsonl")).unwrap();
+    let t: serde_json::Value = serde_json::from_str(line.trim()).unwrap();
+    let per = t["seed_scores"].as_array().unwrap();
+    assert_eq!(per.len(), 2);
+    let mean = (per[0].as_f64().unwrap() + per[1].as_f64().unwrap()) / 2.0;
+    assert!((t["score"].as_f64().unwrap() - mean).abs() < 1e-12);
     // the floors, on the same hold-out; the test split only when asked
     let o = braille(&["baselines", "--data", d, "--json"]);
     let (json, err) = text(&o);

@@ -211,8 +211,13 @@ pub struct SearchSpace {
     /// Share of the training split held out (when the folder has no validation split).
     pub val_fraction: f64,
     pub val_seed: u64,
-    /// Every trial's initialisation and shuffling seed (so trials differ by their point only).
+    /// Every trial's first initialisation and shuffling seed (so trials differ by their point
+    /// only).
     pub trial_seed: u64,
+    /// Seeds per trial (`trial_seed`, `trial_seed + 1`, ...): the score is their mean, so that a
+    /// recipe that only some seeds train well loses.
+    #[serde(default = "one")]
+    pub trial_seeds: u64,
     /// Trials at most; trial 0 is the derived recipe, the rest are drawn from the space.
     pub trials: usize,
     /// The draw's seed.
@@ -235,6 +240,7 @@ impl Default for SearchSpace {
             val_fraction: 0.2,
             val_seed: 1,
             trial_seed: 1,
+            trial_seeds: 1,
             trials: 16,
             seed: 1,
         }
@@ -322,18 +328,29 @@ impl SearchSpace {
     }
 }
 
+fn one() -> u64 {
+    1
+}
+
 /// One trial as its shard logged it (a JSON line).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Trial {
     pub trial: usize,
     pub point: SearchPoint,
     pub recipe: SnnRecipe,
-    /// Mean validation accuracy over the last `score_epochs` epochs run.
+    /// Mean validation accuracy over the last `score_epochs` epochs run (the mean over the
+    /// trial's seeds).
     pub score: f64,
+    /// Each seed's score, when a trial trains several ([`SearchSpace::trial_seeds`]).
+    #[serde(default)]
+    pub seed_scores: Vec<f64>,
     pub best_val_accuracy: f64,
     pub best_epoch: usize,
+    /// The most epochs any of its seeds ran.
     pub epochs_run: usize,
+    /// The lowest final training accuracy of its seeds.
     pub final_train_accuracy: f64,
+    /// The first seed's validation accuracy per epoch.
     pub val_accuracy: Vec<f64>,
     pub seconds: f64,
     /// `I/N`: the shard that ran it.
@@ -469,7 +486,9 @@ pub fn run_trials(
             continue;
         }
         let recipe = p.recipe(base, space);
-        if let Some(t) = done.iter().find(|t| t.trial == k && t.recipe == recipe) {
+        if let Some(t) = done.iter().find(|t| {
+            t.trial == k && t.recipe == recipe && t.seed_scores.len().max(1) as u64 == space.trial_seeds.max(1)
+        }) {
             ran.push(t.clone());
             continue;
         }
@@ -498,8 +517,13 @@ fn run_point(
     let recipe = p.recipe(base, space);
     let log = shard.log(dir);
     observer.trial_begin(k, of, &recipe);
-    let trained = train_on(&recipe, data, EvalTest::No, &mut EpochsTo(observer))?;
-    let trial = trial_of(k, p, recipe, &trained, space, shard, profile);
+    let runs = (0..space.trial_seeds.max(1))
+        .map(|i| {
+            let r = SnnRecipe { seed: recipe.seed + i, ..recipe.clone() };
+            train_on(&r, data, EvalTest::No, &mut EpochsTo(observer))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let trial = trial_of(k, p, recipe, &runs, space, shard, profile);
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -515,24 +539,34 @@ fn trial_of(
     k: usize,
     point: SearchPoint,
     recipe: SnnRecipe,
-    t: &TrainedSnn,
+    runs: &[TrainedSnn],
     space: &SearchSpace,
     shard: Shard,
     profile: &DataProfile,
 ) -> Trial {
-    let val: Vec<f64> = t.history.iter().map(|h| h.val_accuracy).collect();
-    let last = &val[val.len().saturating_sub(space.score_epochs)..];
+    let score = |t: &TrainedSnn| {
+        let val: Vec<f64> = t.history.iter().map(|h| h.val_accuracy).collect();
+        let last = &val[val.len().saturating_sub(space.score_epochs)..];
+        last.iter().sum::<f64>() / last.len().max(1) as f64
+    };
+    let seed_scores: Vec<f64> = runs.iter().map(score).collect();
+    let n = runs.len().max(1) as f64;
+    let first = &runs[0];
     Trial {
         trial: k,
         point,
         recipe,
-        score: last.iter().sum::<f64>() / last.len().max(1) as f64,
-        best_val_accuracy: t.best_val_accuracy,
-        best_epoch: t.best_epoch,
-        epochs_run: t.history.len(),
-        final_train_accuracy: t.history.last().map_or(f64::NAN, |h| h.train_accuracy),
-        val_accuracy: val,
-        seconds: t.seconds,
+        score: seed_scores.iter().sum::<f64>() / n,
+        seed_scores: if runs.len() > 1 { seed_scores } else { Vec::new() },
+        best_val_accuracy: runs.iter().map(|t| t.best_val_accuracy).sum::<f64>() / n,
+        best_epoch: first.best_epoch,
+        epochs_run: runs.iter().map(|t| t.history.len()).max().unwrap_or(0),
+        final_train_accuracy: runs
+            .iter()
+            .map(|t| t.history.last().map_or(f64::NAN, |h| h.train_accuracy))
+            .fold(f64::INFINITY, f64::min),
+        val_accuracy: first.history.iter().map(|h| h.val_accuracy).collect(),
+        seconds: runs.iter().map(|t| t.seconds).sum(),
         shard: shard.to_string(),
         profile: profile.clone(),
     }
@@ -630,8 +664,14 @@ pub fn trials_markdown(trials: &[Trial]) -> String {
     );
     for t in trials {
         let r = &t.recipe;
+        let per: Vec<String> = t.seed_scores.iter().map(|v| format!("{:.1}", 100.0 * v)).collect();
+        let score = if per.is_empty() {
+            format!("{:.2}%", 100.0 * t.score)
+        } else {
+            format!("{:.2}% (seeds {})", 100.0 * t.score, per.join(" / "))
+        };
         s += &format!(
-            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}) | {:.1}% | {:.1}% | {:.2}% | {:.1} |\n",
+            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
             t.trial,
             if Some(t.trial) == best { " **chosen**" } else { "" },
             if t.point.recurrent { "from zero" } else { "no" },
@@ -645,7 +685,7 @@ pub fn trials_markdown(trials: &[Trial]) -> String {
             t.best_epoch,
             100.0 * t.final_train_accuracy,
             100.0 * t.best_val_accuracy,
-            100.0 * t.score,
+            score,
             t.seconds / 60.0
         );
     }
@@ -695,11 +735,12 @@ pub fn report_markdown(
     );
     s += &format!(
         "## The trials\n\nAt most {} epochs each, stopped after {} without a better validation accuracy; the score is \
-         the mean validation accuracy over the last {} epochs run. Trial 0 is the recipe derived from the data. \
+         the mean validation accuracy over the last {} epochs run{}. Trial 0 is the recipe derived from the data. \
          {} trials, {:.0} minutes.\n\n",
         space.epochs,
         space.patience,
         space.score_epochs,
+        if space.trial_seeds > 1 { format!(", averaged over {} seeds", space.trial_seeds) } else { String::new() },
         trials.len(),
         trials.iter().map(|t| t.seconds).sum::<f64>() / 60.0
     );
@@ -801,6 +842,7 @@ mod tests {
             point,
             recipe: point.recipe(&base, &space),
             score,
+            seed_scores: Vec::new(),
             best_val_accuracy: score,
             best_epoch: 1,
             epochs_run: 1,
