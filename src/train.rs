@@ -248,7 +248,7 @@ pub fn run(args: Args) -> Result<()> {
     let r = recipe(&args, profile.as_ref().map(derived_recipe))?;
     if args.print_recipe {
         if let Some(p) = &profile {
-            eprintln!("{}", describe(p));
+            eprintln!("{p}");
         }
         println!("{}", serde_json::to_string_pretty(&r)?);
         return Ok(());
@@ -311,7 +311,7 @@ pub fn run(args: Args) -> Result<()> {
             if args.recipe.is_none()
                 && let Some(p) = &profile
             {
-                eprintln!("{}; the recipe derived from it (--print-recipe shows it)", describe(p));
+                eprintln!("{p}; the recipe derived from it (--print-recipe shows it)");
             }
             train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, &mut epochs)?
         }
@@ -362,21 +362,6 @@ pub fn run(args: Args) -> Result<()> {
     }
     eprintln!("wrote {} (peak RSS {:.0} MB)", out.display(), experiments::peak_rss_mb().unwrap_or(f64::NAN));
     Ok(())
-}
-
-/// The data's profile in a line.
-fn describe(p: &DataProfile) -> String {
-    format!(
-        "{}: {} data, {} channels, {} classes, {} training samples, duration (95th percentile) {:.0} ms{}{}",
-        p.data,
-        p.kind,
-        p.channels,
-        p.classes,
-        p.train_samples,
-        p.duration_us as f64 / 1000.0,
-        p.events_per_sample.map_or(String::new(), |e| format!(", {e:.1} events per sample")),
-        p.signal_step.map_or(String::new(), |v| format!(", signal step {v} (the sigma-delta threshold)"))
-    )
 }
 
 /// Reports each trial as it ends (and its epochs, unless quiet).
@@ -450,7 +435,7 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
             }
         }
     }
-    eprintln!("{}", describe(profile));
+    eprintln!("{profile}");
     let data = TactileData::encode(dataset, base)?;
     if args.search {
         let budget = args.budget_min.map(|m| std::time::Duration::from_secs_f64(60.0 * m.max(0.0)));

@@ -532,6 +532,14 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let d = data.to_str().unwrap();
     let logs = dir.path().join("logs");
     let out = dir.path().join("m.safetensors");
+    // a small search: `trials` trials of 2 epochs, 8 hidden neurons, shard `shard`, logs in `logs`
+    let search = |trials: &str, shard: &str, logs: &Path, extra: &[&str]| {
+        let mut args = vec!["train", "--data", d, "--search", "--search-trials", trials, "--search-epochs", "2"];
+        args.extend_from_slice(&["--shard", shard, "--search-dir", logs.to_str().unwrap(), "--hidden", "8", "--quiet"]);
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        braille(&args)
+    };
     // the recipe is derived from the data: samples of about 1.9 s give 10 ms steps
     let o = braille(&["train", "--data", d, "--print-recipe"]);
     let (json, err) = text(&o);
@@ -540,25 +548,7 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     assert_eq!(r["dt_us"], 10_000, "1.9 s / 100 -> 10 ms");
     // two shards of three trials, then the winner from both logs
     for shard in ["0/2", "1/2"] {
-        let o = braille(&[
-            "train",
-            "--data",
-            d,
-            "--search",
-            "--search-trials",
-            "3",
-            "--search-epochs",
-            "2",
-            "--shard",
-            shard,
-            "--search-dir",
-            logs.to_str().unwrap(),
-            "--hidden",
-            "8",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = search("3", shard, &logs, &[]);
         let (table, err) = text(&o);
         assert!(o.status.success(), "{err}");
         assert!(err.contains("--collect"), "{err}");
@@ -592,25 +582,7 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let report = std::fs::read_to_string(logs.join("search.md")).unwrap();
     assert!(report.contains("**chosen**") && report.contains("not looked at"), "{report}");
     // a rerun of a shard finds its trials logged and runs none again
-    let o = braille(&[
-        "train",
-        "--data",
-        d,
-        "--search",
-        "--search-trials",
-        "3",
-        "--search-epochs",
-        "2",
-        "--shard",
-        "1/2",
-        "--search-dir",
-        logs.to_str().unwrap(),
-        "--hidden",
-        "8",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = search("3", "1/2", &logs, &[]);
     assert!(o.status.success() && !text(&o).1.contains("trial 1/3:"), "{}", text(&o).1);
     // trials of another dataset are refused
     let other = dir.path().join("other");
@@ -627,27 +599,7 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     assert!(!o.status.success() && text(&o).1.contains("were run on data"), "{}", text(&o).1);
     // seeds per trial: the score is their mean, each seed's shown and logged
     let logs2 = dir.path().join("logs2");
-    let o = braille(&[
-        "train",
-        "--data",
-        d,
-        "--search",
-        "--search-trials",
-        "1",
-        "--search-epochs",
-        "2",
-        "--trial-seeds",
-        "2",
-        "--shard",
-        "0/2",
-        "--search-dir",
-        logs2.to_str().unwrap(),
-        "--hidden",
-        "8",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = search("1", "0/2", &logs2, &["--trial-seeds", "2"]);
     let (table, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(table.contains("(seeds "), "{table}");
