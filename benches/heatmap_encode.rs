@@ -3,7 +3,6 @@
 mod common;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use encoders::Resolution;
 use encoders::heatmap::{HeatmapConfig, HeatmapEncoder};
 use encoders::spike_train::{SpikeTrainConfig, SpikeTrainEncoder};
 use std::hint::black_box;
@@ -27,14 +26,8 @@ fn encode(c: &mut Criterion) {
         })
     });
 
-    let st = SpikeTrainEncoder::new(SpikeTrainConfig {
-        dt_us: 1_000,
-        pool: 4,
-        sensor: Resolution::DVXPLORER,
-        mask_cols: None,
-        binary: false,
-    })
-    .unwrap();
+    // 1 ms steps, 4x4 pooling of the DVXplorer
+    let st = SpikeTrainEncoder::new(SpikeTrainConfig::default()).unwrap();
     let steps = (span as usize).div_ceil(1_000);
     group.bench_function("spike_train_1ms", |b| {
         b.iter(|| black_box(st.encode(black_box(&events), 0, steps).inputs.len()))

@@ -1,7 +1,13 @@
 //! `braille bench`: the event-driven engine on the peer benchmark's network and input statistics
-//! (`experiments::bench`), or a BPTT training step of that network on burn.
+//! (`experiments::bench`), or a BPTT training step of that network on burn; with `--model`, any
+//! model file or NIR graph on any events (`experiments::model_bench`).
 
 use anyhow::Result;
+use experiments::model_bench::{self, BenchInput, NirReading};
+use experiments::tactile::SplitChoice;
+use snn::engine::Mode;
+use snn::nir::ImportReset;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -20,9 +26,121 @@ pub struct Args {
     /// Batch size of the training step.
     #[arg(long, default_value_t = 32)]
     batch: usize,
+    /// Any network instead of the peer benchmark's: a model file, or a NIR graph (HDF5, from
+    /// snnTorch, Norse or `braille export`).
+    #[arg(long, conflicts_with = "train")]
+    model: Option<PathBuf>,
+    /// --model: an event file (AEDAT 4.0, CSV, NumPy) read as one stream [default: random input
+    /// with the peer benchmark's statistics, --samples of them].
+    #[arg(long, requires = "model", conflicts_with = "data")]
+    events: Option<PathBuf>,
+    /// --events: multiply every timestamp by this (a graph written for another step, such as
+    /// snnTorch's 100 us graphs of 5 ms bins: 0.02).
+    #[arg(long, default_value_t = 1.0, requires = "events")]
+    time_scale: f64,
+    /// --model: a tactile dataset folder whose samples are fed, encoded as the model was trained.
+    #[arg(long, requires = "model")]
+    data: Option<PathBuf>,
+    /// --data: which split.
+    #[arg(long, value_enum, default_value = "test")]
+    split: BenchSplit,
+    /// --data with a NIR graph: take the data's encoding from this model file.
+    #[arg(long, requires = "data")]
+    like: Option<PathBuf>,
+    /// --model: the engine's mode.
+    #[arg(long, value_enum, default_value = "stepped")]
+    mode: Mode,
+    /// --model: run 1 to N independent streams at once, one per thread, and report the scaling.
+    #[arg(long, default_value_t = 1)]
+    streams: usize,
+    /// A NIR graph's step, in microseconds (snnTorch's exporter assumes 100 us).
+    #[arg(long, default_value_t = 100)]
+    dt_us: i64,
+    /// How a NIR graph's neurons reset (NIR's own: to v_reset).
+    #[arg(long, value_enum, default_value = "to-v-reset")]
+    reset: ImportReset,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchSplit {
+    Train,
+    Test,
+    All,
+}
+
+fn model(args: &Args, path: &std::path::Path) -> Result<()> {
+    let net = model_bench::load_network(path, NirReading { dt_us: args.dt_us, reset: args.reset })?;
+    let input = match (&args.events, &args.data) {
+        (Some(e), _) => BenchInput::Events { path: e.clone(), time_scale: args.time_scale },
+        (None, Some(d)) => BenchInput::Data {
+            dir: d.clone(),
+            split: match args.split {
+                BenchSplit::Train => SplitChoice::Train,
+                BenchSplit::Test => SplitChoice::Test,
+                BenchSplit::All => SplitChoice::All,
+            },
+            like: args.like.clone(),
+        },
+        (None, None) => BenchInput::Random { samples: args.samples },
+    };
+    let r = model_bench::run(&net, &path.display().to_string(), &input, args.mode, args.streams)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+        return Ok(());
+    }
+    println!(
+        "{} ({:?}, dt {} us, {:?} mode) on {}: {:.1} input events, {:.0} synops, {:.1} spikes per sample{}",
+        r.model,
+        r.source,
+        r.dt_us,
+        r.mode,
+        r.input,
+        r.input_events_per_sample,
+        r.synops_per_sample,
+        r.spikes_per_sample,
+        r.accuracy.map_or(String::new(), |a| format!("; accuracy {:.2}%", 100.0 * a))
+    );
+    let l = &r.latency;
+    println!(
+        "one stream: per event {:.0} ns (p50), {:.0} ns (p99), {:.0} ns (p99.9), {:.0} ns at most, clock {:.0} ns included; {:.2} M input events/s",
+        l.p50_ns,
+        l.p99_ns,
+        l.p999_ns,
+        l.max_ns,
+        r.clock_overhead_ns,
+        r.input_events_per_s / 1e6
+    );
+    println!("| streams | M input events/s | speedup | efficiency | p50 ns | p99 ns | p99.9 ns | max ns |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
+    for s in &r.scaling {
+        println!(
+            "| {} | {:.2} | {:.2}x | {:.0}% | {:.0} | {:.0} | {:.0} | {:.0} |",
+            s.streams,
+            s.input_events_per_s / 1e6,
+            s.speedup,
+            100.0 * s.efficiency,
+            s.latency.p50_ns,
+            s.latency.p99_ns,
+            s.latency.p999_ns,
+            s.latency.max_ns
+        );
+    }
+    if r.scaling.len() > r.cores {
+        println!("({} streams on {} cores: beyond that the streams share cores)", r.scaling.len(), r.cores);
+    }
+    for e in &r.energy {
+        println!(
+            "energy estimate, {}: {:.1} nJ per sample ({} pJ per synop)",
+            e.platform, e.nj_per_sample, e.pj_per_synop
+        );
+    }
+    Ok(())
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if let Some(path) = args.model.clone() {
+        return model(&args, &path);
+    }
     if args.train {
         let r = experiments::bench::train_step(args.batch, args.repeats)?;
         if args.json {

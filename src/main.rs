@@ -5,6 +5,7 @@ mod baselines;
 mod bench;
 mod chars_report;
 mod charts;
+mod chip_report;
 mod common;
 mod convert;
 mod demo;
@@ -18,6 +19,7 @@ mod plot;
 mod read;
 mod report;
 mod robustness;
+mod run;
 mod sim_check;
 mod simulate;
 mod train;
@@ -81,8 +83,14 @@ enum Command {
     Report(report::Args),
     /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
     Export(nir_cli::ExportArgs),
+    /// What the faithful NIR export costs each shipped SNN, and the chip table: every exportable
+    /// model against Speck, Xylo, Loihi 2 and SpiNNaker 2, with accuracy, work and energy.
+    ChipReport(chip_report::Args),
     /// Import a NIR graph into a model file the engine runs.
     Import(nir_cli::ImportArgs),
+    /// Run a model file or NIR graph on an event file and write every spike of every layer (CSV),
+    /// to compare with another simulator spike for spike.
+    Run(run::Args),
     /// Merge trained SNNs of one architecture into one network: the members side by side, their
     /// readouts summed at every step.
     Ensemble(ensemble::Args),
@@ -108,6 +116,8 @@ fn main() -> ExitCode {
         Command::Baselines(a) => baselines::run(a),
         Command::IcubReport(a) => icub_report::run(a),
         Command::CharsReport(a) => chars_report::run(a),
+        Command::ChipReport(a) => chip_report::run(a),
+        Command::Run(a) => run::run(a),
         Command::Read(a) => read::run(a),
         Command::Report(a) => report::run(a),
         Command::WordsReport(a) => words_report::run(a),

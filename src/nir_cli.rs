@@ -3,21 +3,12 @@
 use anyhow::{Result, bail};
 use snn::model_file::{Readout, SnnConfig, SnnModel};
 use snn::neuron::NeuronKind;
-use snn::nir::{self, Graph, ImportOptions, ImportReset, SubtractExport, Target};
+use snn::nir::{self, Convention, ExportOptions, Graph, ImportOptions, ImportReset, SubtractExport, Target};
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum FormatArg {
     Nir,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum TargetArg {
-    Generic,
-    Loihi2,
-    Speck,
-    Xylo,
-    Spinnaker2,
 }
 
 #[derive(clap::Args)]
@@ -33,20 +24,17 @@ pub struct ExportArgs {
     out: PathBuf,
     /// Check the graph against a chip's toolchain rules first.
     #[arg(long, value_enum, default_value = "generic")]
-    target: TargetArg,
+    target: Target,
+    /// How time constants and input scales are written, for the importer that will read the file:
+    /// `nir` (the model's step, snnTorch's layout), `snntorch` (snnTorch 1.0's fixed 100 us step),
+    /// `norse` (unit `r` and `w_in`, the scales folded into the weights). docs/nir.md.
+    #[arg(long, value_enum, default_value = "nir")]
+    convention: Convention,
     /// Write neurons that reset by subtraction as NIR's reset to v_reset (changes the dynamics).
     #[arg(long)]
     subtract_as_reset: bool,
     #[arg(long)]
     force: bool,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ResetArg {
-    /// NIR's semantics.
-    ToVReset,
-    /// Reset by subtraction (what snnTorch's `subtract` means; NIR cannot say it).
-    Subtract,
 }
 
 #[derive(clap::Args)]
@@ -60,22 +48,12 @@ pub struct ImportArgs {
     #[arg(long, default_value_t = 100)]
     dt_us: i64,
     #[arg(long, value_enum, default_value = "to-v-reset")]
-    reset: ResetArg,
+    reset: ImportReset,
     /// Copy the input encoding and class names from this model (for example the one exported).
     #[arg(long)]
     like: Option<PathBuf>,
     #[arg(long)]
     force: bool,
-}
-
-fn target(t: TargetArg) -> Target {
-    match t {
-        TargetArg::Generic => Target::Generic,
-        TargetArg::Loihi2 => Target::Loihi2,
-        TargetArg::Speck => Target::Speck,
-        TargetArg::Xylo => Target::Xylo,
-        TargetArg::Spinnaker2 => Target::Spinnaker2,
-    }
 }
 
 pub fn export(args: ExportArgs) -> Result<()> {
@@ -84,19 +62,22 @@ pub fn export(args: ExportArgs) -> Result<()> {
     }
     let path = args.model.unwrap_or_else(|| PathBuf::from("models/snn-raw1350.safetensors"));
     let model = SnnModel::load(&path)?;
-    nir::check_target(&model.network, target(args.target))
+    nir::check_target(&model.network, args.target)
         .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim_start_matches("<target>: ")))?;
-    let how = if args.subtract_as_reset { SubtractExport::AsReset } else { SubtractExport::Refuse };
-    let graph = nir::export(&model.network, model.config.dt_us as f64 * 1e-6, how)
+    let dt_s = model.config.dt_us as f64 * 1e-6;
+    let subtract = if args.subtract_as_reset { SubtractExport::AsReset } else { SubtractExport::Refuse };
+    let graph = nir::export(&model.network, &ExportOptions { dt_s, subtract, convention: args.convention })
         .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim_start_matches("<export>: ")))?;
     graph.write(&args.out, args.force)?;
     eprintln!(
-        "wrote {} ({} nodes, {} edges; NIR {}, dt {} us)",
+        "wrote {} ({} nodes, {} edges; NIR {}, {} convention: import at dt = {} s; target {})",
         args.out.display(),
         graph.nodes.len(),
         graph.edges.len(),
         nir::NIR_VERSION,
-        model.config.dt_us
+        args.convention.name(),
+        args.convention.import_dt_s(dt_s),
+        args.target.name()
     );
     Ok(())
 }
@@ -106,11 +87,8 @@ pub fn import(args: ImportArgs) -> Result<()> {
         bail!("--dt-us must be positive");
     }
     let graph = Graph::read(&args.file)?;
-    let reset = match args.reset {
-        ResetArg::ToVReset => ImportReset::ToVReset,
-        ResetArg::Subtract => ImportReset::Subtract,
-    };
-    let imported = nir::import(&args.file, &graph, &ImportOptions { dt_s: args.dt_us as f64 * 1e-6, reset })?;
+    let imported =
+        nir::import(&args.file, &graph, &ImportOptions { dt_s: args.dt_us as f64 * 1e-6, reset: args.reset })?;
     let net = imported.network;
     let readout = match net.layers.last().and_then(|l| l.neurons).map(|p| p.kind) {
         Some(NeuronKind::Li) => Readout::MaxMembrane,

@@ -26,6 +26,9 @@ fn every_command_explains_itself() {
         &["report", "--help"],
         &["words-report", "--help"],
         &["eval", "words", "--help"],
+        &["bench", "--help"],
+        &["run", "--help"],
+        &["chip-report", "--help"],
     ] {
         let o = braille(cmd);
         let (out, _) = text(&o);

@@ -99,6 +99,35 @@ impl Dataset {
     pub fn split(&self, split: Split) -> impl Iterator<Item = &Sample> {
         self.samples.iter().filter(move |s| s.split == split)
     }
+
+    /// The samples of the classes `names` only, relabelled `0..names.len()` in that order (a
+    /// benchmark's class subset, such as the NIR paper's seven Braille letters); a name the
+    /// dataset lacks is an error that lists its classes.
+    pub fn select_classes(&self, names: &[String]) -> Result<Dataset> {
+        let mut map = vec![None; self.classes.len()];
+        for (new, name) in names.iter().enumerate() {
+            let old = self.classes.iter().position(|c| c == name).ok_or_else(|| {
+                Error::Config(format!(
+                    "{}: no class `{name}` (the classes are {})",
+                    self.dir.display(),
+                    self.classes.join(", ")
+                ))
+            })?;
+            if map[old].replace(new).is_some() {
+                return Err(Error::Config(format!("class `{name}` is named twice")));
+            }
+        }
+        let samples =
+            self.samples.iter().filter_map(|s| map[s.label].map(|label| Sample { label, ..s.clone() })).collect();
+        Ok(Dataset {
+            dir: self.dir.clone(),
+            kind: self.kind,
+            classes: names.to_vec(),
+            channels: self.channels,
+            period_us: self.period_us,
+            samples,
+        })
+    }
 }
 
 /// A CSV file read row by row (the `csv` crate: RFC 4180 quoting, fields trimmed, blank lines

@@ -21,11 +21,22 @@ pub struct SpikeTrainConfig {
     pub mask_cols: Option<Range<u16>>,
     /// Clamp counts to 1: an input spikes at most once per step.
     pub binary: bool,
+    /// ON and OFF events of a cell into one input (unipolar input): `n_inputs` is then the pooled
+    /// grid's size, not twice it.
+    #[serde(default)]
+    pub merge_polarities: bool,
 }
 
 impl Default for SpikeTrainConfig {
     fn default() -> Self {
-        Self { dt_us: 1_000, pool: 4, sensor: Resolution::DVXPLORER, mask_cols: None, binary: false }
+        Self {
+            dt_us: 1_000,
+            pool: 4,
+            sensor: Resolution::DVXPLORER,
+            mask_cols: None,
+            binary: false,
+            merge_polarities: false,
+        }
     }
 }
 
@@ -38,9 +49,10 @@ impl SpikeTrainConfig {
         pooling::pooled(self.sensor, self.pool)
     }
 
-    /// Number of input neurons: two polarities over the pooled grid.
+    /// Number of input neurons: two polarities over the pooled grid (one with
+    /// `merge_polarities`).
     pub fn n_inputs(&self) -> usize {
-        2 * self.output().pixels()
+        if self.merge_polarities { self.output().pixels() } else { 2 * self.output().pixels() }
     }
 }
 
@@ -118,7 +130,7 @@ impl SpikeTrainEncoder {
             return Err(Error::Config(format!("dt_us must be positive, got {}", config.dt_us)));
         }
         let map = PoolMap::new(config.sensor, config.pool, config.mask_cols.as_ref())?;
-        Ok(Self { plane: map.output.pixels() as u32, config, map })
+        Ok(Self { plane: if config.merge_polarities { 0 } else { map.output.pixels() as u32 }, config, map })
     }
 
     pub fn config(&self) -> &SpikeTrainConfig {
@@ -189,7 +201,7 @@ mod tests {
             raw.sort_by_key(|e| e.0);
             let events: Vec<Event> = raw.into_iter().map(|(t, x, y, on)| Event::new(t, x, y, Polarity::from_on(on))).collect();
             let sensor = Resolution::new(40, 30);
-            let st = SpikeTrainEncoder::new(SpikeTrainConfig { dt_us: 2_500, pool, sensor, mask_cols: None, binary: false }).unwrap();
+            let st = SpikeTrainEncoder::new(SpikeTrainConfig { dt_us: 2_500, pool, sensor, mask_cols: None, binary: false, merge_polarities: false }).unwrap();
             let hm = HeatmapEncoder::new(HeatmapConfig::new(sensor).with_pool(pool).with_bin_us(2_500)).unwrap();
             let train = st.encode(&events, 0, 20);
             prop_assert_eq!(train.total(), events.len() as u64);
@@ -207,10 +219,28 @@ mod tests {
     #[test]
     fn binary_clamps_counts() {
         let sensor = Resolution::new(8, 8);
-        let cfg = SpikeTrainConfig { dt_us: 1000, pool: 1, sensor, mask_cols: None, binary: true };
+        let cfg =
+            SpikeTrainConfig { dt_us: 1000, pool: 1, sensor, mask_cols: None, binary: true, merge_polarities: false };
         let e = Event::new(10, 3, 2, Polarity::Off);
         let train = SpikeTrainEncoder::new(cfg).unwrap().encode(&[e, e, e], 0, 2);
         assert_eq!(train.step(0), (&[2 * 8 + 3][..], &[1][..]));
         assert_eq!(train.step(1).0.len(), 0);
+    }
+
+    #[test]
+    fn merged_polarities_share_one_input_per_cell() {
+        let sensor = Resolution::new(8, 8);
+        let cfg =
+            SpikeTrainConfig { dt_us: 1000, pool: 1, sensor, mask_cols: None, binary: true, merge_polarities: true };
+        let enc = SpikeTrainEncoder::new(cfg.clone()).unwrap();
+        assert_eq!(cfg.n_inputs(), 64);
+        let (on, off) = (Event::new(10, 3, 2, Polarity::On), Event::new(20, 3, 2, Polarity::Off));
+        assert_eq!(enc.input_of(&on), enc.input_of(&off));
+        // an OR of the step's events: ON and OFF at one cell in one step give one spike
+        let train = enc.encode(&[on, off], 0, 1);
+        assert_eq!(train.step(0), (&[2 * 8 + 3][..], &[1][..]));
+        let counts =
+            SpikeTrainEncoder::new(SpikeTrainConfig { binary: false, ..cfg }).unwrap().encode(&[on, off], 0, 1);
+        assert_eq!(counts.step(0).1, &[2][..]);
     }
 }

@@ -143,6 +143,10 @@ pub struct CharEval {
     pub depth_mm: f64,
     pub scans: usize,
     pub skipped_scans: usize,
+    /// Characters printed on every scan, and the share read right of them (the characters of
+    /// scans the labeler miscounted count as errors); `accuracy` is over the windows found.
+    pub printed: usize,
+    pub accuracy_all: f64,
     #[serde(flatten)]
     pub score: Score,
 }
@@ -151,6 +155,8 @@ pub struct CharEval {
 pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<CharEval> {
     let m = CharModel::load(path)?;
     let (raw, w) = build(spec, &m.input, progress)?;
+    let score = m.score(&raw)?;
+    let right = crate::reports::chars::right(&score);
     Ok(CharEval {
         data: "simulated (virtual Evetac)",
         arch: m.arch(),
@@ -160,7 +166,9 @@ pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<
         depth_mm: spec.depth_mm,
         scans: w.scans,
         skipped_scans: w.skipped_scans,
-        score: m.score(&raw)?,
+        printed: w.printed,
+        accuracy_all: w.accuracy_all(right),
+        score,
     })
 }
 

@@ -12,6 +12,7 @@ pub mod chars;
 pub mod datasets;
 pub mod error;
 pub mod labeling;
+pub mod model_bench;
 pub mod recipe;
 pub mod reports;
 pub mod robustness;

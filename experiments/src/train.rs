@@ -16,12 +16,14 @@ use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
 use serde::Serialize;
 use snn::engine::Mode;
 use snn::model_file::{Readout, SnnConfig, SnnModel};
+use snn::network::PoolKind;
 use snn::neuron::{Discretisation, LifConfig, NeuronKind};
 use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
 use std::path::Path;
 
-/// The recipe's network for `n_inputs` inputs and `n_classes` classes.
-pub fn network_spec(r: &SnnRecipe, n_inputs: usize, n_classes: usize) -> Result<NetworkSpec> {
+/// The recipe's network for an input of `input_shape` (`[n]`, or `[polarity, row, column]` for
+/// simulated windows, which convolutional layers need) and `n_classes` classes.
+pub fn network_spec(r: &SnnRecipe, input_shape: &[usize], n_classes: usize) -> Result<NetworkSpec> {
     let dt = r.dt_us as f64;
     let hidden = match r.neuron {
         NeuronChoice::Lif => LifConfig::lif(r.tau_mem_us),
@@ -30,23 +32,51 @@ pub fn network_spec(r: &SnnRecipe, n_inputs: usize, n_classes: usize) -> Result<
     }
     .with_reset(r.reset)
     .discretise(dt, Discretisation::Exact);
-    if r.hidden.is_empty() || r.hidden.contains(&0) {
-        return Err(Error::Invalid("--hidden needs positive layer sizes".into()));
+    if (r.hidden.is_empty() && r.conv.is_empty()) || r.hidden.contains(&0) {
+        return Err(Error::Invalid("--hidden needs positive layer sizes (or the recipe convolutional layers)".into()));
     }
     if r.recurrent_init_gain.is_some() && !r.recurrent {
         return Err(Error::Invalid("--recurrent-init-gain needs --recurrent".into()));
     }
-    let mut layers: Vec<LayerSpec> = r
-        .hidden
-        .iter()
-        .map(|&n| LayerSpec {
-            op: OpSpec::Dense { n_out: n },
+    if !r.conv.is_empty() && input_shape.len() != 3 {
+        return Err(Error::Invalid(format!(
+            "convolutional layers need a [channels, rows, columns] input, this data gives {input_shape:?}"
+        )));
+    }
+    let mut layers: Vec<LayerSpec> = Vec::new();
+    for c in &r.conv {
+        if c.channels == 0 || c.kernel == 0 || c.stride == 0 || c.pool == 0 {
+            return Err(Error::Invalid(format!("a convolutional layer needs positive sizes, got {c:?}")));
+        }
+        layers.push(LayerSpec {
+            op: OpSpec::Conv2d {
+                out_channels: c.channels,
+                kernel: [c.kernel; 2],
+                stride: [c.stride; 2],
+                padding: c.padding,
+            },
             neurons: Some(hidden),
-            recurrent: r.recurrent,
+            recurrent: false,
             bias: r.bias,
             recurrent_bias: false,
-        })
-        .collect();
+        });
+        if c.pool > 1 {
+            layers.push(LayerSpec {
+                op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [c.pool; 2], stride: [c.pool; 2] },
+                neurons: None,
+                recurrent: false,
+                bias: false,
+                recurrent_bias: false,
+            });
+        }
+    }
+    layers.extend(r.hidden.iter().map(|&n| LayerSpec {
+        op: OpSpec::Dense { n_out: n },
+        neurons: Some(hidden),
+        recurrent: r.recurrent,
+        bias: r.bias,
+        recurrent_bias: false,
+    }));
     let out = match r.readout {
         Readout::MaxMembrane => {
             let mut p = LifConfig::lif(r.tau_out_us).discretise(dt, Discretisation::Exact);
@@ -62,7 +92,9 @@ pub fn network_spec(r: &SnnRecipe, n_inputs: usize, n_classes: usize) -> Result<
         bias: false,
         recurrent_bias: false,
     });
-    Ok(NetworkSpec { input_shape: vec![n_inputs], layers })
+    let spec = NetworkSpec { input_shape: input_shape.to_vec(), layers };
+    spec.shapes()?;
+    Ok(spec)
 }
 
 /// What the data gave to train on.
@@ -136,11 +168,17 @@ impl TactileData {
     /// Encodes a loaded dataset with the recipe's sigma-delta threshold and step.
     pub fn encode(data: &Dataset, r: &SnnRecipe) -> Result<TactileData> {
         let sd = SigmaDeltaConfig { threshold: r.sigma_delta, interpolate: r.interpolate };
-        let encoding = TactileEncoding::fit(data, sd, r.dt_us)?;
+        let encoding = TactileEncoding {
+            merge_polarities: r.merge_polarities,
+            binary: r.binary_input,
+            classes: r.classes.clone(),
+            channel_pool: r.channel_pool,
+            ..TactileEncoding::fit(data, sd, r.dt_us)?
+        };
         let validation = encoding.encode(data, Some(Split::Validation))?;
         Ok(TactileData {
             dir: data.dir.clone(),
-            classes: data.classes.clone(),
+            classes: encoding.select(data)?.classes.clone(),
             train: encoding.encode(data, Some(Split::Train))?,
             validation: (!validation.is_empty()).then_some(validation),
             test: encoding.encode(data, Some(Split::Test))?,
@@ -199,7 +237,7 @@ pub fn train_on(
         scans: None,
         skipped_scans: None,
     };
-    let spec = network_spec(r, data.encoding.n_inputs(), data.classes.len())?;
+    let spec = network_spec(r, &[data.encoding.n_inputs()], data.classes.len())?;
     let fit = fit(r, spec, &train, &val, observer)?;
     let scored = match eval_test {
         EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
@@ -258,7 +296,9 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         scans: Some(tw.scans),
         skipped_scans: Some(tw.skipped_scans),
     };
-    let spec = network_spec(r, train.n_inputs, train.classes.len())?;
+    let [_, h, w] = input.shape();
+    let shape = if r.conv.is_empty() { vec![train.n_inputs] } else { vec![2, h, w] };
+    let spec = network_spec(r, &shape, train.classes.len())?;
     let fit = fit(r, spec, &train, &val, observer)?;
     let scored = snn_accuracy(&fit.network, &fit.config, &val, Mode::Stepped)?;
     let model = SnnModel {

@@ -19,6 +19,26 @@ pub struct TactileEncoding {
     pub period_us: i64,
     pub dt_us: i64,
     pub steps: usize,
+    /// ON and OFF events of a channel into one input (unipolar input: `channels` inputs).
+    #[serde(default)]
+    pub merge_polarities: bool,
+    /// At most one spike per input and step (an OR of the step's events).
+    #[serde(default)]
+    pub binary: bool,
+    /// Only these classes, relabelled in this order (`None`: all of the dataset's).
+    #[serde(default)]
+    pub classes: Option<Vec<String>>,
+    /// Neighbouring channels (by index) summed in groups of this many (1: none).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub channel_pool: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(v: &usize) -> bool {
+    *v == 1
 }
 
 /// Labelled spike trains, all of the same input size and step.
@@ -111,6 +131,10 @@ impl TactileEncoding {
             period_us: data.period_us,
             dt_us,
             steps: 0,
+            merge_polarities: false,
+            binary: false,
+            classes: None,
+            channel_pool: 1,
         };
         let mut end = 0i64;
         for s in &data.samples {
@@ -124,15 +148,51 @@ impl TactileEncoding {
     }
 
     pub fn n_inputs(&self) -> usize {
-        2 * self.channels
+        let cells = self.channels.div_ceil(self.channel_pool.max(1));
+        if self.merge_polarities { cells } else { 2 * cells }
     }
 
     /// The spike-train encoder of this encoding for a sensor of `resolution` (channels along x).
     pub fn encoder(&self, resolution: encoders::Resolution) -> encoders::Result<SpikeTrainEncoder> {
         let mut cfg = SpikeTrainConfig::new(resolution);
         cfg.dt_us = self.dt_us;
-        cfg.pool = 1;
+        cfg.pool = self.channel_pool.max(1).min(u16::MAX as usize) as u16;
+        cfg.binary = self.binary;
+        cfg.merge_polarities = self.merge_polarities;
         SpikeTrainEncoder::new(cfg)
+    }
+
+    /// The dataset as this encoding sees it: its class subset, if it has one.
+    pub fn select<'d>(&self, data: &'d Dataset) -> encoders::Result<std::borrow::Cow<'d, Dataset>> {
+        Ok(match &self.classes {
+            Some(names) => std::borrow::Cow::Owned(data.select_classes(names)?),
+            None => std::borrow::Cow::Borrowed(data),
+        })
+    }
+
+    /// One sample's input events as the engine takes them, `(t_us, input)` in time order, within
+    /// the encoding's `steps` (events after them are left out, as [`Self::encode`] leaves them).
+    /// Unlike a spike train, every sensor event stays an event, so that an engine summing a step's
+    /// events (value 1 each) gets the train's counts; with `binary`, only the first event of an
+    /// input in a step is kept (the OR). `data` is the dataset as [`Self::select`] gives it.
+    pub fn events_of(
+        &self,
+        data: &Dataset,
+        sample: &encoders::dataset::Sample,
+        encoder: &SpikeTrainEncoder,
+    ) -> encoders::Result<Vec<(i64, u32)>> {
+        let end = self.dt_us * self.steps as i64;
+        let mut out: Vec<(i64, u32)> = sample_events(data, sample, self)?
+            .iter()
+            .filter(|e| (0..end).contains(&e.t_us))
+            .filter_map(|e| encoder.input_of(e).map(|i| (e.t_us, i)))
+            .collect();
+        out.sort_by_key(|&(t, _)| t);
+        if self.binary {
+            let mut seen = std::collections::HashSet::new();
+            out.retain(|&(t, i)| seen.insert((t / self.dt_us, i)));
+        }
+        Ok(out)
     }
 
     /// Encodes the samples of `split` (all samples for `None`).
@@ -145,6 +205,7 @@ impl TactileEncoding {
                 self.channels
             )));
         }
+        let data = &*self.select(data)?;
         let encoder = self.encoder(data.resolution())?;
         let mut set = SpikeSet {
             n_inputs: self.n_inputs(),

@@ -278,7 +278,8 @@ impl Network {
 /// What a time-stepped run produced.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Record {
-    /// Per layer with neurons, per step: indices of the neurons that spiked (ascending).
+    /// Per layer, per step: indices of the neurons that spiked (ascending; empty for layers
+    /// without neurons).
     pub spikes: Vec<Vec<Vec<u32>>>,
     /// Per layer, the membrane after the last step.
     pub v: Vec<Vec<f32>>,

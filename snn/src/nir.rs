@@ -180,9 +180,12 @@ fn is_integer_param(k: &str) -> bool {
 
 /// How an imported graph resets its neurons (NIR cannot say; its nodes reset to `v_reset`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ImportReset {
+    /// NIR's semantics.
     #[default]
     ToVReset,
+    /// Reset by subtraction (what snnTorch's `subtract` means; NIR cannot say it).
     Subtract,
 }
 
@@ -494,12 +497,132 @@ pub enum SubtractExport {
     AsReset,
 }
 
-/// The graph of `net` at step `dt_s`.
-pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Graph> {
+/// How an exported graph writes each neuron's time constants and input scales: NIR's equations
+/// leave the split between weights, `r` and `w_in` free, and each peer's importer reads only some
+/// splits as trained (docs/nir.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Convention {
+    /// NIR's equations at the model's own step, in the layout of snnTorch's exporter:
+    /// `tau = dt / (1 - beta)`, `r = tau / dt`, `w_in = tau_syn / dt`, the weights as trained. Read
+    /// as trained by any importer told the model's `dt` (ours, Norse's CubaLIF, NIR's reference).
+    #[default]
+    Nir,
+    /// For snnTorch 1.0's `import_from_nir`, which assumes a step of 100 us: the same layout with
+    /// the time constants of a 100 us step (`tau = 1e-4 / (1 - beta)`), so that it recovers the
+    /// trained decays and unit input scales. The file's time runs one model step per 100 us:
+    /// import it at `dt = 1e-4 s` and feed it one model step per 100 us.
+    Snntorch,
+    /// Unit input scales (`r = 1`, `w_in = 1`) with the factors `tau / dt` (and
+    /// `tau_syn / dt`) folded into the weights and biases that feed each neuron layer: NIR's
+    /// equations at the model's step, and what Norse 1.1 runs as trained (its LIF ignores `r`).
+    Norse,
+}
+
+impl Convention {
+    pub fn name(self) -> &'static str {
+        match self {
+            Convention::Nir => "nir",
+            Convention::Snntorch => "snntorch",
+            Convention::Norse => "norse",
+        }
+    }
+
+    /// The step, in seconds, at which an importer reads a graph written at `dt_s` this way.
+    pub fn import_dt_s(self, dt_s: f64) -> f64 {
+        match self {
+            Convention::Snntorch => SNNTORCH_DT_S,
+            Convention::Nir | Convention::Norse => dt_s,
+        }
+    }
+}
+
+/// The step snnTorch 1.0's NIR importer and exporter assume (`dt = 1e-4` in `import_nir.py`).
+pub const SNNTORCH_DT_S: f64 = 1e-4;
+
+/// What an export writes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExportOptions {
+    /// The model's step, in seconds.
+    pub dt_s: f64,
+    pub subtract: SubtractExport,
+    pub convention: Convention,
+}
+
+impl ExportOptions {
+    /// NIR's own convention at step `dt_s`, refusing reset by subtraction.
+    pub fn new(dt_s: f64) -> ExportOptions {
+        ExportOptions { dt_s, subtract: SubtractExport::Refuse, convention: Convention::Nir }
+    }
+}
+
+/// A neuron layer's NIR node: its type, its parameters and the factor folded into the weights
+/// that feed it.
+fn neuron_node(
+    k: usize,
+    np: &NeuronParams,
+    shape: &[usize],
+    o: &ExportOptions,
+) -> Result<(&'static str, BTreeMap<String, Array>, f64)> {
+    let p = Path::new("<export>");
+    let dt = o.convention.import_dt_s(o.dt_s);
+    let unit = o.convention == Convention::Norse;
+    let tau_of = |f: f32| -> Result<f64> {
+        if f >= 1.0 || f <= 0.0 {
+            return Err(nir_err(p, format!("layer {k}: decay {f} has no finite time constant")));
+        }
+        Ok(dt / (1.0 - f as f64))
+    };
+    let full = |v: f64| Array::full(shape, v);
+    Ok(match np.kind {
+        NeuronKind::Lif | NeuronKind::Li => {
+            let tau = tau_of(np.beta)?;
+            let (r, fold) = if unit { (1.0, tau / dt) } else { (tau / dt, 1.0) };
+            let mut m = BTreeMap::from([
+                ("tau".into(), full(tau)),
+                ("r".into(), full(r)),
+                ("v_leak".into(), full(np.v_leak as f64)),
+            ]);
+            if np.kind == NeuronKind::Lif {
+                m.insert("v_threshold".into(), full(np.v_th as f64));
+                m.insert("v_reset".into(), full(np.v_reset as f64));
+            }
+            (if np.kind == NeuronKind::Lif { "LIF" } else { "LI" }, m, fold)
+        }
+        NeuronKind::CubaLif => {
+            let (ts, tm) = (tau_of(np.alpha)?, tau_of(np.beta)?);
+            let (r, w_in, fold) = if unit { (1.0, 1.0, (tm / dt) * (ts / dt)) } else { (tm / dt, ts / dt, 1.0) };
+            let m = BTreeMap::from([
+                ("tau_syn".into(), full(ts)),
+                ("tau_mem".into(), full(tm)),
+                ("r".into(), full(r)),
+                ("w_in".into(), full(w_in)),
+                ("v_leak".into(), full(np.v_leak as f64)),
+                ("v_threshold".into(), full(np.v_th as f64)),
+                ("v_reset".into(), full(np.v_reset as f64)),
+            ]);
+            ("CubaLIF", m, fold)
+        }
+        NeuronKind::If => {
+            let m = BTreeMap::from([
+                ("r".into(), full(1.0)),
+                ("v_threshold".into(), full(np.v_th as f64)),
+                ("v_reset".into(), full(np.v_reset as f64)),
+            ]);
+            ("IF", m, 1.0)
+        }
+    })
+}
+
+/// The graph of `net`, written as `opts` says.
+pub fn export(net: &Network, opts: &ExportOptions) -> Result<Graph> {
     let mut g = Graph { version: NIR_VERSION.to_string(), ..Graph::default() };
     let p = Path::new("<export>");
-    let arr =
-        |shape: &[usize], data: &[f32]| Array { shape: shape.to_vec(), data: data.iter().map(|&v| v as f64).collect() };
+    let arr = |shape: &[usize], data: &[f32], s: f64| Array {
+        shape: shape.to_vec(),
+        data: data.iter().map(|&v| if s == 1.0 { v as f64 } else { (v as f64 * s) as f32 as f64 }).collect(),
+    };
     let ints = |v: &[usize]| Array { shape: vec![v.len()], data: v.iter().map(|&x| x as f64).collect() };
     g.nodes.insert(
         "input".into(),
@@ -519,13 +642,29 @@ pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Grap
             g.edges.push((prev, name.clone()));
             prev = name;
         }
+        let out_shape = l.op.out_shape();
+        let neurons = match &l.neurons {
+            Some(np) => {
+                if np.reset == Reset::Subtract && np.kind != NeuronKind::Li && opts.subtract == SubtractExport::Refuse {
+                    return Err(nir_err(
+                        p,
+                        format!(
+                            "layer {k} resets by subtraction, which NIR cannot encode (its neurons reset to v_reset); export with the reset written as v_reset to accept changed dynamics, or train with reset to zero"
+                        ),
+                    ));
+                }
+                Some(neuron_node(k, np, &out_shape, opts)?)
+            }
+            None => None,
+        };
+        let fold = neurons.as_ref().map_or(1.0, |n| n.2);
         let name = format!("layer{k}.op");
         let node = match &l.op {
             Op::Dense { n_in, n_out, weight, bias } => {
-                let mut params = BTreeMap::from([("weight".into(), arr(&[*n_out, *n_in], weight))]);
+                let mut params = BTreeMap::from([("weight".into(), arr(&[*n_out, *n_in], weight, fold))]);
                 match bias {
                     Some(b) => {
-                        params.insert("bias".into(), arr(&[*n_out], b));
+                        params.insert("bias".into(), arr(&[*n_out], b, fold));
                         Node { kind: "Affine".into(), params }
                     }
                     None => Node { kind: "Linear".into(), params },
@@ -534,8 +673,8 @@ pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Grap
             Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, bias } => {
                 let zero = vec![0.0; *out_channels];
                 let params = BTreeMap::from([
-                    ("weight".into(), arr(&[*out_channels, in_shape[0], kernel[0], kernel[1]], weight)),
-                    ("bias".into(), arr(&[*out_channels], bias.as_deref().unwrap_or(&zero))),
+                    ("weight".into(), arr(&[*out_channels, in_shape[0], kernel[0], kernel[1]], weight, fold)),
+                    ("bias".into(), arr(&[*out_channels], bias.as_deref().unwrap_or(&zero), fold)),
                     ("stride".into(), ints(stride)),
                     ("padding".into(), ints(padding)),
                     ("dilation".into(), ints(&[1, 1])),
@@ -545,6 +684,14 @@ pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Grap
                 Node { kind: "Conv2d".into(), params }
             }
             Op::Pool { kind, kernel, stride, .. } => {
+                if fold != 1.0 {
+                    return Err(nir_err(
+                        p,
+                        format!(
+                            "layer {k}: neurons fed by pooling have no weights to fold their input scale into; export with the `nir` convention"
+                        ),
+                    ));
+                }
                 let params = BTreeMap::from([
                     ("kernel_size".into(), ints(kernel)),
                     ("stride".into(), ints(stride)),
@@ -556,72 +703,18 @@ pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Grap
         g.nodes.insert(name.clone(), node);
         g.edges.push((prev, name.clone()));
         prev = name;
-        shape = l.op.out_shape();
-        if let Some(np) = &l.neurons {
-            if np.reset == Reset::Subtract && np.kind != NeuronKind::Li && subtract == SubtractExport::Refuse {
-                return Err(nir_err(
-                    p,
-                    format!(
-                        "layer {k} resets by subtraction, which NIR cannot encode (its neurons reset to v_reset); export with the reset written as v_reset to accept changed dynamics, or train with reset to zero"
-                    ),
-                ));
-            }
-            let dt = dt_s;
-            let tau_of = |f: f32| -> Result<f64> {
-                if f >= 1.0 || f <= 0.0 {
-                    return Err(nir_err(p, format!("layer {k}: decay {f} has no finite time constant")));
-                }
-                Ok(dt / (1.0 - f as f64))
-            };
-            let full = |v: f64| Array::full(&shape, v);
+        shape = out_shape;
+        if let Some((kind, params, fold)) = neurons {
             let name = format!("layer{k}.neurons");
-            let params: BTreeMap<String, Array> = match np.kind {
-                NeuronKind::Lif | NeuronKind::Li => {
-                    let tau = tau_of(np.beta)?;
-                    let mut m = BTreeMap::from([
-                        ("tau".into(), full(tau)),
-                        ("r".into(), full(tau / dt)),
-                        ("v_leak".into(), full(np.v_leak as f64)),
-                    ]);
-                    if np.kind == NeuronKind::Lif {
-                        m.insert("v_threshold".into(), full(np.v_th as f64));
-                        m.insert("v_reset".into(), full(np.v_reset as f64));
-                    }
-                    m
-                }
-                NeuronKind::CubaLif => {
-                    let (ts, tm) = (tau_of(np.alpha)?, tau_of(np.beta)?);
-                    BTreeMap::from([
-                        ("tau_syn".into(), full(ts)),
-                        ("tau_mem".into(), full(tm)),
-                        ("r".into(), full(tm / dt)),
-                        ("w_in".into(), full(ts / dt)),
-                        ("v_leak".into(), full(np.v_leak as f64)),
-                        ("v_threshold".into(), full(np.v_th as f64)),
-                        ("v_reset".into(), full(np.v_reset as f64)),
-                    ])
-                }
-                NeuronKind::If => BTreeMap::from([
-                    ("r".into(), full(1.0)),
-                    ("v_threshold".into(), full(np.v_th as f64)),
-                    ("v_reset".into(), full(np.v_reset as f64)),
-                ]),
-            };
-            let kind = match np.kind {
-                NeuronKind::Lif => "LIF",
-                NeuronKind::CubaLif => "CubaLIF",
-                NeuronKind::If => "IF",
-                NeuronKind::Li => "LI",
-            };
             g.nodes.insert(name.clone(), Node { kind: kind.into(), params });
             g.edges.push((prev, name.clone()));
             if let Some(w) = &l.recurrent {
                 let n = l.op.n_out();
                 let rname = format!("layer{k}.w_rec");
-                let mut params = BTreeMap::from([("weight".into(), arr(&[n, n], w))]);
+                let mut params = BTreeMap::from([("weight".into(), arr(&[n, n], w, fold))]);
                 let kind = match &l.recurrent_bias {
                     Some(b) => {
-                        params.insert("bias".into(), arr(&[n], b));
+                        params.insert("bias".into(), arr(&[n], b, fold));
                         "Affine"
                     }
                     None => "Linear",
@@ -642,7 +735,9 @@ pub fn export(net: &Network, dt_s: f64, subtract: SubtractExport) -> Result<Grap
 }
 
 /// Chip target profiles: what each toolchain accepts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
 pub enum Target {
     Generic,
     Loihi2,
@@ -651,52 +746,217 @@ pub enum Target {
     Spinnaker2,
 }
 
+impl Target {
+    /// The chips, in table order.
+    pub const CHIPS: [Target; 4] = [Target::Speck, Target::Xylo, Target::Loihi2, Target::Spinnaker2];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Generic => "generic",
+            Target::Loihi2 => "Loihi 2",
+            Target::Speck => "Speck",
+            Target::Xylo => "Xylo",
+            Target::Spinnaker2 => "SpiNNaker 2",
+        }
+    }
+}
+
+/// Speck's (DYNAP-CNN's) nine cores: kernel (weight) memory and neuron memory, in entries, as
+/// Sinabs maps layers onto them (`sinabs.backend.dynapcnn.chips.dynapcnn`, `get_constraints`).
+pub const SPECK_KERNEL_MEMORY: [u64; 9] =
+    [16 << 10, 16 << 10, 16 << 10, 32 << 10, 32 << 10, 64 << 10, 64 << 10, 16 << 10, 16 << 10];
+pub const SPECK_NEURON_MEMORY: [u64; 9] =
+    [64 << 10, 64 << 10, 64 << 10, 32 << 10, 32 << 10, 16 << 10, 16 << 10, 16 << 10, 16 << 10];
+/// Xylo (Xylo Audio v2, SYNS61201) as Rockpool's mapper and the chip's input interface take it.
+pub const XYLO_MAX_INPUTS: usize = 16;
+pub const XYLO_MAX_HIDDEN: usize = 1000;
+pub const XYLO_MAX_OUTPUTS: usize = 8;
+
+fn pow2_ceil_log2(n: usize) -> u64 {
+    1u64 << (n.max(1) as f64).log2().ceil() as u32
+}
+
+/// One Speck core's needs: (kernel memory, neuron memory), Sinabs' `memory_summary`: kernel
+/// `c_in * 2^(ceil log2(kh kw) + ceil log2 c_out)`, neurons `c_out * 2^(ceil log2 h + ceil log2 w)`.
+fn speck_memory(c_in: usize, kernel: [usize; 2], c_out: usize, out_hw: [usize; 2]) -> (u64, u64) {
+    let kernel_mem = c_in as u64 * pow2_ceil_log2(kernel[0] * kernel[1]) * pow2_ceil_log2(c_out);
+    let neuron_mem = c_out as u64 * pow2_ceil_log2(out_hw[0]) * pow2_ceil_log2(out_hw[1]);
+    (kernel_mem, neuron_mem)
+}
+
+/// Whether every layer's memory fits a core of its own.
+fn speck_cores_fit(needs: &[(u64, u64)], used: &mut [bool; 9]) -> bool {
+    let Some((&(k, n), rest)) = needs.split_first() else { return true };
+    for c in 0..9 {
+        if !used[c] && k <= SPECK_KERNEL_MEMORY[c] && n <= SPECK_NEURON_MEMORY[c] {
+            used[c] = true;
+            if speck_cores_fit(rest, used) {
+                return true;
+            }
+            used[c] = false;
+        }
+    }
+    false
+}
+
 /// Checks a network against a target's rules; the error names the layer (and its NIR node) and
-/// the rule.
+/// the rule. The rules and their sources are in docs/nir.md.
 pub fn check_target(net: &Network, target: Target) -> Result<()> {
     let p = Path::new("<target>");
-    let fail = |k: usize, node: &str, rule: &str| {
-        Err(nir_err(p, format!("layer {k} (node `layer{k}.{node}`): {target:?}: {rule}")))
+    let fail = |k: usize, node: &str, rule: String| {
+        Err(nir_err(p, format!("layer {k} (node `layer{k}.{node}`): {}: {rule}", target.name())))
     };
+    let last = net.layers.len().saturating_sub(1);
+    let mut shape = net.input_shape.clone();
+    let mut hidden = 0usize;
+    let mut speck_needs: Vec<(u64, u64)> = Vec::new();
+    if target == Target::Speck
+        && let [c, h, w] = shape[..]
+        && (c > 2 || h > 128 || w > 128)
+    {
+        return fail(
+            0,
+            "op",
+            format!("Speck's input is at most 2 x 128 x 128 (polarity, rows, columns), got {shape:?}"),
+        );
+    }
     for (k, l) in net.layers.iter().enumerate() {
         let kind = l.neurons.map(|n| n.kind);
         match target {
             Target::Generic => {}
             Target::Speck => {
-                if let Some(n) = l.neurons
-                    && n.kind != NeuronKind::If
+                if let Some(n) = kind
+                    && n != NeuronKind::If
                 {
-                    return fail(k, "neurons", "Speck runs IF neurons only (no leak): convert LIF/CubaLIF to IF");
-                }
-                if matches!(l.op, Op::Dense { .. }) && l.neurons.is_none() {
-                    return fail(k, "op", "a dense layer must feed neurons");
-                }
-                if let Op::Pool { kind: PoolKind::Avg, .. } = l.op {
-                    return fail(k, "op", "Speck pools by summing (SumPool2d), not averaging");
+                    return fail(
+                        k,
+                        "neurons",
+                        "Speck runs IF neurons only (no leak): convert LIF/CubaLIF to IF".into(),
+                    );
                 }
                 if l.recurrent.is_some() {
-                    return fail(k, "w_rec", "Speck has no recurrent connections");
+                    return fail(k, "w_rec", "Speck has no recurrent connections".into());
                 }
                 if l.op.bias().is_some() {
-                    return fail(k, "op", "Speck has no biases");
+                    return fail(
+                        k,
+                        "op",
+                        "no biases (Speck applies a bias as a leak at its own clock, not per step)".into(),
+                    );
+                }
+                match &l.op {
+                    Op::Pool { kind: PoolKind::Avg, .. } => {
+                        return fail(k, "op", "Speck pools by summing (SumPool2d), not averaging".into());
+                    }
+                    Op::Pool { kernel, stride, .. } => {
+                        if kernel != stride || kernel[0] != kernel[1] || ![1, 2, 4].contains(&kernel[0]) {
+                            return fail(
+                                k,
+                                "op",
+                                format!(
+                                    "a core pools by 1, 2 or 4, square, stride equal to the kernel; got kernel {kernel:?} stride {stride:?}"
+                                ),
+                            );
+                        }
+                        if k == 0
+                            || net.layers[k - 1].neurons.is_none() && !matches!(net.layers[k - 1].op, Op::Pool { .. })
+                        {
+                            return fail(
+                                k,
+                                "op",
+                                "pooling sits at a core's output: it must follow a spiking layer".into(),
+                            );
+                        }
+                    }
+                    Op::Conv2d { in_shape, out_channels, kernel, stride, .. } => {
+                        if kernel[0] != kernel[1] || kernel[0] > 16 {
+                            return fail(k, "op", format!("kernels are square and at most 16 x 16, got {kernel:?}"));
+                        }
+                        if stride.iter().any(|s| ![1, 2, 4, 8].contains(s)) {
+                            return fail(k, "op", format!("strides are 1, 2, 4 or 8, got {stride:?}"));
+                        }
+                        let o = l.op.out_shape();
+                        speck_needs.push(speck_memory(in_shape[0], *kernel, *out_channels, [o[1], o[2]]));
+                    }
+                    Op::Dense { n_out, .. } => {
+                        // a dense layer is a convolution whose kernel covers its [C, H, W] input
+                        let (c, h, w) = match shape[..] {
+                            [c, h, w] => (c, h, w),
+                            _ => (shape.iter().product(), 1, 1),
+                        };
+                        if h != w || h > 16 {
+                            return fail(
+                                k,
+                                "op",
+                                format!(
+                                    "a dense layer runs as a convolution over its whole input, so its input's height and width must be equal and at most 16, got {shape:?}"
+                                ),
+                            );
+                        }
+                        speck_needs.push(speck_memory(c, [h, w], *n_out, [1, 1]));
+                    }
+                }
+                if !matches!(l.op, Op::Pool { .. }) && l.neurons.is_none() {
+                    return fail(k, "op", "every convolution or dense layer feeds IF neurons on its core".into());
                 }
             }
             Target::Xylo => {
                 if matches!(l.op, Op::Conv2d { .. } | Op::Pool { .. }) {
-                    return fail(k, "op", "Xylo has no convolution or pooling: dense (and recurrent) layers only");
+                    return fail(
+                        k,
+                        "op",
+                        "Xylo has no convolution or pooling: dense (and recurrent) layers only".into(),
+                    );
                 }
                 if let Some(n) = kind
                     && !matches!(n, NeuronKind::CubaLif | NeuronKind::Lif | NeuronKind::Li)
                 {
-                    return fail(k, "neurons", "Xylo runs (current-based) LIF neurons");
+                    return fail(k, "neurons", "Xylo runs (current-based) LIF neurons".into());
                 }
-                if l.op.n_out() > 1000 {
-                    return fail(k, "op", "Xylo holds at most 1000 hidden neurons");
+                if k == 0 && net.n_inputs() > XYLO_MAX_INPUTS {
+                    return fail(
+                        0,
+                        "op",
+                        format!(
+                            "Xylo takes at most {XYLO_MAX_INPUTS} input channels, the network has {}",
+                            net.n_inputs()
+                        ),
+                    );
+                }
+                if k == last {
+                    if l.op.n_out() > XYLO_MAX_OUTPUTS {
+                        return fail(
+                            k,
+                            "op",
+                            format!("Xylo has {XYLO_MAX_OUTPUTS} output neurons, the layer has {}", l.op.n_out()),
+                        );
+                    }
+                    if l.recurrent.is_some() {
+                        return fail(k, "w_rec", "Xylo's output neurons have no recurrent input".into());
+                    }
+                    if k == 0 {
+                        return fail(
+                            k,
+                            "op",
+                            "Xylo's inputs feed hidden neurons only: the network needs a hidden layer".into(),
+                        );
+                    }
+                } else {
+                    hidden += l.op.n_out();
+                    if hidden > XYLO_MAX_HIDDEN {
+                        return fail(
+                            k,
+                            "op",
+                            format!(
+                                "Xylo holds at most {XYLO_MAX_HIDDEN} hidden neurons in all, the layers up to this one have {hidden}"
+                            ),
+                        );
+                    }
                 }
             }
             Target::Loihi2 => {
                 if matches!(l.op, Op::Pool { kind: PoolKind::Avg, .. }) {
-                    return fail(k, "op", "Loihi 2 (lava-dl) pools by summing; average pooling is not mapped");
+                    return fail(k, "op", "Loihi 2 (lava-dl) pools by summing; average pooling is not mapped".into());
                 }
             }
             Target::Spinnaker2 => {
@@ -704,13 +964,28 @@ pub fn check_target(net: &Network, target: Target) -> Result<()> {
                     return fail(
                         k,
                         "op",
-                        "the SpiNNaker2 NIR mapping (py-spinnaker2) takes dense and recurrent layers",
+                        "the SpiNNaker2 NIR mapping (py-spinnaker2) takes dense and recurrent layers".into(),
                     );
                 }
                 if kind == Some(NeuronKind::If) {
-                    return fail(k, "neurons", "the SpiNNaker2 NIR mapping runs LIF and CubaLIF neurons");
+                    return fail(k, "neurons", "the SpiNNaker2 NIR mapping runs LIF and CubaLIF neurons".into());
                 }
             }
+        }
+        shape = l.op.out_shape();
+    }
+    if target == Target::Speck {
+        if speck_needs.len() > 9 {
+            return fail(last, "op", format!("Speck has 9 cores, the network needs {}", speck_needs.len()));
+        }
+        if !speck_cores_fit(&speck_needs, &mut [false; 9]) {
+            return fail(
+                last,
+                "op",
+                format!(
+                    "the layers' (kernel, neuron) memory {speck_needs:?} does not fit Speck's cores (kernel {SPECK_KERNEL_MEMORY:?}, neurons {SPECK_NEURON_MEMORY:?})"
+                ),
+            );
         }
     }
     Ok(())

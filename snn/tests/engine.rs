@@ -194,9 +194,15 @@ fn spike_trains_from_the_encoder_run_as_the_dense_reference_does() {
     use encoders::{Event, Polarity, Resolution};
     // Events of a 40x30 sensor pooled by 2 into 2x15x20 inputs, 1 ms steps.
     let sensor = Resolution::new(40, 30);
-    let enc =
-        SpikeTrainEncoder::new(SpikeTrainConfig { dt_us: 1_000, pool: 2, sensor, mask_cols: None, binary: false })
-            .unwrap();
+    let enc = SpikeTrainEncoder::new(SpikeTrainConfig {
+        dt_us: 1_000,
+        pool: 2,
+        sensor,
+        mask_cols: None,
+        binary: false,
+        merge_polarities: false,
+    })
+    .unwrap();
     let events: Vec<Event> = (0..3_000u32)
         .map(|k| Event::new(k as i64 * 7, (k * 13 % 40) as u16, (k * 7 % 30) as u16, Polarity::from_on(k % 3 == 0)))
         .collect();

@@ -3,7 +3,7 @@
 
 use snn::engine::{Engine, Mode};
 use snn::network::{Network, forward_dense, forward_dense_traced, random_input};
-use snn::nir::{self, Graph, ImportOptions, ImportReset, SubtractExport, Target};
+use snn::nir::{self, Convention, ExportOptions, Graph, ImportOptions, ImportReset, SubtractExport, Target};
 use std::path::{Path, PathBuf};
 
 fn fixture(rel: &str) -> PathBuf {
@@ -129,7 +129,7 @@ fn export_then_import_gives_identical_outputs() {
         ("dense/dense_snn.nir", ImportReset::ToVReset),
     ] {
         let net = import(src, reset);
-        let g = nir::export(&net, 1e-4, SubtractExport::Refuse).unwrap();
+        let g = nir::export(&net, &ExportOptions::new(1e-4)).unwrap();
         let out = dir.path().join("x.nir");
         g.write(&out, true).unwrap();
         let again = nir::import(&out, &Graph::read(&out).unwrap(), &ImportOptions::default()).unwrap().network;
@@ -148,9 +148,73 @@ fn export_then_import_gives_identical_outputs() {
     }
     // subtraction cannot be written without saying so
     let net = import("dense/dense_snn.nir", ImportReset::Subtract);
-    let e = nir::export(&net, 1e-4, SubtractExport::Refuse).unwrap_err().to_string();
+    let e = nir::export(&net, &ExportOptions::new(1e-4)).unwrap_err().to_string();
     assert!(e.contains("subtraction"), "{e}");
-    assert!(nir::export(&net, 1e-4, SubtractExport::AsReset).is_ok());
+    assert!(
+        nir::export(&net, &ExportOptions { subtract: SubtractExport::AsReset, ..ExportOptions::new(1e-4) }).is_ok()
+    );
+}
+
+/// A parameter of node `name`, all equal across neurons.
+fn param(g: &Graph, name: &str, key: &str) -> f64 {
+    let a = &g.nodes[name].params[key];
+    assert!(a.data.iter().all(|&v| v == a.data[0]), "{name}.{key}");
+    a.data[0]
+}
+
+#[test]
+fn every_convention_reads_back_as_trained_and_fits_its_importer() {
+    let dir = tempfile::tempdir().unwrap();
+    // the fixtures' decays as a model stepping 10 ms: snnTorch's fixed 100 us step differs
+    let dt_s = 0.01;
+    for src in ["braille/braille_noDelay_bias_zero.nir", "conv/conv_snn.nir", "dense/dense_snn.nir"] {
+        let net = import(src, ImportReset::ToVReset);
+        for convention in [Convention::Nir, Convention::Snntorch, Convention::Norse] {
+            let g = nir::export(&net, &ExportOptions { convention, ..ExportOptions::new(dt_s) }).unwrap();
+            let out = dir.path().join("x.nir");
+            g.write(&out, true).unwrap();
+            let opts = ImportOptions { dt_s: convention.import_dt_s(dt_s), reset: ImportReset::ToVReset };
+            let again = nir::import(&out, &Graph::read(&out).unwrap(), &opts).unwrap().network;
+            for seed in 0..3 {
+                let input = random_input(seed, 40, net.n_inputs(), 0.1);
+                let a = forward_dense(&net, &input, 40).unwrap();
+                let b = forward_dense(&again, &input, 40).unwrap();
+                assert_eq!(a.spikes, b.spikes, "{src} {convention:?}");
+            }
+            // what each peer's importer asserts or drops (snntorch/import_nir.py, norse import_nir.py)
+            for (name, node) in &g.nodes {
+                let dt = opts.dt_s;
+                match (node.kind.as_str(), convention) {
+                    ("CubaLIF", Convention::Snntorch) => {
+                        let (r, tm, ts, w_in) = (
+                            param(&g, name, "r"),
+                            param(&g, name, "tau_mem"),
+                            param(&g, name, "tau_syn"),
+                            param(&g, name, "w_in"),
+                        );
+                        assert!(
+                            (r - tm / nir::SNNTORCH_DT_S).abs() <= 1e-5 * r,
+                            "r not supported in CubaLIF: {r} {tm}"
+                        );
+                        assert!((w_in * nir::SNNTORCH_DT_S / ts - 1.0).abs() < 1e-5, "{name}: w_in {w_in}");
+                    }
+                    ("LIF", Convention::Snntorch) => {
+                        assert!(
+                            (param(&g, name, "r") * nir::SNNTORCH_DT_S / param(&g, name, "tau") - 1.0).abs() < 1e-5
+                        );
+                    }
+                    ("CubaLIF", Convention::Norse) => {
+                        assert_eq!((param(&g, name, "r"), param(&g, name, "w_in")), (1.0, 1.0), "{name}");
+                    }
+                    ("LIF", Convention::Norse) => assert_eq!(param(&g, name, "r"), 1.0, "{name}"),
+                    ("LIF", Convention::Nir) => {
+                        assert!((param(&g, name, "r") * dt / param(&g, name, "tau") - 1.0).abs() < 1e-5);
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
 }
 
 #[test]
@@ -165,6 +229,59 @@ fn targets_name_the_offending_node_and_rule() {
     nir::check_target(&braille, Target::Xylo).unwrap();
     let e = nir::check_target(&braille, Target::Speck).unwrap_err().to_string();
     assert!(e.contains("Speck"), "{e}");
+}
+
+#[test]
+fn chip_limits_are_the_toolchains_own() {
+    use snn::network::{Layer, Op, PoolKind};
+    use snn::neuron::NeuronParams;
+    let if_ = NeuronParams::integrate_and_fire().with_reset(snn::neuron::Reset::Zero);
+    let dense = |n_in: usize, n_out: usize| Op::Dense { n_in, n_out, weight: vec![0.1; n_in * n_out], bias: None };
+    let conv = |in_shape: [usize; 3], out: usize, k: [usize; 2], padding: [usize; 2]| Op::Conv2d {
+        in_shape,
+        out_channels: out,
+        kernel: k,
+        stride: [1, 1],
+        padding,
+        weight: vec![0.1; out * in_shape[0] * k[0] * k[1]],
+        bias: None,
+    };
+    let layer = |op: Op, neurons: Option<NeuronParams>| Layer { op, neurons, recurrent: None, recurrent_bias: None };
+    // Speck: a small IF convolutional network fits its cores
+    let speck = Network::new(
+        vec![2, 32, 40],
+        vec![
+            layer(conv([2, 32, 40], 8, [3, 3], [1, 1]), Some(if_)),
+            layer(Op::Pool { kind: PoolKind::Sum, in_shape: [8, 32, 40], kernel: [2, 2], stride: [2, 2] }, None),
+            layer(conv([8, 16, 20], 16, [3, 3], [3, 1]), Some(if_)),
+            layer(Op::Pool { kind: PoolKind::Sum, in_shape: [16, 20, 20], kernel: [2, 2], stride: [2, 2] }, None),
+            layer(dense(1600, 26), Some(if_)),
+        ],
+    )
+    .unwrap();
+    nir::check_target(&speck, Target::Speck).unwrap();
+    // a dense layer over a non-square map is a non-square kernel
+    let flat = Network::new(vec![2, 32, 40], vec![layer(dense(2560, 26), Some(if_))]).unwrap();
+    let e = nir::check_target(&flat, Target::Speck).unwrap_err().to_string();
+    assert!(e.contains("layer 0") && e.contains("height and width must be equal"), "{e}");
+    // a dense 2560 -> 256 IF layer needs more kernel memory than any core has
+    let big =
+        Network::new(vec![2560], vec![layer(dense(2560, 256), Some(if_)), layer(dense(256, 26), Some(if_))]).unwrap();
+    let e = nir::check_target(&big, Target::Speck).unwrap_err().to_string();
+    assert!(e.contains("does not fit Speck's cores"), "{e}");
+    // Xylo: 16 inputs, 1000 hidden, 8 outputs
+    let lif = NeuronParams::lif(0.9).with_reset(snn::neuron::Reset::Zero);
+    let xylo = |n_in: usize, hidden: usize, out: usize| {
+        Network::new(vec![n_in], vec![layer(dense(n_in, hidden), Some(lif)), layer(dense(hidden, out), Some(lif))])
+            .unwrap()
+    };
+    nir::check_target(&xylo(16, 1000, 8), Target::Xylo).unwrap();
+    let e = nir::check_target(&xylo(24, 256, 8), Target::Xylo).unwrap_err().to_string();
+    assert!(e.contains("16 input channels"), "{e}");
+    let e = nir::check_target(&xylo(12, 1001, 8), Target::Xylo).unwrap_err().to_string();
+    assert!(e.contains("layer 0") && e.contains("1000 hidden"), "{e}");
+    let e = nir::check_target(&xylo(12, 256, 27), Target::Xylo).unwrap_err().to_string();
+    assert!(e.contains("layer 1") && e.contains("8 output neurons"), "{e}");
 }
 
 #[test]

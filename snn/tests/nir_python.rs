@@ -4,7 +4,7 @@
 
 use snn::network::{Layer, Network, Op, PoolKind};
 use snn::neuron::{NeuronParams, Reset};
-use snn::nir::{self, Graph, ImportOptions, ImportReset, SubtractExport};
+use snn::nir::{self, ExportOptions, Graph, ImportOptions, ImportReset};
 use std::path::Path;
 use std::process::Command;
 
@@ -91,9 +91,9 @@ fn pypi_nir_reads_every_exported_file() {
             nir::import(&p, &Graph::read(&p).unwrap(), &ImportOptions { dt_s: 1e-4, reset: ImportReset::ToVReset })
                 .unwrap()
                 .network;
-        graphs.push((dir.path().join(format!("g{i}.nir")), nir::export(&net, 1e-4, SubtractExport::Refuse).unwrap()));
+        graphs.push((dir.path().join(format!("g{i}.nir")), nir::export(&net, &ExportOptions::new(1e-4)).unwrap()));
     }
-    graphs.push((dir.path().join("mixed.nir"), nir::export(&mixed_network(), 1e-3, SubtractExport::Refuse).unwrap()));
+    graphs.push((dir.path().join("mixed.nir"), nir::export(&mixed_network(), &ExportOptions::new(1e-3)).unwrap()));
     for (p, g) in &graphs {
         g.write(p, false).unwrap();
     }

@@ -2,5 +2,6 @@
 //! files and draws the figures.
 
 pub mod chars;
+pub mod chips;
 pub mod icub;
 pub mod words;

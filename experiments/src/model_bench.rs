@@ -1,0 +1,635 @@
+//! Any model on any events (`braille bench --model`): a model file or a NIR graph (from snnTorch,
+//! Norse or this project), fed an event file, a tactile dataset's split, or the peer benchmark's
+//! random input, on the event-driven engine in stepped or async mode; per-event latency, input
+//! events per second, SynOps, spikes and energy estimates per sample, and the scaling from one
+//! stream on one core to N independent streams on N cores. A loaded network is shared by every
+//! stream; each stream owns its engine state.
+
+use crate::error::{Error, Result};
+use encoders::event::Event;
+use encoders::formats::{self, OpenOptions};
+use hdrhistogram::Histogram;
+use learn::data::TactileEncoding;
+use serde::Serialize;
+use snn::energy::SYNOP_ENERGIES;
+use snn::engine::{Engine, EngineState, Mode};
+use snn::model_file::{Readout, SnnModel};
+use snn::network::Network;
+use snn::neuron::NeuronKind;
+use snn::nir::{self, Graph, ImportOptions, ImportReset};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// A network ready to benchmark, with what is known of how it reads its input.
+#[derive(Debug, Clone)]
+pub struct BenchNetwork {
+    pub network: Network,
+    pub dt_us: i64,
+    pub readout: Readout,
+    /// A model file's tactile encoding (how a dataset folder becomes its input), if it has one.
+    pub encoding: Option<TactileEncoding>,
+    pub classes: Vec<String>,
+    pub source: ModelSource,
+}
+
+/// Where a benchmarked network came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelSource {
+    ModelFile,
+    NirGraph,
+}
+
+/// How a NIR graph is read: the engine's step and the neurons' reset (NIR cannot say either).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NirReading {
+    pub dt_us: i64,
+    pub reset: ImportReset,
+}
+
+impl Default for NirReading {
+    fn default() -> Self {
+        NirReading { dt_us: 100, reset: ImportReset::ToVReset }
+    }
+}
+
+const HDF5_MAGIC: &[u8] = b"\x89HDF\r\n\x1a\n";
+
+/// Loads a model file or, by its HDF5 signature, a NIR graph read as `nir` says.
+pub fn load_network(path: &Path, nir: NirReading) -> Result<BenchNetwork> {
+    let mut head = [0u8; 8];
+    {
+        use std::io::Read;
+        let mut f = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let n = f.read(&mut head).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        if n < head.len() {
+            head[n..].fill(0);
+        }
+    }
+    if head.starts_with(HDF5_MAGIC) {
+        if nir.dt_us <= 0 {
+            return Err(Error::Invalid(format!("the NIR step must be positive, got {} us", nir.dt_us)));
+        }
+        let graph = Graph::read(path)?;
+        let imported = nir::import(path, &graph, &ImportOptions { dt_s: nir.dt_us as f64 * 1e-6, reset: nir.reset })?;
+        let network = imported.network;
+        let readout = match network.layers.last().and_then(|l| l.neurons).map(|p| p.kind) {
+            Some(NeuronKind::Li) => Readout::MaxMembrane,
+            _ => Readout::SpikeCount,
+        };
+        let classes = (0..network.n_outputs()).map(|i| i.to_string()).collect();
+        return Ok(BenchNetwork {
+            network,
+            dt_us: nir.dt_us,
+            readout,
+            encoding: None,
+            classes,
+            source: ModelSource::NirGraph,
+        });
+    }
+    let model: SnnModel = pipeline::models::load_snn(path)?;
+    let encoding = serde_json::from_value::<TactileEncoding>(model.preprocess.clone()).ok();
+    Ok(BenchNetwork {
+        network: model.network,
+        dt_us: model.config.dt_us,
+        readout: model.config.readout,
+        encoding,
+        classes: model.classes,
+        source: ModelSource::ModelFile,
+    })
+}
+
+/// How a camera's events map onto a network's input: `[C, H, W]` in C order, the channel the
+/// polarity (OFF 0, ON 1) when `C` is 2, both polarities into one plane when `C` is 1. A flat
+/// input of `n` is read as `2 x H x W` or `H x W` of the file's resolution, or, when the file
+/// declares none, as `2 x 1 x n/2` (a row of taxels, as the tactile datasets lay them out).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct InputMap {
+    pub channels: usize,
+    pub height: usize,
+    pub width: usize,
+}
+
+impl InputMap {
+    /// The map of `net`'s input for events of `resolution` (if the file declares one); `path`
+    /// names the file in errors.
+    pub fn new(net: &Network, resolution: Option<encoders::Resolution>, path: &Path) -> Result<InputMap> {
+        let n = net.n_inputs();
+        let bad = |what: String| Error::Invalid(format!("{}: {what}", path.display()));
+        let map = match net.input_shape[..] {
+            [c, h, w] => InputMap { channels: c, height: h, width: w },
+            [_] => match resolution {
+                Some(r) if n == 2 * r.pixels() => {
+                    InputMap { channels: 2, height: r.height as usize, width: r.width as usize }
+                }
+                Some(r) if n == r.pixels() => {
+                    InputMap { channels: 1, height: r.height as usize, width: r.width as usize }
+                }
+                Some(r) => {
+                    return Err(bad(format!(
+                        "the network's {n} inputs are neither 2 x {h} x {w} nor {h} x {w} of the file's {w} x {h} sensor",
+                        h = r.height,
+                        w = r.width
+                    )));
+                }
+                None if n.is_multiple_of(2) => InputMap { channels: 2, height: 1, width: n / 2 },
+                None => InputMap { channels: 1, height: 1, width: n },
+            },
+            ref other => return Err(bad(format!("an input of shape {other:?} takes no camera events"))),
+        };
+        if !(1..=2).contains(&map.channels) {
+            return Err(bad(format!(
+                "an input of {} channels takes no camera events (1: polarities merged, 2: OFF and ON)",
+                map.channels
+            )));
+        }
+        Ok(map)
+    }
+
+    /// The input index of event number `k` of `path`, or an error naming the event.
+    #[inline]
+    pub fn index(&self, e: &Event, k: u64, path: &Path) -> Result<u32> {
+        let (x, y) = (e.x as usize, e.y as usize);
+        if x >= self.width || y >= self.height {
+            return Err(Error::Invalid(format!(
+                "{}: event {k} (t {} us, x {x}, y {y}) lies outside the network's input of {} x {} (width x height)",
+                path.display(),
+                e.t_us,
+                self.width,
+                self.height
+            )));
+        }
+        let c = if self.channels == 2 { e.polarity.index() } else { 0 };
+        Ok(((c * self.height + y) * self.width + x) as u32)
+    }
+}
+
+/// What the network is fed.
+#[derive(Debug, Clone)]
+pub enum BenchInput {
+    /// One stream: an event file, read chunk by chunk (memory bounded by the decoder's chunk),
+    /// every timestamp multiplied by `time_scale` (a graph written for another step: snnTorch's
+    /// 100 us graphs of 5 ms bins take 0.02).
+    Events { path: PathBuf, time_scale: f64 },
+    /// The samples of a tactile dataset folder's split, encoded as the model was trained (a NIR
+    /// graph: the encoding fitted to the data at the graph's step, or `like`'s).
+    Data { dir: PathBuf, split: crate::tactile::SplitChoice, like: Option<PathBuf> },
+    /// The peer benchmark's statistics: `samples` random inputs, 20 steps, 0.75% of inputs per
+    /// step.
+    Random { samples: u64 },
+}
+
+/// One sample: input events `(t_us, input)` in time order, when it ends, and its label.
+struct Sample {
+    events: Vec<(i64, u32)>,
+    end_us: i64,
+    label: Option<usize>,
+}
+
+/// The input as the streams read it.
+enum Feed {
+    Samples(Vec<Sample>),
+    File { path: PathBuf, map: InputMap, time_scale: f64 },
+}
+
+/// Chunks of the file's events mapped to inputs, handed to `visit` one chunk at a time.
+fn for_each_file_chunk(
+    path: &Path,
+    map: &InputMap,
+    time_scale: f64,
+    mut visit: impl FnMut(&[(i64, u32)]) -> Result<()>,
+) -> Result<i64> {
+    let mut src = formats::open(path, &OpenOptions::default())?;
+    let mut buf: Vec<(i64, u32)> = Vec::with_capacity(formats::CHUNK_EVENTS);
+    let (mut k, mut last) = (0u64, 0i64);
+    while let Some(chunk) = src.next_chunk()? {
+        buf.clear();
+        for e in chunk {
+            let t = if time_scale == 1.0 { e.t_us } else { (e.t_us as f64 * time_scale).round() as i64 };
+            buf.push((t, map.index(e, k, path)?));
+            k += 1;
+        }
+        last = buf.last().map_or(last, |&(t, _)| t);
+        visit(&buf)?;
+    }
+    Ok(last + 1)
+}
+
+/// Percentiles of a latency distribution, in nanoseconds.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Latency {
+    pub events: u64,
+    pub p50_ns: f64,
+    pub p99_ns: f64,
+    pub p999_ns: f64,
+    pub max_ns: f64,
+    pub mean_ns: f64,
+}
+
+fn latency_of(h: &Histogram<u64>) -> Latency {
+    let q = |q: f64| h.value_at_quantile(q) as f64;
+    Latency {
+        events: h.len(),
+        p50_ns: q(0.5),
+        p99_ns: q(0.99),
+        p999_ns: q(0.999),
+        max_ns: h.max() as f64,
+        mean_ns: h.mean(),
+    }
+}
+
+fn new_histogram() -> Histogram<u64> {
+    Histogram::new_with_bounds(1, 60_000_000_000, 3).expect("valid bounds")
+}
+
+/// One stream's pass over the whole input.
+struct Pass {
+    latency: Histogram<u64>,
+    /// Time spent in the engine (push and finish), untimed per event.
+    engine_ns: u128,
+    events: u64,
+    synops: u64,
+    spikes: Vec<u64>,
+    readouts: Vec<(Vec<f32>, Option<usize>)>,
+}
+
+/// Runs every sample of `feed` through a stream. `per_event`: time each push (the latency
+/// distribution); otherwise time each chunk of pushes as a whole (the throughput).
+fn pass(engine: &Engine, st: &mut EngineState, feed: &Feed, readout: Readout, per_event: bool) -> Result<Pass> {
+    let n_out = engine.n_outputs();
+    let mut out =
+        Pass { latency: new_histogram(), engine_ns: 0, events: 0, synops: 0, spikes: Vec::new(), readouts: Vec::new() };
+    let run = |events: &[(i64, u32)], st: &mut EngineState, out: &mut Pass| -> Result<()> {
+        if per_event {
+            for &(t, i) in events {
+                let t0 = Instant::now();
+                engine.push(st, t, i, 1.0)?;
+                let ns = t0.elapsed().as_nanos() as u64;
+                out.latency.saturating_record(ns.max(1));
+                out.engine_ns += ns as u128;
+            }
+        } else {
+            let t0 = Instant::now();
+            for &(t, i) in events {
+                engine.push(st, t, i, 1.0)?;
+            }
+            out.engine_ns += t0.elapsed().as_nanos();
+        }
+        out.events += events.len() as u64;
+        Ok(())
+    };
+    let close = |st: &mut EngineState, end_us: i64, label: Option<usize>, out: &mut Pass| {
+        let t0 = Instant::now();
+        engine.finish(st, end_us);
+        out.engine_ns += t0.elapsed().as_nanos();
+        out.synops += st.stats.synops;
+        if out.spikes.len() < st.stats.spikes.len() {
+            out.spikes.resize(st.stats.spikes.len(), 0);
+        }
+        for (a, b) in out.spikes.iter_mut().zip(&st.stats.spikes) {
+            *a += b;
+        }
+        let r = match readout {
+            Readout::MaxMembrane => st.output_v_max().to_vec(),
+            Readout::SpikeCount => st.output_counts(n_out).into_iter().map(|c| c as f32).collect(),
+        };
+        out.readouts.push((r, label));
+    };
+    let wrap = |e: snn::Error, what: &str| Error::Invalid(format!("{what}: {e}"));
+    match feed {
+        Feed::Samples(samples) => {
+            for (k, s) in samples.iter().enumerate() {
+                engine.reset(st, 0);
+                run(&s.events, st, &mut out).map_err(|e| match e {
+                    Error::Snn(e) => wrap(e, &format!("sample {k}")),
+                    other => other,
+                })?;
+                close(st, s.end_us, s.label, &mut out);
+            }
+        }
+        Feed::File { path, map, time_scale } => {
+            // the stream starts at its first event (a recording's clock may start anywhere)
+            let mut started = false;
+            let end = for_each_file_chunk(path, map, *time_scale, |chunk| {
+                if !started {
+                    engine.reset(st, chunk.first().map_or(0, |e| e.0));
+                    started = true;
+                }
+                run(chunk, st, &mut out).map_err(|e| match e {
+                    Error::Snn(e) => wrap(e, &path.display().to_string()),
+                    other => other,
+                })
+            })?;
+            if !started {
+                engine.reset(st, 0);
+            }
+            close(st, end, None, &mut out);
+        }
+    }
+    Ok(out)
+}
+
+/// The engine's work and speed with `streams` streams at once, one per thread.
+#[derive(Debug, Clone, Serialize)]
+pub struct StreamsRow {
+    pub streams: usize,
+    /// Input events handled per second, all streams together (untimed pass).
+    pub input_events_per_s: f64,
+    /// Against one stream.
+    pub speedup: f64,
+    /// `speedup / streams`.
+    pub efficiency: f64,
+    /// Per event, all streams' events together (timed pass).
+    pub latency: Latency,
+}
+
+/// An energy estimate per sample.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnergyRow {
+    pub platform: &'static str,
+    pub pj_per_synop: f64,
+    pub nj_per_sample: f64,
+    pub source: &'static str,
+}
+
+/// What `braille bench --model` measures.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelBench {
+    pub model: String,
+    pub source: ModelSource,
+    pub dt_us: i64,
+    pub mode: Mode,
+    pub input: String,
+    pub samples: usize,
+    pub input_events_per_sample: f64,
+    pub synops_per_sample: f64,
+    pub spikes_per_sample: f64,
+    /// Per layer with neurons (in layer order; layers without neurons count 0).
+    pub spikes_per_layer_per_sample: Vec<f64>,
+    /// When the input has labels and the network one output per class.
+    pub accuracy: Option<f64>,
+    /// One stream, every push timed: in stepped mode a push that opens a new step carries the
+    /// whole previous step's work; in async mode each push completes all the event's effects.
+    pub latency: Latency,
+    /// What a timed push costs with nothing to do (two clock reads), included in `latency`.
+    pub clock_overhead_ns: f64,
+    /// One stream, untimed pass.
+    pub input_events_per_s: f64,
+    pub scaling: Vec<StreamsRow>,
+    pub cores: usize,
+    pub energy: Vec<EnergyRow>,
+}
+
+/// The clock's own cost: the median of back-to-back reads.
+fn clock_overhead_ns() -> f64 {
+    let mut v: Vec<u64> = (0..2001)
+        .map(|_| {
+            let t0 = Instant::now();
+            t0.elapsed().as_nanos() as u64
+        })
+        .collect();
+    v.sort_unstable();
+    v[v.len() / 2] as f64
+}
+
+/// Reads the input into what the streams replay (an event file stays on disk).
+fn feed(net: &BenchNetwork, input: &BenchInput) -> Result<(Feed, String)> {
+    Ok(match input {
+        BenchInput::Events { path, time_scale } => {
+            if !(time_scale.is_finite() && *time_scale > 0.0) {
+                return Err(Error::Invalid(format!("the time scale must be positive, got {time_scale}")));
+            }
+            let src = formats::open(path, &OpenOptions::default())?;
+            let map = InputMap::new(&net.network, src.info().resolution, path)?;
+            let scaled = if *time_scale == 1.0 { String::new() } else { format!(", times x {time_scale}") };
+            (
+                Feed::File { path: path.clone(), map, time_scale: *time_scale },
+                format!("{} (one stream{scaled})", path.display()),
+            )
+        }
+        BenchInput::Random { samples } => {
+            // the peer benchmark's 20 steps of 1 ms, one per step of this network
+            let n = net.network.n_inputs();
+            let per_step = |t: i64| {
+                t / crate::bench::DT_US * net.dt_us + t % crate::bench::DT_US * net.dt_us / crate::bench::DT_US
+            };
+            let samples: Vec<Sample> = (0..(*samples).max(1))
+                .map(|s| Sample {
+                    events: crate::bench::sample_events(1000 + s, n)
+                        .into_iter()
+                        .map(|(t, i)| (per_step(t), i))
+                        .collect(),
+                    end_us: crate::bench::STEPS as i64 * net.dt_us,
+                    label: None,
+                })
+                .collect();
+            let k = samples.len();
+            (
+                Feed::Samples(samples),
+                format!("{k} random samples (the peer benchmark's statistics: 20 steps, 0.75% of inputs per step)"),
+            )
+        }
+        BenchInput::Data { dir, split, like } => {
+            let data = encoders::dataset::Dataset::load(
+                dir,
+                net.encoding.as_ref().map_or(crate::recipe::SnnRecipe::default().period_us, |e| e.period_us),
+            )?;
+            let encoding = match (like, &net.encoding) {
+                (Some(p), _) => crate::tactile::encoding_of(&pipeline::models::load_snn(p)?, p)?,
+                (None, Some(e)) => e.clone(),
+                (None, None) => TactileEncoding::fit(&data, Default::default(), net.dt_us)?,
+            };
+            if encoding.dt_us != net.dt_us {
+                return Err(Error::Invalid(format!(
+                    "{}: the encoding steps {} us, the network {} us",
+                    dir.display(),
+                    encoding.dt_us,
+                    net.dt_us
+                )));
+            }
+            if encoding.n_inputs() != net.network.n_inputs() {
+                return Err(Error::Invalid(format!(
+                    "{}: the data gives {} inputs ({} channels{}), the network takes {}",
+                    dir.display(),
+                    encoding.n_inputs(),
+                    encoding.channels,
+                    if encoding.merge_polarities { ", polarities merged" } else { ", OFF and ON" },
+                    net.network.n_inputs()
+                )));
+            }
+            let data = encoding.select(&data)?;
+            let encoder = encoding.encoder(data.resolution())?;
+            let wanted = match split {
+                crate::tactile::SplitChoice::Test => Some(encoders::dataset::Split::Test),
+                crate::tactile::SplitChoice::Train => Some(encoders::dataset::Split::Train),
+                crate::tactile::SplitChoice::All => None,
+                crate::tactile::SplitChoice::Validation { .. } => {
+                    return Err(Error::Invalid("bench takes the train, test or all split".into()));
+                }
+            };
+            let end_us = encoding.dt_us * encoding.steps as i64;
+            let samples = data
+                .samples
+                .iter()
+                .filter(|s| wanted.is_none_or(|w| s.split == w))
+                .map(|s| Ok(Sample { events: encoding.events_of(&data, s, &encoder)?, end_us, label: Some(s.label) }))
+                .collect::<Result<Vec<_>>>()?;
+            let k = samples.len();
+            (Feed::Samples(samples), format!("{} ({} split, {k} samples)", dir.display(), split.name()))
+        }
+    })
+}
+
+/// Benchmarks `net` on `input` in `mode`: one stream timed per event and untimed, then 1 to
+/// `streams` streams at once on as many threads.
+pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, streams: usize) -> Result<ModelBench> {
+    let engine = Engine::new(&net.network, net.dt_us, mode).map_err(|e| {
+        Error::Invalid(format!(
+            "{model}: {e}{}",
+            if mode == Mode::Async {
+                " (async mode runs LIF and IF layers without bias or recurrence; use --mode stepped)"
+            } else {
+                ""
+            }
+        ))
+    })?;
+    let (feed, what) = feed(net, input)?;
+    let mut st = engine.state(0);
+    // warm up, and the work and readouts (identical in every pass)
+    let warm = pass(&engine, &mut st, &feed, net.readout, false)?;
+    let timed = pass(&engine, &mut st, &feed, net.readout, true)?;
+    let untimed = pass(&engine, &mut st, &feed, net.readout, false)?;
+    let n = warm.readouts.len().max(1) as f64;
+    let labelled: Vec<(usize, usize)> =
+        warm.readouts.iter().filter_map(|(r, l)| l.map(|l| (crate::scoring::argmax(r.iter().copied()), l))).collect();
+    let accuracy = (!labelled.is_empty() && labelled.len() == warm.readouts.len())
+        .then(|| labelled.iter().filter(|(p, l)| p == l).count() as f64 / labelled.len() as f64);
+    let synops_per_sample = warm.synops as f64 / n;
+    let one_rate = untimed.events as f64 / (untimed.engine_ns as f64 * 1e-9).max(1e-12);
+    let mut scaling = Vec::new();
+    for k in 1..=streams.max(1) {
+        let results: Vec<Result<(Pass, Pass, f64)>> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..k)
+                .map(|_| {
+                    s.spawn(|| -> Result<(Pass, Pass, f64)> {
+                        let mut st = engine.state(0);
+                        let timed = pass(&engine, &mut st, &feed, net.readout, true)?;
+                        let t0 = Instant::now();
+                        let untimed = pass(&engine, &mut st, &feed, net.readout, false)?;
+                        Ok((timed, untimed, t0.elapsed().as_secs_f64()))
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().expect("a bench stream panicked")).collect()
+        });
+        let mut latency = new_histogram();
+        let (mut events, mut wall) = (0u64, 0f64);
+        for r in results {
+            let (timed, untimed, secs) = r?;
+            latency.add(&timed.latency).expect("same bounds");
+            events += untimed.events;
+            wall = wall.max(secs);
+        }
+        let rate = events as f64 / wall.max(1e-12);
+        let base: f64 = scaling.first().map_or(rate, |r: &StreamsRow| r.input_events_per_s);
+        scaling.push(StreamsRow {
+            streams: k,
+            input_events_per_s: rate,
+            speedup: rate / base,
+            efficiency: rate / base / k as f64,
+            latency: latency_of(&latency),
+        });
+    }
+    Ok(ModelBench {
+        model: model.to_string(),
+        source: net.source,
+        dt_us: net.dt_us,
+        mode,
+        input: what,
+        samples: warm.readouts.len(),
+        input_events_per_sample: warm.events as f64 / n,
+        synops_per_sample,
+        spikes_per_sample: warm.spikes.iter().sum::<u64>() as f64 / n,
+        spikes_per_layer_per_sample: warm.spikes.iter().map(|&s| s as f64 / n).collect(),
+        accuracy,
+        latency: latency_of(&timed.latency),
+        clock_overhead_ns: clock_overhead_ns(),
+        input_events_per_s: one_rate,
+        scaling,
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        energy: SYNOP_ENERGIES
+            .iter()
+            .map(|e| EnergyRow {
+                platform: e.platform,
+                pj_per_synop: e.pj_per_op,
+                nj_per_sample: e.nanojoules(synops_per_sample),
+                source: e.source,
+            })
+            .collect(),
+    })
+}
+
+/// Every spike of a network run on an event file (`braille run`), from the time-stepped
+/// reference, checked against the event-driven engine's output layer.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunRecord {
+    pub steps: usize,
+    /// The layers with neurons, by index in the network.
+    pub layers: Vec<usize>,
+    /// Per layer with neurons, per step: the neurons that spiked.
+    #[serde(skip)]
+    pub spikes: Vec<Vec<Vec<u32>>>,
+    pub spikes_per_layer: Vec<u64>,
+}
+
+/// Runs `net` on the events of `path` (mapped by [`InputMap`]), from time 0 for `steps` steps
+/// (default: up to the last event), on the time-stepped reference and on the engine in stepped
+/// mode; their output spikes must agree.
+pub fn run_events(net: &BenchNetwork, path: &Path, steps: Option<usize>) -> Result<RunRecord> {
+    let (info, events) = formats::read_all(path, &OpenOptions::default())?;
+    let map = InputMap::new(&net.network, info.resolution, path)?;
+    let n = net.network.n_inputs();
+    let dt = net.dt_us;
+    if let Some((k, e)) = events.iter().enumerate().find(|(_, e)| e.t_us < 0) {
+        return Err(Error::Invalid(format!("{}: event {k} at {} us is before time 0", path.display(), e.t_us)));
+    }
+    let steps = steps.unwrap_or_else(|| events.last().map_or(0, |e| (e.t_us / dt) as usize + 1));
+    let mut dense = vec![0f32; steps * n];
+    let engine = Engine::new(&net.network, dt, Mode::Stepped)?;
+    let mut st = engine.state(0);
+    for (k, e) in events.iter().enumerate() {
+        let step = (e.t_us / dt) as usize;
+        if step >= steps {
+            break;
+        }
+        let i = map.index(e, k as u64, path)?;
+        dense[step * n + i as usize] += 1.0;
+        engine.push(&mut st, e.t_us, i, 1.0)?;
+    }
+    engine.finish(&mut st, steps as i64 * dt);
+    let mut record = snn::network::forward_dense(&net.network, &dense, steps)?;
+    let layers: Vec<usize> =
+        (0..net.network.layers.len()).filter(|&k| net.network.layers[k].neurons.is_some()).collect();
+    // the reference keeps a (spikeless) entry for layers without neurons
+    let spikes: Vec<Vec<Vec<u32>>> = layers.iter().map(|&k| std::mem::take(&mut record.spikes[k])).collect();
+    if let Some(last) = spikes.last()
+        && net.network.layers.last().is_some_and(|l| l.neurons.is_some())
+    {
+        let dense_out: Vec<(i64, u32)> =
+            last.iter().enumerate().flat_map(|(t, s)| s.iter().map(move |&j| (t as i64 * dt, j))).collect();
+        if dense_out != st.output {
+            return Err(Error::Invalid(format!(
+                "{}: the engine's output spikes differ from the time-stepped reference ({} against {})",
+                path.display(),
+                st.output.len(),
+                dense_out.len()
+            )));
+        }
+    }
+    Ok(RunRecord {
+        steps,
+        spikes_per_layer: spikes.iter().map(|l| l.iter().map(|s| s.len() as u64).sum()).collect(),
+        layers,
+        spikes,
+    })
+}

@@ -1,0 +1,324 @@
+//! Models for neuromorphic chips (`braille chip-report`): what the faithful export costs (every
+//! shipped SNN retrained to reset to zero, NIR's reset, against the shipped subtracting model on
+//! the same test), and the chip table: each exportable model against each chip's rules, with its
+//! accuracy, work and energy estimates per sample.
+
+use crate::Progress;
+use crate::datasets::{CharSetSpec, Task, World};
+use crate::error::Result;
+use crate::tactile::{SplitChoice, eval_split};
+use crate::words::{WordsSpec, read_scans, score};
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::{Spell, TimingMode};
+use serde::Serialize;
+use sim::BoardKind;
+use snn::energy::{CMOS45_ADD, LOIHI_SYNOP, TRUENORTH_SYNOP};
+use snn::engine::Mode;
+use snn::model_file::Arch;
+use snn::nir::{self, ExportOptions, Target};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// The scans of the simulated tests (the seed Table I and the words table test on).
+pub const TEST_SEED: u64 = 1_000_003;
+
+/// One shipped SNN against its reset-to-zero twin on the same test.
+#[derive(Debug, Clone, Serialize)]
+pub struct FaithfulRow {
+    pub model: String,
+    pub test: String,
+    pub data: &'static str,
+    /// The shipped model (reset by subtraction) and the twin (reset to zero), the headline metric.
+    pub subtract: f64,
+    pub zero: f64,
+    /// Points, zero minus subtract.
+    pub difference: f64,
+    /// The same with the conditional metric beside it, where there is one.
+    pub detail: String,
+}
+
+/// What a target's check said.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetCheck {
+    pub target: Target,
+    pub passes: bool,
+    /// The rule broken.
+    pub rule: Option<String>,
+}
+
+/// One exportable model: what it reads, how well, its work, and the chips whose rules it meets.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChipRow {
+    pub model: String,
+    pub reads: String,
+    pub data: &'static str,
+    pub accuracy: f64,
+    pub n: usize,
+    pub input_events_per_sample: f64,
+    pub synops_per_sample: f64,
+    pub spikes_per_sample: f64,
+    pub neurons: usize,
+    pub synapses: usize,
+    /// Nanojoules per sample at Loihi's, TrueNorth's and a 45 nm adder's energy per SynOp.
+    pub loihi_nj: f64,
+    pub truenorth_nj: f64,
+    pub cmos45_nj: f64,
+    /// It exports to NIR as trained (no reset by subtraction).
+    pub exports: bool,
+    pub targets: Vec<TargetCheck>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ChipReport {
+    pub faithful: Vec<FaithfulRow>,
+    pub chips: Vec<ChipRow>,
+    pub trials: u64,
+}
+
+/// What to put in the report: the shipped models' folder, the reset-to-zero twins' folder, the
+/// chip models' folder, the iCub data, and scans per simulated board row.
+#[derive(Debug, Clone)]
+pub struct ChipSpec {
+    pub models: PathBuf,
+    pub nir_models: PathBuf,
+    pub chip_models: PathBuf,
+    pub icub: PathBuf,
+    pub trials: u64,
+}
+
+fn chars_spec(trials: u64) -> CharSetSpec {
+    CharSetSpec {
+        boards: vec![BoardKind::Rab],
+        speed_mm_s: 8.0,
+        depth_mm: 1.5,
+        trials,
+        seed: TEST_SEED,
+        task: Task::Chars,
+        jitter_ms: 0.0,
+        world: World::test(sim::Realism::Clean),
+    }
+}
+
+/// Accuracy, work and size of a model on its test.
+struct Scored {
+    reads: String,
+    data: &'static str,
+    accuracy: f64,
+    detail: String,
+    n: usize,
+    events: f64,
+    synops: f64,
+    spikes: f64,
+}
+
+/// A model on its own test: a tactile model on its dataset's test split, a character classifier
+/// on RAB at 1.5 mm (over every printed character).
+fn score_model(path: &Path, icub: &Path, trials: u64, progress: &dyn Progress) -> Result<Scored> {
+    let model = pipeline::models::load_snn(path)?;
+    if let Ok(enc) = crate::tactile::encoding_of(&model, path) {
+        let set = if enc.sigma_delta.is_some() { "raw1350" } else { "th10" };
+        let (e, _) = eval_split(path, &icub.join(set), SplitChoice::Test, Mode::Stepped)?;
+        let classes = enc.classes.as_ref().map_or(String::new(), |c| format!(", {} classes", c.len()));
+        return Ok(Scored {
+            reads: format!("iCub {set} test split{classes}"),
+            data: "REAL",
+            accuracy: e.accuracy,
+            detail: format!("{}/{}", e.correct, e.n),
+            n: e.n,
+            events: e.input_events_per_sample,
+            synops: e.synops_per_sample,
+            spikes: e.spikes_per_sample,
+        });
+    }
+    let e = crate::chars::eval(path, &chars_spec(trials), progress)?;
+    Ok(Scored {
+        reads: "RAB characters at 1.5 mm, of all printed".into(),
+        data: "SIMULATED",
+        accuracy: e.accuracy_all,
+        detail: format!(
+            "{:.2}% of {} printed; {:.2}% of {} windows found",
+            100.0 * e.accuracy_all,
+            e.printed,
+            100.0 * e.score.accuracy,
+            e.score.n
+        ),
+        n: e.printed,
+        events: e.score.input_events_per_sample.unwrap_or(0.0),
+        synops: e.score.synops_per_sample.unwrap_or(0.0),
+        spikes: e.score.spikes_per_sample.unwrap_or(0.0),
+    })
+}
+
+/// The shipped SNNs (their file names under both folders).
+pub const SHIPPED: [&str; 4] = ["snn-raw1350", "snn-th10", "snn-chars", "snn-words"];
+/// The chip models under the chip folder.
+pub const CHIP_MODELS: [&str; 2] = ["speck-chars", "xylo-braille7"];
+
+/// Runs every comparison and check.
+pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
+    let file = |dir: &Path, name: &str| dir.join(format!("{name}.safetensors"));
+    let mut faithful = Vec::new();
+    for name in SHIPPED {
+        let a = score_model(&file(&spec.models, name), &spec.icub, spec.trials, progress)?;
+        let b = score_model(&file(&spec.nir_models, name), &spec.icub, spec.trials, progress)?;
+        progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
+        faithful.push(FaithfulRow {
+            model: name.into(),
+            test: a.reads.clone(),
+            data: a.data,
+            subtract: a.accuracy,
+            zero: b.accuracy,
+            difference: 100.0 * (b.accuracy - a.accuracy),
+            detail: format!("subtract {}; zero {}", a.detail, b.detail),
+        });
+    }
+    // the reading pair (segmentation and classifier SNNs) on the EV board, the same scans for both
+    let words = WordsSpec {
+        board: BoardKind::Ev,
+        speed_mm_s: 16.0,
+        speed_variation: 0.0,
+        depth_mm: 1.5,
+        trials: spec.trials,
+        seed: TEST_SEED,
+        world: World::test(sim::Realism::Clean),
+    };
+    let readers = [&spec.models, &spec.nir_models]
+        .map(|dir| {
+            let (s, c) = crate::words::default_models(Arch::Snn, dir);
+            ReaderModels::load(&s, &c, SnnRunner::Sliding).map_err(crate::Error::from)
+        })
+        .into_iter()
+        .collect::<Result<Vec<_>>>()?;
+    let lines = read_scans(&words, &readers.iter().collect::<Vec<_>>(), &[TimingMode::Estimated], progress)?;
+    let acc = |k: usize, spell: Spell| {
+        let s = score(Arch::Snn, TimingMode::Estimated, k, &lines, &words);
+        s.by_spell.iter().find(|b| b.spell == spell).map_or(0.0, |b| b.word_accuracy)
+    };
+    for spell in [Spell::Lexicon, Spell::None] {
+        let (a, b) = (acc(0, spell), acc(1, spell));
+        faithful.push(FaithfulRow {
+            model: "snn-segment + snn-words".into(),
+            test: format!("EV board read at 16 mm/s, speed estimated, spelling {spell:?}: words right of all printed"),
+            data: "SIMULATED",
+            subtract: a,
+            zero: b,
+            difference: 100.0 * (b - a),
+            detail: format!("{} scans", lines.len()),
+        });
+    }
+    let mut chips = Vec::new();
+    let candidates: Vec<PathBuf> = CHIP_MODELS
+        .iter()
+        .map(|n| file(&spec.chip_models, n))
+        .chain(["snn-raw1350", "snn-th10", "snn-chars"].iter().map(|n| file(&spec.nir_models, n)))
+        .collect();
+    for path in candidates {
+        let model = pipeline::models::load_snn(&path)?;
+        let s = score_model(&path, &spec.icub, spec.trials, progress)?;
+        let exports = nir::export(&model.network, &ExportOptions::new(model.config.dt_us as f64 * 1e-6)).is_ok();
+        let targets = Target::CHIPS
+            .iter()
+            .map(|&t| match nir::check_target(&model.network, t) {
+                Ok(()) => TargetCheck { target: t, passes: true, rule: None },
+                Err(e) => TargetCheck {
+                    target: t,
+                    passes: false,
+                    rule: Some(e.to_string().trim_start_matches("<target>: ").to_string()),
+                },
+            })
+            .collect();
+        let net = &model.network;
+        chips.push(ChipRow {
+            model: path.display().to_string(),
+            reads: s.reads,
+            data: s.data,
+            accuracy: s.accuracy,
+            n: s.n,
+            input_events_per_sample: s.events,
+            synops_per_sample: s.synops,
+            spikes_per_sample: s.spikes,
+            neurons: net.layers.iter().filter(|l| l.neurons.is_some()).map(|l| l.op.n_out()).sum(),
+            synapses: net.weights().iter().map(|w| w.weight.len() + w.recurrent.as_ref().map_or(0, Vec::len)).sum(),
+            loihi_nj: LOIHI_SYNOP.nanojoules(s.synops),
+            truenorth_nj: TRUENORTH_SYNOP.nanojoules(s.synops),
+            cmos45_nj: CMOS45_ADD.nanojoules(s.synops),
+            exports,
+            targets,
+        });
+    }
+    Ok(ChipReport { faithful, chips, trials: spec.trials })
+}
+
+/// The report as Markdown.
+pub fn markdown(r: &ChipReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Models for neuromorphic chips\n");
+    let _ = writeln!(
+        s,
+        "Regenerate: `braille chip-report --out docs/results` (models from `bash scripts/train_nir.sh` and `bash scripts/train_chips.sh`). Simulated tests: {} scans per board row, seed {TEST_SEED}, the clean world. REAL rows are the iCub recordings' fixed test splits.\n",
+        r.trials
+    );
+    let _ = writeln!(s, "## What the faithful export costs\n");
+    let _ = writeln!(
+        s,
+        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into `models/nir/`; nothing else was chosen. Accuracy on the same test:\n"
+    );
+    let _ = writeln!(
+        s,
+        "| model | test | data | subtract (shipped) | reset to zero (exports) | difference (points) | detail |"
+    );
+    let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- | --- |");
+    for f in &r.faithful {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.2}% | {:.2}% | {:+.2} | {} |",
+            f.model,
+            f.test,
+            f.data,
+            100.0 * f.subtract,
+            100.0 * f.zero,
+            f.difference,
+            f.detail
+        );
+    }
+    let _ = writeln!(s, "\n## Chip table\n");
+    let _ = writeln!(
+        s,
+        "Each model that exports as trained, against each chip's rules (`braille export --target`; the rules and their sources in docs/nir.md). Work per sample is the event-driven engine's (stepped mode): SynOps (one weight added to one neuron) and spikes. Energy = SynOps x a published energy per SynOp (Loihi 23.6 pJ, TrueNorth 26 pJ, a 45 nm 32-bit add 0.9 pJ): the synaptic work only, no neuron updates, routing or static power; none is given for Speck, Xylo, Loihi 2 or SpiNNaker 2, whose per-SynOp figures could not be verified here.\n"
+    );
+    let chips: Vec<&str> = Target::CHIPS.iter().map(|t| t.name()).collect();
+    let _ = writeln!(
+        s,
+        "| model | reads | data | accuracy | neurons | synapses | input events | SynOps | spikes | Loihi nJ | TrueNorth nJ | 45 nm nJ | {} |",
+        chips.join(" | ")
+    );
+    let _ = writeln!(s, "|{}", " --- |".repeat(12 + chips.len()));
+    for c in &r.chips {
+        let marks: Vec<&str> = c.targets.iter().map(|t| if t.passes { "passes" } else { "no" }).collect();
+        let _ = writeln!(
+            s,
+            "| `{}` | {} | {} | {:.2}% (n = {}) | {} | {} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.2} | {} |",
+            c.model,
+            c.reads,
+            c.data,
+            100.0 * c.accuracy,
+            c.n,
+            c.neurons,
+            c.synapses,
+            c.input_events_per_sample,
+            c.synops_per_sample,
+            c.spikes_per_sample,
+            c.loihi_nj,
+            c.truenorth_nj,
+            c.cmos45_nj,
+            marks.join(" | ")
+        );
+    }
+    let _ = writeln!(s, "\nWhy a model fails a chip:\n");
+    for c in &r.chips {
+        for t in c.targets.iter().filter(|t| !t.passes) {
+            let _ = writeln!(s, "- `{}` on {}: {}", c.model, t.target.name(), t.rule.as_deref().unwrap_or(""));
+        }
+    }
+    s
+}

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The chip models (models/chip/), each within a chip's rules (`braille export --target`,
+# docs/nir.md), trained by a named recipe (experiments/src/recipe.rs):
+# - xylo-braille7: the NIR paper's seven Braille letters on the real iCub recordings (raw1350),
+#   12 inputs, 256 CubaLIF, 7 leaky-integrator outputs (Xylo: 16 inputs, 1000 hidden, 8 outputs);
+# - speck-chars: a convolutional IF character classifier with sum pooling on SIMULATED windows
+#   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
+# Then the chip table and the cost of the faithful export: `braille chip-report`
+# (docs/results/chips.md). About 40 minutes on two cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+b=target/release/braille
+mkdir -p models/chip docs/results/chip
+$b train --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
+  --history docs/results/chip/xylo_braille7_history.json --force --quiet
+$b train --arch snn --recipe speck --out models/chip/speck-chars.safetensors \
+  --history docs/results/chip/speck_chars_history.json --force --quiet
+if [[ "${1:-}" != "--no-report" ]]; then
+  $b chip-report --out docs/results
+fi

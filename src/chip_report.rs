@@ -1,0 +1,46 @@
+//! `braille chip-report`: what exporting the shipped SNNs faithfully costs, and the chip table
+//! (each exportable model against each chip's rules, with accuracy, work and energy estimates).
+
+use crate::common::Bar;
+use anyhow::Result;
+use experiments::reports::chips::{self, ChipSpec};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The shipped (subtracting) models.
+    #[arg(long, default_value = "models")]
+    models: PathBuf,
+    /// Their reset-to-zero twins (`bash scripts/train_nir.sh`).
+    #[arg(long, default_value = "models/nir")]
+    nir_models: PathBuf,
+    /// The chip models (`bash scripts/train_chips.sh`).
+    #[arg(long, default_value = "models/chip")]
+    chip_models: PathBuf,
+    /// Folder holding the iCub dataset folders `raw1350` and `th10`.
+    #[arg(long, default_value = "data/icub_braille")]
+    data: PathBuf,
+    /// Simulated scans per board row.
+    #[arg(long, default_value_t = 30)]
+    trials: u64,
+    /// Where to write `chips.md` and `chips.json`.
+    #[arg(long, default_value = "docs/results")]
+    out: PathBuf,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let spec = ChipSpec {
+        models: args.models,
+        nir_models: args.nir_models,
+        chip_models: args.chip_models,
+        icub: args.data,
+        trials: args.trials,
+    };
+    let r = chips::run(&spec, &Bar::default())?;
+    let md = chips::markdown(&r);
+    std::fs::create_dir_all(&args.out)?;
+    experiments::write_json(&args.out.join("chips.json"), &r, true)?;
+    std::fs::write(args.out.join("chips.md"), &md)?;
+    print!("{md}");
+    Ok(())
+}

@@ -1,0 +1,153 @@
+//! Models for chips as a user meets them: every shipped model exports as trained (its
+//! reset-to-zero twin), the chip models pass their chips' rules, graphs are written for each
+//! peer's importer, and `braille bench --model` times any model or NIR graph on any events.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn braille(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_braille")).args(args).output().expect("run braille")
+}
+
+fn root(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+fn ok(o: &Output) -> (String, String) {
+    let (out, err) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
+    assert!(o.status.success(), "{err}");
+    (out, err)
+}
+
+fn failed(o: &Output) -> String {
+    assert!(!o.status.success(), "expected a failure: {}", String::from_utf8_lossy(&o.stdout));
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn every_shipped_snn_has_a_twin_that_exports_as_trained_and_chip_models_pass_their_chips() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.nir");
+    for name in ["snn-raw1350", "snn-th10", "snn-chars", "snn-words", "snn-segment"] {
+        let shipped = root(&format!("models/{name}.safetensors"));
+        assert!(
+            failed(&braille(&["export", "--model", s(&shipped), "--out", s(&out), "--force"])).contains("subtraction")
+        );
+        let twin = root(&format!("models/nir/{name}.safetensors"));
+        ok(&braille(&["export", "--model", s(&twin), "--out", s(&out), "--force"]));
+    }
+    for (model, target) in [
+        ("models/chip/xylo-braille7.safetensors", "xylo"),
+        ("models/chip/speck-chars.safetensors", "speck"),
+        ("models/nir/snn-th10.safetensors", "loihi2"),
+        ("models/nir/snn-raw1350.safetensors", "spinnaker2"),
+    ] {
+        let (_, err) =
+            ok(&braille(&["export", "--model", s(&root(model)), "--out", s(&out), "--force", "--target", target]));
+        assert!(err.contains("target"), "{err}");
+    }
+    // a model over a chip's limits: the layer, its node and the limit are named
+    let th10 = root("models/nir/snn-th10.safetensors");
+    let err = failed(&braille(&["export", "--model", s(&th10), "--out", s(&out), "--force", "--target", "xylo"]));
+    assert!(err.contains("layer0.op") && err.contains("16 input channels"), "{err}");
+    let chars = root("models/nir/snn-chars.safetensors");
+    let err = failed(&braille(&["export", "--model", s(&chars), "--out", s(&out), "--force", "--target", "speck"]));
+    assert!(err.contains("layer0.neurons") && err.contains("IF neurons"), "{err}");
+    // snnTorch 1.0 reads graphs at 100 us: the convention says where to import
+    let (_, err) = ok(&braille(&[
+        "export",
+        "--model",
+        s(&root("models/chip/xylo-braille7.safetensors")),
+        "--out",
+        s(&out),
+        "--force",
+        "--convention",
+        "snntorch",
+    ]));
+    assert!(err.contains("snntorch convention: import at dt = 0.0001 s"), "{err}");
+}
+
+#[test]
+fn bench_times_an_exported_graph_on_its_dataset_as_the_model_file_scores() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = root("models/chip/xylo-braille7.safetensors");
+    let graph = dir.path().join("x.nir");
+    ok(&braille(&["export", "--model", s(&model), "--out", s(&graph), "--target", "xylo"]));
+    let data = root("data/icub_braille/raw1350");
+    let (out, _) = ok(&braille(&[
+        "bench",
+        "--model",
+        s(&graph),
+        "--dt-us",
+        "10000",
+        "--data",
+        s(&data),
+        "--like",
+        s(&model),
+        "--streams",
+        "2",
+        "--json",
+    ]));
+    let b: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let (out, _) = ok(&braille(&["eval", "--data", s(&data), "--model", s(&model), "--json"]));
+    let e: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // the graph read back runs as the model file scores, sample for sample in count
+    assert_eq!(b["samples"], e["n"]);
+    assert_eq!(b["accuracy"], e["accuracy"]);
+    assert!((b["synops_per_sample"].as_f64().unwrap() - e["synops_per_sample"].as_f64().unwrap()).abs() < 1e-6);
+    let l = &b["latency"];
+    let q = |k: &str| l[k].as_f64().unwrap();
+    assert!(q("p50_ns") <= q("p99_ns") && q("p99_ns") <= q("p999_ns") && q("p999_ns") <= q("max_ns"), "{l}");
+    assert_eq!(b["scaling"].as_array().unwrap().len(), 2);
+    assert!(b["energy"][0]["nj_per_sample"].as_f64().unwrap() > 0.0);
+    // async mode needs LIF or IF layers: a clear refusal for CubaLIF
+    let err = failed(&braille(&["bench", "--model", s(&model), "--mode", "async"]));
+    assert!(err.contains("async") && err.contains("--mode stepped"), "{err}");
+}
+
+#[test]
+fn bench_and_run_take_a_peers_graph_on_an_event_file_and_name_events_outside_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    // snnTorch's conv graph: 2 x 16 x 16 input (polarity, rows, columns)
+    let graph = root("snn/tests/fixtures/nir/conv/conv_snn.nir");
+    let events = dir.path().join("e.csv");
+    let mut csv = String::from("t_us,x,y,p\n");
+    for k in 0..400u32 {
+        csv += &format!("{},{},{},{}\n", k * 5, (k * 7) % 16, (k * 3) % 16, k % 2);
+    }
+    std::fs::write(&events, &csv).unwrap();
+    let (out, _) = ok(&braille(&["bench", "--model", s(&graph), "--events", s(&events), "--json"]));
+    let b: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(b["source"], "nir_graph");
+    assert_eq!(b["input_events_per_sample"].as_f64().unwrap(), 400.0);
+    assert!(b["spikes_per_sample"].as_f64().unwrap() > 0.0, "{b}");
+    assert!(b["accuracy"].is_null());
+    // every spike of every layer, for a spike-for-spike comparison with another simulator
+    let spikes = dir.path().join("s.csv");
+    let (_, err) = ok(&braille(&["run", "--model", s(&graph), "--events", s(&events), "--out", s(&spikes)]));
+    assert!(err.contains("agrees with the time-stepped reference"), "{err}");
+    let rows = std::fs::read_to_string(&spikes).unwrap();
+    assert!(rows.starts_with("layer,step,neuron\n") && rows.lines().count() > 1);
+    let total: usize =
+        b["spikes_per_layer_per_sample"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as usize).sum();
+    assert_eq!(rows.lines().count() - 1, total, "run and bench see the same spikes");
+    // an event outside the input: the file, the event and the input's size are named
+    csv += "2000,20,3,1\n";
+    std::fs::write(&events, &csv).unwrap();
+    let err = failed(&braille(&["bench", "--model", s(&graph), "--events", s(&events)]));
+    assert!(
+        err.contains("e.csv") && err.contains("event 400") && err.contains("x 20") && err.contains("16 x 16"),
+        "{err}"
+    );
+    // a graph with a node the engine cannot run: the file and the node are named
+    let mut g = snn::nir::Graph::read(&root("snn/tests/fixtures/nir/dense/dense_snn.nir")).unwrap();
+    g.nodes.get_mut("1").unwrap().kind = "Threshold".into();
+    let bad = dir.path().join("bad.nir");
+    g.write(&bad, false).unwrap();
+    let err = failed(&braille(&["bench", "--model", s(&bad)]));
+    assert!(err.contains("bad.nir") && err.contains("node `1`") && err.contains("Threshold"), "{err}");
+}
