@@ -245,8 +245,6 @@ fn new_histogram() -> Histogram<u64> {
 /// One stream's pass over the whole input.
 struct Pass {
     latency: Histogram<u64>,
-    /// Time spent in the engine (push and finish), untimed per event.
-    engine_ns: u128,
     events: u64,
     synops: u64,
     spikes: Vec<u64>,
@@ -254,34 +252,27 @@ struct Pass {
 }
 
 /// Runs every sample of `feed` through a stream. `per_event`: time each push (the latency
-/// distribution); otherwise time each chunk of pushes as a whole (the throughput).
+/// distribution); otherwise no clock is read (the caller times the whole pass).
 fn pass(engine: &Engine, st: &mut EngineState, feed: &Feed, readout: Readout, per_event: bool) -> Result<Pass> {
     let n_out = engine.n_outputs();
-    let mut out =
-        Pass { latency: new_histogram(), engine_ns: 0, events: 0, synops: 0, spikes: Vec::new(), readouts: Vec::new() };
+    let mut out = Pass { latency: new_histogram(), events: 0, synops: 0, spikes: Vec::new(), readouts: Vec::new() };
     let run = |events: &[(i64, u32)], st: &mut EngineState, out: &mut Pass| -> Result<()> {
         if per_event {
             for &(t, i) in events {
                 let t0 = Instant::now();
                 engine.push(st, t, i, 1.0)?;
-                let ns = t0.elapsed().as_nanos() as u64;
-                out.latency.saturating_record(ns.max(1));
-                out.engine_ns += ns as u128;
+                out.latency.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
             }
         } else {
-            let t0 = Instant::now();
             for &(t, i) in events {
                 engine.push(st, t, i, 1.0)?;
             }
-            out.engine_ns += t0.elapsed().as_nanos();
         }
         out.events += events.len() as u64;
         Ok(())
     };
     let close = |st: &mut EngineState, end_us: i64, label: Option<usize>, out: &mut Pass| {
-        let t0 = Instant::now();
         engine.finish(st, end_us);
-        out.engine_ns += t0.elapsed().as_nanos();
         out.synops += st.stats.synops;
         if out.spikes.len() < st.stats.spikes.len() {
             out.spikes.resize(st.stats.spikes.len(), 0);
@@ -373,7 +364,7 @@ pub struct ModelBench {
     pub latency: Latency,
     /// What a timed push costs with nothing to do (two clock reads), included in `latency`.
     pub clock_overhead_ns: f64,
-    /// One stream, untimed pass.
+    /// One stream, untimed pass (the first row of `scaling`).
     pub input_events_per_s: f64,
     pub scaling: Vec<StreamsRow>,
     pub cores: usize,
@@ -498,14 +489,12 @@ pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, stre
     // warm up, and the work and readouts (identical in every pass)
     let warm = pass(&engine, &mut st, &feed, net.readout, false)?;
     let timed = pass(&engine, &mut st, &feed, net.readout, true)?;
-    let untimed = pass(&engine, &mut st, &feed, net.readout, false)?;
     let n = warm.readouts.len().max(1) as f64;
     let labelled: Vec<(usize, usize)> =
         warm.readouts.iter().filter_map(|(r, l)| l.map(|l| (crate::scoring::argmax(r.iter().copied()), l))).collect();
     let accuracy = (!labelled.is_empty() && labelled.len() == warm.readouts.len())
         .then(|| labelled.iter().filter(|(p, l)| p == l).count() as f64 / labelled.len() as f64);
     let synops_per_sample = warm.synops as f64 / n;
-    let one_rate = untimed.events as f64 / (untimed.engine_ns as f64 * 1e-9).max(1e-12);
     let mut scaling = Vec::new();
     for k in 1..=streams.max(1) {
         let results: Vec<Result<(Pass, Pass, f64)>> = std::thread::scope(|s| {
@@ -554,7 +543,7 @@ pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, stre
         accuracy,
         latency: latency_of(&timed.latency),
         clock_overhead_ns: clock_overhead_ns(),
-        input_events_per_s: one_rate,
+        input_events_per_s: scaling.first().map_or(0.0, |r| r.input_events_per_s),
         scaling,
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         energy: SYNOP_ENERGIES
