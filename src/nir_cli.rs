@@ -2,7 +2,6 @@
 
 use anyhow::{Result, bail};
 use snn::model_file::{Readout, SnnConfig, SnnModel};
-use snn::neuron::NeuronKind;
 use snn::nir::{self, Convention, ExportOptions, Graph, ImportOptions, ImportReset, SubtractExport, Target};
 use std::path::PathBuf;
 
@@ -90,10 +89,7 @@ pub fn import(args: ImportArgs) -> Result<()> {
     let imported =
         nir::import(&args.file, &graph, &ImportOptions { dt_s: args.dt_us as f64 * 1e-6, reset: args.reset })?;
     let net = imported.network;
-    let readout = match net.layers.last().and_then(|l| l.neurons).map(|p| p.kind) {
-        Some(NeuronKind::Li) => Readout::MaxMembrane,
-        _ => Readout::SpikeCount,
-    };
+    let readout = Readout::implied_by(&net);
     let (preprocess, classes) = match &args.like {
         Some(p) => {
             let m = SnnModel::load(p)?;

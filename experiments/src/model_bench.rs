@@ -15,7 +15,6 @@ use snn::energy::SYNOP_ENERGIES;
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::{Readout, SnnModel};
 use snn::network::Network;
-use snn::neuron::NeuronKind;
 use snn::nir::{self, Graph, ImportOptions, ImportReset};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -73,10 +72,7 @@ pub fn load_network(path: &Path, nir: NirReading) -> Result<BenchNetwork> {
         let graph = Graph::read(path)?;
         let imported = nir::import(path, &graph, &ImportOptions { dt_s: nir.dt_us as f64 * 1e-6, reset: nir.reset })?;
         let network = imported.network;
-        let readout = match network.layers.last().and_then(|l| l.neurons).map(|p| p.kind) {
-            Some(NeuronKind::Li) => Readout::MaxMembrane,
-            _ => Readout::SpikeCount,
-        };
+        let readout = Readout::implied_by(&network);
         let classes = (0..network.n_outputs()).map(|i| i.to_string()).collect();
         return Ok(BenchNetwork {
             network,

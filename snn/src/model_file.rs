@@ -230,6 +230,17 @@ pub enum Readout {
     MaxMembrane,
 }
 
+impl Readout {
+    /// The readout a network's output layer implies when nothing else says (a NIR graph): the
+    /// highest membrane of a leaky-integrator layer, else spike counts.
+    pub fn implied_by(net: &Network) -> Readout {
+        match net.layers.last().and_then(|l| l.neurons).map(|p| p.kind) {
+            Some(crate::neuron::NeuronKind::Li) => Readout::MaxMembrane,
+            _ => Readout::SpikeCount,
+        }
+    }
+}
+
 /// An SNN's configuration as a model file records it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SnnConfig {

@@ -116,7 +116,10 @@ struct Scored {
 fn score_model(path: &Path, icub: &Path, trials: u64, progress: &dyn Progress) -> Result<Scored> {
     let model = pipeline::models::load_snn(path)?;
     if let Ok(enc) = crate::tactile::encoding_of(&model, path) {
-        let set = if enc.sigma_delta.is_some() { "raw1350" } else { "th10" };
+        // the dataset folder the model was trained on, as its provenance names it
+        let set = model.provenance["data"].as_str().ok_or_else(|| {
+            crate::Error::Invalid(format!("{}: the provenance names no dataset folder", path.display()))
+        })?;
         let (e, _) = eval_split(path, &icub.join(set), SplitChoice::Test, Mode::Stepped)?;
         let classes = enc.classes.as_ref().map_or(String::new(), |c| format!(", {} classes", c.len()));
         return Ok(Scored {
