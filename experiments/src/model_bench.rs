@@ -355,7 +355,7 @@ pub struct ModelBench {
     pub spikes_per_layer_per_sample: Vec<f64>,
     /// When the input has labels and the network one output per class.
     pub accuracy: Option<f64>,
-    /// One stream, every push timed: in stepped mode a push that opens a new step carries the
+    /// One stream, every push timed (the first row of `scaling`): in stepped mode a push that opens a new step carries the
     /// whole previous step's work; in async mode each push completes all the event's effects.
     pub latency: Latency,
     /// What a timed push costs with nothing to do (two clock reads), included in `latency`.
@@ -467,8 +467,8 @@ fn feed(net: &BenchNetwork, input: &BenchInput) -> Result<(Feed, String)> {
     })
 }
 
-/// Benchmarks `net` on `input` in `mode`: one stream timed per event and untimed, then 1 to
-/// `streams` streams at once on as many threads.
+/// Benchmarks `net` on `input` in `mode`: 1 to `streams` streams at once on as many threads, each
+/// timed per event and then untimed; the one-stream row gives the latency and rate.
 pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, streams: usize) -> Result<ModelBench> {
     let engine = Engine::new(&net.network, net.dt_us, mode).map_err(|e| {
         Error::Invalid(format!(
@@ -484,7 +484,6 @@ pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, stre
     let mut st = engine.state(0);
     // warm up, and the work and readouts (identical in every pass)
     let warm = pass(&engine, &mut st, &feed, net.readout, false)?;
-    let timed = pass(&engine, &mut st, &feed, net.readout, true)?;
     let n = warm.readouts.len().max(1) as f64;
     let labelled: Vec<(usize, usize)> =
         warm.readouts.iter().filter_map(|(r, l)| l.map(|l| (crate::scoring::argmax(r.iter().copied()), l))).collect();
@@ -537,9 +536,9 @@ pub fn run(net: &BenchNetwork, model: &str, input: &BenchInput, mode: Mode, stre
         spikes_per_sample: warm.spikes.iter().sum::<u64>() as f64 / n,
         spikes_per_layer_per_sample: warm.spikes.iter().map(|&s| s as f64 / n).collect(),
         accuracy,
-        latency: latency_of(&timed.latency),
+        latency: scaling[0].latency,
         clock_overhead_ns: clock_overhead_ns(),
-        input_events_per_s: scaling.first().map_or(0.0, |r| r.input_events_per_s),
+        input_events_per_s: scaling[0].input_events_per_s,
         scaling,
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         energy: SYNOP_ENERGIES
