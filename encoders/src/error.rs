@@ -61,7 +61,7 @@ pub enum Error {
     #[error("{path}: {what}")]
     Unsupported { path: PathBuf, what: String },
 
-    #[error("{path}: exists; pass --force to overwrite it")]
+    #[error("{path}: exists, and is replaced only when asked (--force on the command line, overwrite=True in Python)")]
     Exists { path: PathBuf },
 
     #[error("invalid configuration: {0}")]

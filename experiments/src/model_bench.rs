@@ -37,7 +37,41 @@ pub struct BenchNetwork {
 pub enum ModelSource {
     ModelFile,
     NirGraph,
+    /// The peer benchmark's network, built in ([`peer_network`]).
+    Builtin,
 }
+
+/// The peer benchmark's network (`braille bench` without `--model`: the conv SNN of
+/// `scripts/peers`, 2 x 60 x 80 input, 20 steps of 1 ms), ready to run like a loaded one.
+pub fn peer_network() -> BenchNetwork {
+    let network = snn::network::peers_conv(1, crate::bench::PEER_GAIN);
+    BenchNetwork {
+        readout: Readout::implied_by(&network),
+        classes: (0..network.n_outputs()).map(|i| i.to_string()).collect(),
+        dt_us: crate::bench::DT_US,
+        encoding: None,
+        source: ModelSource::Builtin,
+        network,
+    }
+}
+
+/// Sample `s` of the peer benchmark's input (`braille bench` runs samples 0 to `--samples`), as
+/// the events of an 80 x 60 sensor: input `(c, y, x)` of the 2 x 60 x 80 input is pixel `(x, y)`
+/// with polarity `c` (OFF 0, ON 1), which [`InputMap`] maps back to the same input.
+pub fn peer_sample_events(s: u64) -> Vec<Event> {
+    let [_, h, w] = PEER_INPUT;
+    crate::bench::sample_events(1000 + s, PEER_INPUT.iter().product())
+        .into_iter()
+        .map(|(t, i)| {
+            let i = i as usize;
+            let polarity = encoders::Polarity::from_on(i / (h * w) == 1);
+            Event::new(t, (i % w) as u16, (i / w % h) as u16, polarity)
+        })
+        .collect()
+}
+
+/// The peer benchmark's input shape, `[channels, height, width]`.
+pub const PEER_INPUT: [usize; 3] = [2, 60, 80];
 
 /// How a NIR graph is read: the engine's step and the neurons' reset (NIR cannot say either).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -571,7 +605,19 @@ pub struct RunRecord {
 /// mode; their output spikes must agree.
 pub fn run_events(net: &BenchNetwork, path: &Path, steps: Option<usize>) -> Result<RunRecord> {
     let (info, events) = formats::read_all(path, &OpenOptions::default())?;
-    let map = InputMap::new(&net.network, info.resolution, path)?;
+    record_events(net, &events, info.resolution, path, steps)
+}
+
+/// [`run_events`] on events in memory, of a sensor of `resolution` (if known); `path` names them
+/// in errors.
+pub fn record_events(
+    net: &BenchNetwork,
+    events: &[Event],
+    resolution: Option<encoders::Resolution>,
+    path: &Path,
+    steps: Option<usize>,
+) -> Result<RunRecord> {
+    let map = InputMap::new(&net.network, resolution, path)?;
     let n = net.network.n_inputs();
     let dt = net.dt_us;
     if let Some((k, e)) = events.iter().enumerate().find(|(_, e)| e.t_us < 0) {

@@ -59,13 +59,79 @@ pub struct Summary {
     pub files: Vec<FileSummary>,
 }
 
+/// A board, a sensor and a scan setting, built once; each scan of a row and trial is simulated
+/// from them (what `braille simulate` writes, and what the Python package returns).
+#[derive(Debug, Clone)]
+pub struct Scanner {
+    pub setup: sim::Setup,
+    pub board: Board,
+    pub sensor: sim::Sensor,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub direction: Direction,
+    pub seed: u64,
+}
+
+impl Scanner {
+    /// The board (its tolerances from `board_seed`, or derived from its name), the sensor built
+    /// from `sensor_seed` at `resolution`, under `realism`'s nuisances.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        board: BoardKind,
+        board_seed: Option<u64>,
+        sensor_seed: u64,
+        realism: sim::Realism,
+        resolution: Resolution,
+        speed_mm_s: f64,
+        depth_mm: f64,
+        direction: Direction,
+        seed: u64,
+    ) -> Result<Scanner> {
+        let board_seed = board_seed.unwrap_or_else(|| Board::default_seed(&board));
+        let setup = realism.setup();
+        let board = Board::new(board, setup.geometry.clone(), board_seed)?;
+        let sensor = setup.sensor(resolution, sensor_seed)?;
+        Ok(Scanner { setup, board, sensor, speed_mm_s, depth_mm, direction, seed })
+    }
+
+    /// The scanner of `spec`.
+    pub fn of(spec: &ScanSpec) -> Result<Scanner> {
+        Scanner::new(
+            spec.board.clone(),
+            spec.board_seed,
+            spec.sensor_seed,
+            spec.realism,
+            spec.resolution,
+            spec.speed,
+            spec.depth,
+            spec.direction,
+            spec.seed,
+        )
+    }
+
+    /// Trial `trial` of row `row`: its events and ground truth. The same arguments give the same
+    /// scan.
+    pub fn scan(&self, row: usize, trial: u64) -> Result<sim::Scan> {
+        if row >= self.board.rows.len() {
+            return Err(Error::Invalid(format!(
+                "row {row}: the board has {} rows (0..{})",
+                self.board.rows.len(),
+                self.board.rows.len() - 1
+            )));
+        }
+        let scan = ScanConfig {
+            direction: self.direction,
+            ..self.setup.scan(self.speed_mm_s, self.depth_mm, row, crate::datasets::trial_seed(self.seed, row, trial))
+        };
+        Ok(sim::simulate(&self.board, &self.sensor, &scan)?)
+    }
+}
+
 /// Simulates the scans of `spec` in parallel, each written as it is done (AEDAT 4.0 in a folder,
 /// or the format of `out`'s extension), its ground truth beside it.
 pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summary> {
-    let board_seed = spec.board_seed.unwrap_or_else(|| Board::default_seed(&spec.board));
-    let setup = spec.realism.setup();
-    let board = Board::new(spec.board.clone(), setup.geometry.clone(), board_seed)?;
-    let sensor = setup.sensor(spec.resolution, spec.sensor_seed)?;
+    let scanner = Scanner::of(spec)?;
+    let board = &scanner.board;
     let rows: Vec<usize> = match spec.row {
         Some(r) if r >= board.rows.len() => {
             return Err(Error::Invalid(format!(
@@ -88,7 +154,6 @@ pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summar
     if !single {
         std::fs::create_dir_all(&spec.out).map_err(|source| Error::Io { path: spec.out.clone(), source })?;
     }
-    let direction = spec.direction;
     if jobs.len() > 1 {
         progress.start("simulating scans", jobs.len() as u64);
     }
@@ -96,11 +161,7 @@ pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summar
     let results: Vec<Result<(FileSummary, StreamStats)>> = jobs
         .par_iter()
         .map(|&(row, trial)| {
-            let scan = ScanConfig {
-                direction,
-                ..setup.scan(spec.speed, spec.depth, row, crate::datasets::trial_seed(spec.seed, row, trial))
-            };
-            let s = sim::simulate(&board, &sensor, &scan)?;
+            let s = scanner.scan(row, trial)?;
             let events_path = if single {
                 spec.out.clone()
             } else {

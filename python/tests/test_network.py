@@ -1,0 +1,133 @@
+"""Networks from Python: NIR fixtures give snnTorch's spikes and the CLI's, batches equal single
+runs, export round-trips, and bad input is named."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import braille
+from conftest import NIR_FIXTURES, ROOT, spikes_to_events
+
+DT_US = 100  # the fixtures' dt = 1e-4 s
+
+
+def golden_spikes(path):
+    """A golden `[T, ...]` spike array as sorted rows (step, flat neuron)."""
+    s = np.load(path).reshape(np.load(path).shape[0], -1)
+    return np.argwhere(s > 0)
+
+
+@pytest.mark.parametrize("name,layers", [("conv", 3), ("dense", 2)])
+def test_nir_fixture_gives_snntorchs_spikes(name, layers):
+    net = braille.Network.load(NIR_FIXTURES / name / f"{name}_snn.nir", dt_us=DT_US)
+    assert net.source == "nir_graph"
+    spikes = np.load(NIR_FIXTURES / name / "input_spikes.npy")
+    rec = net.record(spikes_to_events(spikes, DT_US), steps=spikes.shape[0])
+    assert rec["steps"] == spikes.shape[0]
+    assert len(rec["spikes"]) == layers
+    for j in range(layers):
+        want = golden_spikes(NIR_FIXTURES / name / f"snntorch_import_lif{j}_spk.npy")
+        np.testing.assert_array_equal(rec["spikes"][j], want, err_msg=f"{name} layer {j}")
+
+
+@pytest.mark.parametrize("name", ["conv", "dense"])
+def test_python_and_cli_agree_on_a_nir_fixture(tmp_path, cli, name):
+    graph = NIR_FIXTURES / name / f"{name}_snn.nir"
+    spikes = np.load(NIR_FIXTURES / name / "input_spikes.npy")
+    events = spikes_to_events(spikes, DT_US)
+    path = tmp_path / "in.npy"
+    braille.write_events(path, events)
+    net = braille.Network.load(graph, dt_us=DT_US)
+
+    # every spike: `braille run` against Network.record
+    out = tmp_path / "spikes.csv"
+    subprocess.run([cli, "run", "--model", graph, "--events", path, "--dt-us", str(DT_US), "--out", out], check=True)
+    rows = np.loadtxt(out, delimiter=",", skiprows=1, dtype=np.int64, ndmin=2)
+    rec = net.record(events)
+    for k, layer in enumerate(rec["spikes"]):
+        np.testing.assert_array_equal(rows[rows[:, 0] == k][:, 1:], layer, err_msg=f"layer {k}")
+
+    # the work: `braille bench --model --events --json` against Network.run, both modes that run
+    for mode in ["stepped", "async"]:
+        bench = subprocess.run(
+            [cli, "bench", "--model", graph, "--events", path, "--dt-us", str(DT_US), "--mode", mode, "--json"],
+            capture_output=True,
+            text=True,
+        )
+        try:
+            r = net.run(events, mode=mode, t_start_us=int(events["t"][0]))
+        except braille.BrailleError as e:
+            assert bench.returncode != 0, f"Python refused {mode} but the CLI ran it: {e}"
+            assert "async mode runs" in str(e)
+            continue
+        assert bench.returncode == 0, bench.stderr
+        report = json.loads(bench.stdout)
+        assert report["samples"] == 1
+        assert r.input_events == len(events)
+        assert r.synops == report["synops_per_sample"]
+        # the bench counts every layer, Python the layers with neurons (as `record` lists them)
+        assert r.spikes_per_layer == [report["spikes_per_layer_per_sample"][k] for k in rec["layers"]]
+
+
+def test_batch_equals_single_runs_and_threads_share_the_network():
+    net, samples = braille.peer_benchmark(6)
+    assert net.input_shape == [2, 60, 80] and net.dt_us == 1000 and net.readout == "spike-count"
+    single = [net.run(s, t_end_us=20_000) for s in samples]
+    batch = net.run_batch(samples, t_end_us=20_000)
+    for a, b in zip(single, batch):
+        np.testing.assert_array_equal(a.readout, b.readout)
+        assert (a.synops, a.spikes_per_layer, a.prediction) == (b.synops, b.spikes_per_layer, b.prediction)
+        np.testing.assert_array_equal(a.output_spikes, b.output_spikes)
+    # the same network and samples give the same results again
+    again = net.run(samples[0], t_end_us=20_000, latency=True)
+    np.testing.assert_array_equal(again.readout, single[0].readout)
+    assert again.latency_ns is not None and len(again.latency_ns) == again.input_events
+    assert single[0].latency_ns is None
+    # the output spikes are the readout's counts
+    counts = np.bincount(single[0].output_spikes[:, 1], minlength=net.n_outputs)
+    np.testing.assert_array_equal(counts, single[0].readout)
+
+
+def test_model_file_exports_to_nir_and_reloads_the_same(tmp_path):
+    model = ROOT / "models" / "nir" / "snn-th10.safetensors"
+    net = braille.Network.load(model)
+    assert net.source == "model_file" and net.readout == "max-membrane"
+    out = tmp_path / "th10.nir"
+    dt_s = net.export(out, target="loihi2")
+    assert dt_s == pytest.approx(net.dt_us * 1e-6)
+    back = braille.Network.load(out, dt_us=net.dt_us)
+    rng = np.random.default_rng(0)
+    n = 400
+    ev = np.empty(n, dtype=braille.EVENTS_DTYPE)
+    ev["t"] = np.sort(rng.integers(0, 100 * net.dt_us, n))
+    ev["x"], ev["y"], ev["p"] = rng.integers(0, net.n_inputs // 2, n), 0, rng.integers(0, 2, n)
+    a, b = net.run(ev), back.run(ev)
+    np.testing.assert_allclose(a.readout, b.readout, rtol=1e-5, atol=1e-5)
+    assert a.spikes_per_layer == b.spikes_per_layer
+    with pytest.raises(FileExistsError):
+        net.export(out)
+
+
+def test_chip_rules_and_bad_input_are_named(tmp_path):
+    net = braille.Network.load(ROOT / "models" / "nir" / "snn-th10.safetensors")
+    with pytest.raises(braille.BrailleError, match="xylo|Xylo"):
+        net.check("xylo")
+    with pytest.raises(ValueError, match="one of generic"):
+        net.check("tpu")
+    shipped = braille.Network.load(ROOT / "models" / "snn-th10.safetensors")
+    with pytest.raises(braille.BrailleError, match="subtraction"):
+        shipped.export(tmp_path / "x.nir")
+    garbage = tmp_path / "garbage.safetensors"
+    garbage.write_bytes(b"not a model at all")
+    with pytest.raises(braille.BrailleError, match="garbage.safetensors"):
+        braille.Network.load(garbage)
+    with pytest.raises(FileNotFoundError, match="nothing.nir"):
+        braille.Network.load(tmp_path / "nothing.nir")
+    ev = np.zeros(2, dtype=braille.EVENTS_DTYPE)
+    ev["x"][1] = 5000
+    with pytest.raises(braille.BrailleError, match=r"event 1 .*outside the network's input"):
+        net.run(ev)
+    with pytest.raises(ValueError, match="mode"):
+        net.run(ev[:1], mode="sometimes")

@@ -1,0 +1,69 @@
+"""The virtual Evetac and the reader from Python: a simulated row (SIMULATED data) read whole and
+incrementally, by both architectures, and bad input."""
+
+import numpy as np
+import pytest
+
+import braille
+from conftest import ROOT
+
+SPEED = 16.0
+
+
+@pytest.fixture(scope="module")
+def scan():
+    return braille.simulate(board="text:LEFT OPEN", row=0, speed_mm_s=SPEED, seed=7)
+
+
+def test_simulation_is_seeded_and_carries_its_truth(scan):
+    assert scan.text == "LEFT OPEN"
+    assert scan.events.dtype == braille.EVENTS_DTYPE and len(scan.events) > 100_000
+    assert np.all(np.diff(scan.events["t"]) >= 0)
+    assert scan.resolution == (640, 480)
+    assert scan.truth["row_text"] == "LEFT OPEN"
+    assert len(scan.truth["characters"]) == len("LEFT OPEN")
+    assert scan.truth["scan"]["speed_mm_s"] == SPEED
+    small = dict(board="text:AB", row=0, speed_mm_s=32.0, resolution=(160, 120))
+    a, b = braille.simulate(seed=1, **small), braille.simulate(seed=1, **small)
+    np.testing.assert_array_equal(a.events, b.events)
+    c = braille.simulate(seed=2, **small)
+    assert len(c.events) != len(a.events) or not np.array_equal(c.events, a.events)
+
+
+@pytest.mark.parametrize("arch", ["snn", "resnet"])
+def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
+    reader = braille.Reader(arch=arch, spell="none")
+    whole = reader.read(scan.events)
+    # the reader gets the events only: nothing of the truth, not the speed
+    assert [w.text for w in whole] == ["LEFT", "OPEN"], whole
+    stream = reader.stream()
+    chunked = []
+    for chunk in np.array_split(scan.events, 37):
+        chunked += stream.push(chunk)
+    assert stream.speed_mm_s is not None
+    chunked += stream.finish()
+    assert [(w.text, w.t_start_us, w.t_end_us) for w in chunked] == [(w.text, w.t_start_us, w.t_end_us) for w in whole]
+    assert all(len(w.confidences) == len(w.raw) for w in whole)
+    assert whole[0].details["text"] == "LEFT"
+    with pytest.raises(braille.BrailleError, match="finished"):
+        stream.push(scan.events[:10])
+
+
+def test_reader_refuses_bad_streams_and_models(scan, tmp_path):
+    reader = braille.Reader(spell="none", timing="given", speed_mm_s=SPEED)
+    stream = reader.stream()
+    stream.push(scan.events[1000:2000])
+    with pytest.raises(braille.BrailleError, match="chunk from event 1000"):
+        stream.push(scan.events[:10])
+    with pytest.raises(ValueError, match="needs a speed"):
+        braille.Reader(timing="given")
+    with pytest.raises(ValueError, match="one of snn, resnet"):
+        braille.Reader(arch="transformer")
+    with pytest.raises(FileNotFoundError, match="nowhere"):
+        braille.Reader(models_dir=tmp_path / "nowhere")
+    with pytest.raises(braille.BrailleError, match="not a 26-letter"):
+        braille.Reader(classifier=ROOT / "models" / "snn-segment.safetensors")
+    with pytest.raises(ValueError, match="board"):
+        braille.simulate(board="text:")
+    with pytest.raises(braille.BrailleError, match="row 3"):
+        braille.simulate(board="text:AB", row=3)
