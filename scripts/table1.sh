@@ -9,6 +9,8 @@
 # REALISM=clean|nominal|harsh picks the simulator's preset (default clean: the shipped models and
 # tables); beyond clean, models go to models/$REALISM/ and results to docs/results/$REALISM/, and
 # training uses the training sensor builds, testing the test builds (docs/simulator.md).
+# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
+# became the default (2026-11-25; docs/results/trainers.md compares the two).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 realism="${REALISM:-clean}"
@@ -24,7 +26,7 @@ if [[ "${1:-}" != "--report-only" ]]; then
   # The SNN: 2560 inputs (the 64x80 crop pooled 2x2, ON and OFF) -> 256 LIF -> 26 leaky
   # integrators, 10 ms steps; events dropped with probability 0.3 in training (a shallower press
   # gives fewer events).
-  target/release/braille train --arch snn --recipe chars --realism "$realism" --out "$models/snn-chars.safetensors" \
+  target/release/braille train --trainer dense --arch snn --recipe chars --realism "$realism" --out "$models/snn-chars.safetensors" \
     --history "$out/snn_chars_history.json" --force --quiet
 fi
 target/release/braille chars-report --models "$models" --out "$out" --trials 30 --realism "$realism"

@@ -7,14 +7,16 @@
 #   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
 # Then the chip table and the cost of the faithful export: `braille chip-report`
 # (docs/results/chips.md). About 40 minutes on two cores.
+# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
+# became the default (2026-11-25; docs/results/trainers.md compares the two).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 mkdir -p models/chip docs/results/chip
-$b train --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
+$b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
   --history docs/results/chip/xylo_braille7_history.json --force --quiet
-$b train --arch snn --recipe speck --out models/chip/speck-chars.safetensors \
+$b train --trainer dense --arch snn --recipe speck --out models/chip/speck-chars.safetensors \
   --history docs/results/chip/speck_chars_history.json --force --quiet
 if [[ "${1:-}" != "--no-report" ]]; then
   $b chip-report --out docs/results

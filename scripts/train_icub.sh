@@ -2,6 +2,8 @@
 # Trains the shipped SNNs on the real iCub Braille recordings and regenerates docs/results/icub.{md,json,png}.
 # Seeded: the same commands give the same models on the same machine. About 2 min (raw1350) and
 # 10-15 min (th10) on two cores.
+# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
+# became the default (2026-11-25; docs/results/trainers.md compares the two).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -11,7 +13,7 @@ mkdir -p models docs
 # 24 inputs -> 256 CubaLIF (tau_mem 500 ms, tau_syn 200 ms, reset by subtraction) -> 27 LI readout
 # (max membrane); Adam 2e-3 with cosine decay; the command's defaults. Seed 2 had the best
 # validation accuracy of the eight runs in the README (two configurations, seeds 1-4).
-$b train --data data/icub_braille/raw1350 --recipe raw1350 \
+$b train --trainer dense --data data/icub_braille/raw1350 --recipe raw1350 \
   --out models/snn-raw1350.safetensors --history docs/results/icub_raw1350_history.json --force --quiet
 # th10: the released events (sigma-delta threshold 10), the same network with faster neurons
 # (tau_mem 100 ms, tau_syn 50 ms), a recurrent hidden layer whose recurrent weights start at
@@ -23,6 +25,6 @@ $b train --data data/icub_braille/raw1350 --recipe raw1350 \
 # epochs). The shipped model is then trained on the whole training split (--val-fraction 0) for
 # those 100 epochs, its weights averaged over the last 30 (stochastic weight averaging); seed 2,
 # fixed before the run.
-$b train --data data/icub_braille/th10 --recipe th10 \
+$b train --trainer dense --data data/icub_braille/th10 --recipe th10 \
   --out models/snn-th10.safetensors --history docs/results/icub_th10_history.json --force --quiet
 $b icub-report --out docs/results

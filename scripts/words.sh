@@ -15,18 +15,20 @@
 # against 99.45/99.34/97.18% with `--stretch 0.15` (mean 98.90 against 98.66%; docs/protocol.md).
 # Earlier, on RAB scans of seed 2000003 (the test board, other scans), 10 scans per row and 16
 # epochs (95.8-99.6%) and 512 hidden neurons (97.8% at 1.5 mm) did worse.
+# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
+# became the default (2026-11-25; docs/results/trainers.md compares the two).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 mkdir -p models docs
 b=target/release/braille
 if [[ "${1:-}" != "--report-only" ]]; then
-  $b train --arch snn --recipe words --out models/snn-words.safetensors \
+  $b train --trainer dense --arch snn --recipe words --out models/snn-words.safetensors \
     --history docs/results/snn_words_history.json --force --quiet
   $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
     --epochs 15 --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
     --history docs/results/resnet_lite_normaug_words_history.json --force --quiet
-  $b train --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/results/snn_segment_history.json --force --quiet
+  $b train --trainer dense --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/results/snn_segment_history.json --force --quiet
   $b train --arch resnet --task segment --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
     --epochs 8 --lr 1e-3 --seed 1 --out models/resnet-tiny-segment.safetensors \
     --history docs/results/resnet_tiny_segment_history.json --force --quiet

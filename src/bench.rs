@@ -20,12 +20,17 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     json: bool,
-    /// Time a training step instead: batch 32, forward over the 20 steps, BPTT and Adam on burn.
+    /// Time a training step instead: batch 32, forward over the 20 steps, BPTT and Adam, with the
+    /// sparse trainer (truncated and exact) and with burn.
     #[arg(long)]
     train: bool,
     /// Batch size of the training step.
     #[arg(long, default_value_t = 32)]
     batch: usize,
+    /// --train: the sparse trainer's truncation (surrogate derivatives below this fraction of
+    /// their peak count as zero), beside its exact run.
+    #[arg(long, default_value_t = learn::sparse::DEFAULT_CUTOFF, requires = "train")]
+    gradient_cutoff: f32,
     /// Any network instead of the peer benchmark's: a model file, or a NIR graph (HDF5, from
     /// snnTorch, Norse or `braille export`).
     #[arg(long, conflicts_with = "train")]
@@ -142,17 +147,35 @@ pub fn run(args: Args) -> Result<()> {
         return model(&args, &path);
     }
     if args.train {
-        let r = experiments::bench::train_step(args.batch, args.repeats)?;
+        let r = experiments::bench::train_step(args.batch, args.repeats, args.gradient_cutoff)?;
         if args.json {
             println!("{}", serde_json::to_string_pretty(&r)?);
         } else {
             println!(
-                "training step (batch {}, {} steps, BPTT + Adam on burn flex): {:.1} ms median, {:.1} ms best; peak RSS {:.0} MB; peers: PyTorch 59.6, snnTorch 97.1, Norse 78.1 ms",
+                "training step of the peer conv SNN (batch {}, {} steps, forward, BPTT, Adam; {:.0} spikes per sample by layer {:?}):",
                 r.batch,
                 r.steps,
-                r.ms_per_train_step,
-                r.ms_per_train_step_min,
-                r.peak_rss_mb.unwrap_or(f64::NAN)
+                r.spikes_per_sample.iter().sum::<f64>(),
+                r.spikes_per_sample.iter().map(|s| s.round()).collect::<Vec<_>>()
+            );
+            for t in [&r.sparse, &r.sparse_exact, &r.dense] {
+                println!(
+                    "  {:<28} {:>8.1} ms median, {:>8.1} ms best; peak RSS {:.0} MB",
+                    t.trainer,
+                    t.ms_per_train_step,
+                    t.ms_per_train_step_min,
+                    t.peak_rss_mb.unwrap_or(f64::NAN)
+                );
+            }
+            println!(
+                "  truncation at {} of the surrogate's peak: gradient cosine {:.4}, relative error {:.3}; {:.2}% of neuron-steps kept",
+                r.gradient_cutoff,
+                r.truncation_cosine,
+                r.truncation_relative_error,
+                100.0 * r.kept_fraction
+            );
+            println!(
+                "  peers (the shared benchmark's figures): PyTorch 59.6, snnTorch 97.1, Norse 78.1 ms; scripts/peers/compare.sh measures them beside ours"
             );
         }
         return Ok(());

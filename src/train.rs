@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use encoders::dataset::Dataset;
 use experiments::chars::{ResnetPreset, ResnetTraining};
 use experiments::datasets::Task;
-use experiments::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice};
+use experiments::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice, TrainerChoice};
 use experiments::search::{
     DataProfile, SearchObserver, SearchSpace, Shard, Trial, derived_recipe, final_models, final_recipe, read_logs,
     report_markdown, run_combination, run_trials, trials_markdown, winner,
@@ -171,6 +171,14 @@ pub struct Args {
     /// Stochastic weight averaging over the last this many epochs (0: off).
     #[arg(long)]
     average_epochs: Option<usize>,
+    /// Which trainer computes the SNN's gradients: sparse (ours, on spike lists) or dense (burn's
+    /// autodiff, the reference) [recipe: sparse].
+    #[arg(long, value_enum)]
+    trainer: Option<TrainerChoice>,
+    /// The sparse trainer's truncation: surrogate derivatives below this fraction of their peak
+    /// count as zero; 0 gives exact gradients [recipe: 0.01].
+    #[arg(long)]
+    gradient_cutoff: Option<f32>,
     /// Neuron dropout in training, per hidden neuron and sample (0: off).
     #[arg(long)]
     dropout: Option<f64>,
@@ -221,7 +229,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
         event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, average_epochs <- a.average_epochs,
         dropout <- a.dropout, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
-        patience <- a.patience, seed <- a.seed);
+        patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff);
     r.interpolate |= a.interpolate;
     r.bias |= a.bias;
     r.recurrent |= a.recurrent;
@@ -269,6 +277,9 @@ pub fn run(args: Args) -> Result<()> {
     let trained = match (args.arch, &args.data) {
         (Arch::Resnet, Some(_)) => bail!("the ResNet trains on simulated character windows; --data is for the SNN"),
         (Arch::Resnet, None) => {
+            if args.trainer.is_some() || args.gradient_cutoff.is_some() {
+                bail!("--trainer and --gradient-cutoff choose how an SNN is trained; the ResNet trains on burn");
+            }
             let t = ResnetTraining {
                 preset: args.preset,
                 preprocess: args.aug,

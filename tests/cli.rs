@@ -246,6 +246,22 @@ fn bench_reports_the_engines_speed() {
 }
 
 #[test]
+fn bench_train_reports_both_trainers_and_the_truncations_error() {
+    let o = braille(&["bench", "--train", "--json", "--batch", "4", "--repeats", "1", "--gradient-cutoff", "0.05"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for t in ["sparse", "sparse_exact", "dense"] {
+        assert!(v[t]["ms_per_train_step"].as_f64().is_some_and(|x| x > 0.0), "{t}: {v}");
+    }
+    let (cosine, kept) = (v["truncation_cosine"].as_f64().unwrap(), v["kept_fraction"].as_f64().unwrap());
+    assert!(cosine > 0.9 && cosine < 1.0, "truncated, close, not equal: {cosine}");
+    assert!(kept > 0.0 && kept < 0.2, "a few neuron-steps keep a surrogate: {kept}");
+    let rates: Vec<f64> = v["spike_rate_per_layer"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
+    assert!(rates.len() == 3 && rates.iter().all(|&r| r > 0.0 && r < 0.5), "{rates:?}");
+}
+
+#[test]
 fn train_and_eval_an_snn_on_a_dataset_folder() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("snn.safetensors");

@@ -4,71 +4,205 @@
 //! peer benchmark (`scripts/peers/compare.sh` measures them side by side in one run).
 
 use crate::error::Result;
-use crate::peak_rss_mb;
 use serde::Serialize;
 use snn::engine::{Engine, Mode};
 use snn::network::{peers_conv, random_input};
 use std::time::Instant;
 
-/// A training step's time and memory.
+/// One trainer's training step: time and memory.
+#[derive(Debug, Clone, Serialize)]
+pub struct StepTiming {
+    pub trainer: String,
+    pub ms_per_train_step: f64,
+    pub ms_per_train_step_min: f64,
+    /// Peak RSS while this trainer ran (the process's peak restarted before it), MB.
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// A training step of the peer network with each trainer.
 #[derive(Debug, Clone, Serialize)]
 pub struct TrainReport {
     pub network: &'static str,
     pub batch: usize,
     pub steps: usize,
-    pub ms_per_train_step: f64,
-    pub ms_per_train_step_min: f64,
-    pub peak_rss_mb: Option<f64>,
+    /// Share of the 60x80 pixels with an event per step (one polarity each), as the peers'.
+    pub input_density: f64,
+    /// burn flex, dense tensors (`--trainer dense`).
+    pub dense: StepTiming,
+    /// Ours, truncated at `gradient_cutoff` (the default `--trainer sparse`).
+    pub sparse: StepTiming,
+    /// Ours, exact (cutoff 0).
+    pub sparse_exact: StepTiming,
+    pub gradient_cutoff: f32,
+    /// The truncated gradient against the exact one, on the first batch: cosine and relative L2
+    /// error.
+    pub truncation_cosine: f64,
+    pub truncation_relative_error: f64,
+    /// Share of neuron-steps of the spiking layers that keep a surrogate (the truncated backward
+    /// works on these), first batch.
+    pub kept_fraction: f64,
+    /// Spikes per sample in each layer, first batch.
+    pub spikes_per_sample: Vec<f64>,
+    /// Spikes per neuron and step in each layer, first batch (the peers report theirs).
+    pub spike_rate_per_layer: Vec<f64>,
     pub peer_pytorch_ms: f64,
     pub peer_snntorch_ms: f64,
     pub peer_norse_ms: f64,
 }
 
-/// A training step of the peer network on burn: forward over 20 steps, BPTT, Adam.
-pub fn train_step(batch: usize, repeats: usize) -> Result<TrainReport> {
+/// The peers' training input: per step, `density` of the pixels have one event of a random
+/// polarity; `(step, input, 1)` entries of each of `batch` samples (C order).
+fn peer_train_batch(seed: u64, batch: usize, density: f64) -> Vec<learn::sparse::Entries> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let plane = 60 * 80;
+    (0..batch)
+        .map(|_| {
+            let mut e = Vec::new();
+            for t in 0..STEPS as u32 {
+                for p in 0..plane as u32 {
+                    if rng.random_bool(density) {
+                        let pol = rng.random_bool(0.5) as u32;
+                        e.push((t, pol * plane as u32 + p, 1.0));
+                    }
+                }
+            }
+            e
+        })
+        .collect()
+}
+
+/// The peers' learning rate in their timing: tiny, so that activity does not drift while timed
+/// (Adam's cost does not depend on it).
+const PEER_LR: f64 = 1e-6;
+
+/// A training step of the peer network (forward over 20 steps, BPTT, Adam; spike-count
+/// cross-entropy, fast-sigmoid surrogate of slope 25), weights at the peers' activity
+/// ([`PEER_GAIN`]), input at their density: the median of `repeats` after two warm-ups, with
+/// burn (dense) and with the sparse trainer at `cutoff` and exact.
+pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainReport> {
+    use learn::sparse::{Adam, SparseSnn, StepEvents};
+    use snn::model_file::Readout;
+    use snn::neuron::Surrogate;
+    let net = peers_conv(1, PEER_GAIN);
+    let spec = net.spec();
+    let surrogate = Surrogate::FastSigmoid { slope: 25.0 };
+    let b = batch.max(1);
+    let density = 0.015;
+    let batches: Vec<Vec<learn::sparse::Entries>> =
+        (0..repeats.max(1) + 2).map(|rep| peer_train_batch(7 + rep as u64, b, density)).collect();
+    let labels: Vec<usize> = (0..b).map(|i| i % 26).collect();
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        (t[t.len() / 2], t[0])
+    };
+    // ours
+    let sparse_run = |cutoff: f32| -> Result<(StepTiming, learn::sparse::BatchGradient)> {
+        crate::reset_peak_rss();
+        let trainer = SparseSnn::new(spec.clone(), surrogate, Readout::SpikeCount, cutoff)?;
+        let mut params = trainer.params(&net.weights())?;
+        let mut adam = Adam::new(&params, 0.0, 0.0);
+        let mut times = Vec::new();
+        let mut first = None;
+        for (rep, batch) in batches.iter().enumerate() {
+            let start = Instant::now();
+            let events: Vec<StepEvents> =
+                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect();
+            let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
+            let g = trainer.batch_gradient(&params, &samples, &[]);
+            adam.step(&mut params, &g.grads, PEER_LR);
+            if rep >= 2 {
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+            }
+            if rep == 0 {
+                first = Some(g);
+            }
+        }
+        let (ms, min) = median(times);
+        let name = if cutoff > 0.0 { format!("sparse, cutoff {cutoff}") } else { "sparse, exact".into() };
+        let timing = StepTiming {
+            trainer: name,
+            ms_per_train_step: ms,
+            ms_per_train_step_min: min,
+            peak_rss_mb: crate::peak_rss_mb(),
+        };
+        Ok((timing, first.expect("a first batch")))
+    };
+    let (sparse, cut_grad) = sparse_run(cutoff)?;
+    let (sparse_exact, exact_grad) = sparse_run(0.0)?;
+    let (a, e): (Vec<f32>, Vec<f32>) = (
+        cut_grad.grads.tensors().flatten().copied().collect(),
+        exact_grad.grads.tensors().flatten().copied().collect(),
+    );
+    let dot: f64 = a.iter().zip(&e).map(|(x, y)| (x * y) as f64).sum();
+    let norm = |v: &[f32]| v.iter().map(|x| (x * x) as f64).sum::<f64>().sqrt();
+    let diff: f64 = a.iter().zip(&e).map(|(x, y)| ((x - y) * (x - y)) as f64).sum::<f64>().sqrt();
+    let neuron_steps: usize = net.layers.iter().map(|l| l.op.n_out()).sum::<usize>() * STEPS * b;
+    let spikes_per_sample: Vec<f64> = exact_grad.spikes.iter().map(|s| s / b as f64).collect();
+    let spike_rate_per_layer =
+        spikes_per_sample.iter().zip(&net.layers).map(|(s, l)| s / (l.op.n_out() * STEPS) as f64).collect();
+    // burn
+    let dense = dense_train_step(&spec, &net.weights(), &batches, &labels)?;
+    Ok(TrainReport {
+        network: "peers conv SNN (as `braille bench`), rate-coded cross-entropy, fast-sigmoid surrogate",
+        batch: b,
+        steps: STEPS,
+        input_density: density,
+        dense,
+        sparse,
+        sparse_exact,
+        gradient_cutoff: cutoff,
+        truncation_cosine: dot / (norm(&a) * norm(&e)),
+        truncation_relative_error: diff / norm(&e),
+        kept_fraction: cut_grad.kept_surrogates as f64 / neuron_steps as f64,
+        spikes_per_sample,
+        spike_rate_per_layer,
+        peer_pytorch_ms: 59.6,
+        peer_snntorch_ms: 97.1,
+        peer_norse_ms: 78.1,
+    })
+}
+
+/// The same steps with burn's autodiff on dense tensors.
+fn dense_train_step(
+    spec: &snn::spec::NetworkSpec,
+    weights: &[snn::spec::LayerWeights],
+    batches: &[Vec<learn::sparse::Entries>],
+    labels: &[usize],
+) -> Result<StepTiming> {
     use burn::optim::{AdamConfig, GradientsParams};
     use burn::tensor::{Device, Int, Tensor, TensorData};
     use learn::snn::{SnnParams, SnnTwin};
     use snn::model_file::Readout;
     use snn::neuron::Surrogate;
-    let net = peers_conv(1, 1.0);
-    let spec = net.spec();
+    crate::reset_peak_rss();
     let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 25.0 }, Readout::SpikeCount)?;
     let device = Device::flex().autodiff();
-    let mut params = SnnParams::from_weights(&spec, &net.weights(), &device)?;
+    let mut params = SnnParams::from_weights(spec, weights, &device)?;
     let mut optim = AdamConfig::new().init();
     let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
-    let (b, n) = (batch.max(1), net.n_inputs());
+    let n: usize = spec.input_shape.iter().product();
     let mut times = Vec::new();
-    for rep in 0..repeats.max(1) + 2 {
-        let input: Vec<Tensor<2>> = (0..STEPS)
-            .map(|t| {
-                let x = random_input(rep as u64 * 100 + t as u64, 1, b * n, 0.015);
-                Tensor::<2>::from_data(TensorData::new(x, [b, n]), &device)
-            })
-            .collect();
-        let y: Vec<i64> = (0..b as i64).map(|i| i % 26).collect();
-        let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
+    for (rep, batch) in batches.iter().enumerate() {
+        let b = batch.len();
         let start = Instant::now();
+        let input = learn::train::dense_input(batch, STEPS, n, &device);
+        let y: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
+        let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
         let out = twin.forward(&params, &input);
         let loss = loss_fn.forward(out.logits, y);
         let grads = GradientsParams::from_grads(loss.backward(), &params);
-        params = optim.step(1e-3, params, grads);
+        params = optim.step(PEER_LR, params, grads);
         if rep >= 2 {
             times.push(start.elapsed().as_secs_f64() * 1e3);
         }
     }
     times.sort_by(f64::total_cmp);
-    Ok(TrainReport {
-        network: "peers conv SNN (as `braille bench`), rate-coded cross-entropy, fast-sigmoid surrogate",
-        batch: b,
-        steps: STEPS,
+    Ok(StepTiming {
+        trainer: "dense (burn flex, autodiff)".into(),
         ms_per_train_step: times[times.len() / 2],
         ms_per_train_step_min: times[0],
-        peak_rss_mb: peak_rss_mb(),
-        peer_pytorch_ms: 59.6,
-        peer_snntorch_ms: 97.1,
-        peer_norse_ms: 78.1,
+        peak_rss_mb: crate::peak_rss_mb(),
     })
 }
 

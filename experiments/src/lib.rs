@@ -41,6 +41,11 @@ pub trait Progress: Sync {
 impl Progress for () {}
 
 /// Peak resident memory of this process (Linux), in MB.
+/// Starts a new peak for [`peak_rss_mb`] (Linux: `/proc/self/clear_refs`); whether it could.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
 pub fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;

@@ -41,6 +41,17 @@ pub enum ReadoutGradient {
     Clamped,
 }
 
+/// Which trainer computes the SNN's gradients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum TrainerChoice {
+    /// Ours: forward on spike lists, BPTT where the surrogate is kept (`learn::sparse`).
+    Sparse,
+    /// burn's autodiff on dense tensors, the reference.
+    Dense,
+}
+
 /// A convolutional layer of the recipe's network, before the dense hidden layers: a square
 /// kernel, then the recipe's hidden neurons, then (when `pool` > 1) sum-pooling by `pool`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -120,6 +131,10 @@ pub struct SnnRecipe {
     /// The recurrent weights' scale at initialisation (None: `init_gain`; 0 starts feed-forward).
     pub recurrent_init_gain: Option<f32>,
     // Training.
+    pub trainer: TrainerChoice,
+    /// The sparse trainer's truncation: surrogate derivatives below this fraction of their peak
+    /// count as zero (0: exact gradients).
+    pub gradient_cutoff: f32,
     pub epochs: usize,
     pub batch_size: usize,
     pub lr: f64,
@@ -179,6 +194,8 @@ impl Default for SnnRecipe {
             surrogate_scale: 10.0,
             init_gain: 1.0,
             recurrent_init_gain: None,
+            trainer: TrainerChoice::Sparse,
+            gradient_cutoff: learn::sparse::DEFAULT_CUTOFF,
             epochs: 60,
             batch_size: 32,
             lr: 2e-3,
@@ -325,6 +342,11 @@ impl SnnRecipe {
             weight_decay: self.weight_decay,
             average_epochs: self.average_epochs,
             dropout: self.dropout,
+            trainer: match self.trainer {
+                TrainerChoice::Sparse => learn::train::Trainer::Sparse,
+                TrainerChoice::Dense => learn::train::Trainer::Dense,
+            },
+            gradient_cutoff: self.gradient_cutoff,
             ..learn::train::TrainConfig::default()
         }
     }

@@ -161,19 +161,7 @@ fn spike(x: Tensor<2>, surrogate: Surrogate) -> Tensor<2> {
 impl SnnTwin {
     pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout) -> snn::Result<SnnTwin> {
         let shapes = spec.shapes()?;
-        if let Some(k) = spec.layers.iter().position(|l| l.recurrent_bias) {
-            return Err(snn::Error::Network(format!("layer {k}: recurrent biases are not trained here")));
-        }
-        let last = spec.layers.last().and_then(|l| l.neurons).map(|p| p.kind);
-        match (readout, last) {
-            (Readout::MaxMembrane, Some(NeuronKind::Li)) => {}
-            (Readout::SpikeCount, Some(k)) if k != NeuronKind::Li => {}
-            _ => {
-                return Err(snn::Error::Network(format!(
-                    "readout {readout:?} does not fit an output layer of {last:?} neurons"
-                )));
-            }
-        }
+        crate::sparse::check_trainable(&spec, readout)?;
         Ok(SnnTwin { spec, shapes, surrogate, readout, clamped_readout_gradient: false })
     }
 

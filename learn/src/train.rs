@@ -3,6 +3,7 @@
 
 use crate::data::SpikeSet;
 use crate::snn::{SnnParams, SnnTwin};
+use crate::sparse::{Adam, Params, SparseSnn, StepEvents};
 use burn::module::Module;
 use burn::nn::loss::CrossEntropyLossConfig;
 use burn::optim::grad_clipping::GradientClippingConfig;
@@ -10,6 +11,7 @@ use burn::optim::{AdamConfig, AdamWConfig, GradientsParams};
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use snn::spec::LayerWeights;
 use std::time::Instant;
@@ -41,6 +43,30 @@ pub struct TrainConfig {
     /// Each hidden spiking neuron is silenced with this probability for a whole training sample.
     #[serde(default)]
     pub dropout: f64,
+    /// Which trainer computes an SNN's gradients (records from before the sparse trainer were
+    /// trained dense, which is what a record without this field reads as).
+    #[serde(default = "Trainer::recorded")]
+    pub trainer: Trainer,
+    /// The sparse trainer's truncation: surrogate derivatives below this fraction of their peak
+    /// count as zero (0: exact gradients).
+    #[serde(default)]
+    pub gradient_cutoff: f32,
+}
+
+/// Which trainer computes an SNN's gradients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Trainer {
+    /// Ours, on spike lists ([`crate::sparse`]).
+    Sparse,
+    /// burn's autodiff on dense tensors ([`crate::snn::SnnTwin`]), the reference.
+    Dense,
+}
+
+impl Trainer {
+    fn recorded() -> Trainer {
+        Trainer::Dense
+    }
 }
 
 /// Training-time augmentation of input spike trains, drawn per sample from the training seed.
@@ -81,6 +107,8 @@ impl Default for TrainConfig {
             weight_decay: 0.0,
             average_epochs: 0,
             dropout: 0.0,
+            trainer: Trainer::Sparse,
+            gradient_cutoff: crate::sparse::DEFAULT_CUTOFF,
         }
     }
 }
@@ -133,47 +161,72 @@ fn batch_input_augmented(
     device: &Device,
     mut augment: Option<(&Augment, &mut rand_chacha::ChaCha8Rng)>,
 ) -> Vec<Tensor<2>> {
+    let batch: Vec<_> =
+        idx.iter().map(|&s| sample_entries(set, s, augment.as_mut().map(|(a, rng)| (*a, &mut **rng)))).collect();
+    dense_input(&batch, set.steps, set.n_inputs, device)
+}
+
+/// `(step, input, count)` entries of each sample of a batch as one `[batch, n_inputs]` tensor per
+/// step, for `steps` steps.
+pub fn dense_input(batch: &[crate::sparse::Entries], steps: usize, n_inputs: usize, device: &Device) -> Vec<Tensor<2>> {
+    let (b, n) = (batch.len(), n_inputs);
+    let mut dense = vec![0f32; steps * b * n];
+    for (j, entries) in batch.iter().enumerate() {
+        for &(t, i, c) in entries {
+            dense[(t as usize * b + j) * n + i as usize] += c;
+        }
+    }
+    dense
+        .chunks_exact((b * n).max(1))
+        .map(|c| Tensor::<2>::from_data(TensorData::new(c.to_vec(), [b, n]), device))
+        .collect()
+}
+
+/// Sample `s`'s input as `(step, input, count)` entries, augmented when asked (the draws, in
+/// order, are the same whichever trainer takes them).
+fn sample_entries(
+    set: &SpikeSet,
+    s: usize,
+    mut augment: Option<(&Augment, &mut rand_chacha::ChaCha8Rng)>,
+) -> crate::sparse::Entries {
     use rand::Rng;
-    let (b, n) = (idx.len(), set.n_inputs);
-    let mut dense = vec![0f32; set.steps * b * n];
     let jitter_steps = match &augment {
         Some((a, _)) if set.dt_us > 0 => (a.event_jitter_us / set.dt_us).max(0),
         _ => 0,
     };
-    for (j, &s) in idx.iter().enumerate() {
-        let train = &set.trains[s];
-        let factor = match &mut augment {
-            Some((a, rng)) if a.stretch > 0.0 => rng.random_range(1.0 - a.stretch..1.0 + a.stretch),
-            _ => 1.0,
-        };
-        for k in 0..train.n_steps().min(set.steps) {
-            let (inputs, counts) = train.step(k);
-            let to = if factor == 1.0 { k } else { (k as f64 * factor).round() as usize };
-            if to >= set.steps {
-                break;
+    let mut out = Vec::new();
+    let train = &set.trains[s];
+    let factor = match &mut augment {
+        Some((a, rng)) if a.stretch > 0.0 => rng.random_range(1.0 - a.stretch..1.0 + a.stretch),
+        _ => 1.0,
+    };
+    for k in 0..train.n_steps().min(set.steps) {
+        let (inputs, counts) = train.step(k);
+        let to = if factor == 1.0 { k } else { (k as f64 * factor).round() as usize };
+        if to >= set.steps {
+            break;
+        }
+        for (&i, &c) in inputs.iter().zip(counts) {
+            let mut c = c as f32;
+            if let Some((a, rng)) = &mut augment
+                && a.drop_events > 0.0
+            {
+                c = (0..c as u32).filter(|_| !rng.random_bool(a.drop_events)).count() as f32;
             }
-            for (&i, &c) in inputs.iter().zip(counts) {
-                let mut c = c as f32;
-                if let Some((a, rng)) = &mut augment
-                    && a.drop_events > 0.0
-                {
-                    c = (0..c as u32).filter(|_| !rng.random_bool(a.drop_events)).count() as f32;
-                }
-                match &mut augment {
-                    Some((_, rng)) if jitter_steps > 0 => {
-                        for _ in 0..c as u32 {
-                            let t = to as i64 + rng.random_range(-jitter_steps..=jitter_steps);
-                            if (0..set.steps as i64).contains(&t) {
-                                dense[(t as usize * b + j) * n + i as usize] += 1.0;
-                            }
+            match &mut augment {
+                Some((_, rng)) if jitter_steps > 0 => {
+                    for _ in 0..c as u32 {
+                        let t = to as i64 + rng.random_range(-jitter_steps..=jitter_steps);
+                        if (0..set.steps as i64).contains(&t) {
+                            out.push((t as u32, i, 1.0));
                         }
                     }
-                    _ => dense[(to * b + j) * n + i as usize] += c,
                 }
+                _ => out.push((to as u32, i, c)),
             }
         }
     }
-    dense.chunks_exact(b * n).map(|c| Tensor::<2>::from_data(TensorData::new(c.to_vec(), [b, n]), device)).collect()
+    out
 }
 
 fn targets(set: &SpikeSet, idx: &[usize], device: &Device) -> Tensor<1, Int> {
@@ -207,7 +260,100 @@ pub fn evaluate(twin: &SnnTwin, params: &SnnParams, set: &SpikeSet, batch_size: 
     (loss / n, hits as f64 / n, spikes.into_iter().map(|s| s / n).collect())
 }
 
-/// Trains from `init` on `train`, keeping the weights that do best on `val`.
+/// What computes gradients and steps the weights: burn's twin or the sparse trainer.
+trait Fitter {
+    /// One optimiser step on the batch `idx` of `set` at `lr`: the batch's mean loss and hits.
+    fn step(&mut self, set: &SpikeSet, idx: &[usize], lr: f64, rng: &mut ChaCha8Rng) -> snn::Result<(f64, usize)>;
+    /// The current weights, in engine layouts.
+    fn weights(&self) -> snn::Result<Vec<LayerWeights>>;
+    /// Validation loss, accuracy and spikes per sample (per spiking layer) of `weights`.
+    fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)>;
+}
+
+/// burn's autodiff on the dense twin.
+struct DenseFitter<'a> {
+    twin: &'a SnnTwin,
+    params: Option<SnnParams>,
+    optim: burn::optim::ModuleOptimizer,
+    loss_fn: burn::nn::loss::CrossEntropyLoss,
+    device: Device,
+    dropout: f64,
+    augment: Augment,
+}
+
+impl Fitter for DenseFitter<'_> {
+    fn step(&mut self, set: &SpikeSet, idx: &[usize], lr: f64, rng: &mut ChaCha8Rng) -> snn::Result<(f64, usize)> {
+        let input = batch_input_augmented(set, idx, &self.device, Some((&self.augment, rng)));
+        let params = self.params.take().expect("parameters between steps");
+        let out = self.twin.forward_dropout(&params, &input, self.dropout);
+        let h = correct(&out.logits, set, idx);
+        let loss = self.loss_fn.forward(out.logits, targets(set, idx, &self.device));
+        let l = loss.clone().into_scalar::<f32>() as f64;
+        let grads = GradientsParams::from_grads(loss.backward(), &params);
+        self.params = Some(self.optim.step(lr, params, grads));
+        Ok((l, h))
+    }
+
+    fn weights(&self) -> snn::Result<Vec<LayerWeights>> {
+        self.params.as_ref().expect("parameters between steps").valid().weights(&self.twin.spec)
+    }
+
+    fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)> {
+        Ok(evaluate(self.twin, &SnnParams::from_weights(&self.twin.spec, weights, &Device::flex())?, set, 64))
+    }
+}
+
+/// Ours, on spike lists ([`crate::sparse`]).
+struct SparseFitter {
+    net: SparseSnn,
+    params: Params,
+    adam: Adam,
+    dropout: f64,
+    augment: Augment,
+    /// Dropout masks' generator (the augmentation draws from the loop's).
+    masks: ChaCha8Rng,
+}
+
+impl SparseFitter {
+    fn events(&self, set: &SpikeSet, s: usize, augment: Option<(&Augment, &mut ChaCha8Rng)>) -> StepEvents {
+        self.net.input_events(StepEvents::from_entries(set.steps, &mut sample_entries(set, s, augment)))
+    }
+}
+
+impl Fitter for SparseFitter {
+    fn step(&mut self, set: &SpikeSet, idx: &[usize], lr: f64, rng: &mut ChaCha8Rng) -> snn::Result<(f64, usize)> {
+        let augment = self.augment;
+        let events: Vec<StepEvents> = idx.iter().map(|&s| self.events(set, s, Some((&augment, &mut *rng)))).collect();
+        let masks: Vec<_> = idx.iter().map(|_| self.net.dropout_masks(self.dropout, &mut self.masks)).collect();
+        let samples: Vec<(&StepEvents, usize)> = events.iter().zip(idx.iter().map(|&s| set.labels[s])).collect();
+        let g = self.net.batch_gradient(&self.params, &samples, &masks);
+        self.adam.step(&mut self.params, &g.grads, lr);
+        Ok((g.loss_sum / idx.len().max(1) as f64, g.hits))
+    }
+
+    fn weights(&self) -> snn::Result<Vec<LayerWeights>> {
+        self.net.weights(&self.params)
+    }
+
+    fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)> {
+        let params = self.net.params(weights)?;
+        let events: Vec<StepEvents> = (0..set.len()).map(|s| self.events(set, s, None)).collect();
+        let refs: Vec<&StepEvents> = events.iter().collect();
+        let (mut loss, mut hits, mut spikes) = (0.0, 0usize, Vec::<f64>::new());
+        for ((logits, s), &label) in self.net.infer(&params, &refs).iter().zip(&set.labels) {
+            let (l, _, hit) = crate::sparse::cross_entropy(logits, label);
+            loss += l;
+            hits += hit as usize;
+            spikes.resize(s.len(), 0.0);
+            spikes.iter_mut().zip(s).for_each(|(a, &b)| *a += b as f64);
+        }
+        let n = set.len().max(1) as f64;
+        Ok((loss / n, hits as f64 / n, spikes.into_iter().map(|s| s / n).collect()))
+    }
+}
+
+/// Trains from `init` on `train`, keeping the weights that do best on `val`, with the trainer
+/// `cfg.trainer` asks for.
 pub fn train(
     twin: &SnnTwin,
     init: &[LayerWeights],
@@ -228,17 +374,50 @@ pub fn train(
             cfg.dropout, cfg.weight_decay, cfg.augment.event_jitter_us
         )));
     }
-    let device = Device::flex().autodiff();
-    device.seed(cfg.seed);
-    let mut params = SnnParams::from_weights(&twin.spec, init, &device)?;
-    let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
-    let mut optim = if cfg.weight_decay > 0.0 {
-        AdamWConfig::new().with_weight_decay(cfg.weight_decay as f32).with_grad_clipping(clipping).init()
-    } else {
-        AdamConfig::new().with_grad_clipping(clipping).init()
-    };
-    let loss_fn = CrossEntropyLossConfig::new().init(&device);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
+    match cfg.trainer {
+        Trainer::Dense => {
+            let device = Device::flex().autodiff();
+            device.seed(cfg.seed);
+            let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
+            let optim = if cfg.weight_decay > 0.0 {
+                AdamWConfig::new().with_weight_decay(cfg.weight_decay as f32).with_grad_clipping(clipping).init()
+            } else {
+                AdamConfig::new().with_grad_clipping(clipping).init()
+            };
+            let mut fitter = DenseFitter {
+                twin,
+                params: Some(SnnParams::from_weights(&twin.spec, init, &device)?),
+                optim,
+                loss_fn: CrossEntropyLossConfig::new().init(&device),
+                device,
+                dropout: cfg.dropout,
+                augment: cfg.augment,
+            };
+            fit(&mut fitter, init, train, val, cfg, observer)
+        }
+        Trainer::Sparse => {
+            let mut net = SparseSnn::new(twin.spec.clone(), twin.surrogate, twin.readout, cfg.gradient_cutoff)?;
+            net.clamped_readout_gradient = twin.clamped_readout_gradient;
+            let params = net.params(init)?;
+            let adam = Adam::new(&params, cfg.weight_decay as f32, cfg.clip_norm as f32);
+            let masks = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x6d61_736b);
+            let mut fitter = SparseFitter { net, params, adam, dropout: cfg.dropout, augment: cfg.augment, masks };
+            fit(&mut fitter, init, train, val, cfg, observer)
+        }
+    }
+}
+
+/// The training loop: seeded shuffling, the cosine schedule, the best validation epoch kept,
+/// weight averaging, early stopping.
+fn fit(
+    fitter: &mut dyn Fitter,
+    init: &[LayerWeights],
+    train: &SpikeSet,
+    val: &SpikeSet,
+    cfg: &TrainConfig,
+    observer: &mut dyn Observer,
+) -> snn::Result<Outcome> {
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let mut best = (init.to_vec(), 0usize, -1.0f64);
     let mut best_loss = f64::INFINITY;
     let mut history = Vec::new();
@@ -252,20 +431,14 @@ pub fn train(
         observer.epoch_begin(epoch, batches.len());
         let (mut loss_sum, mut hits) = (0.0, 0usize);
         for idx in batches {
-            let input = batch_input_augmented(train, idx, &device, Some((&cfg.augment, &mut rng)));
-            let out = twin.forward_dropout(&params, &input, cfg.dropout);
-            let h = correct(&out.logits, train, idx);
-            let loss = loss_fn.forward(out.logits, targets(train, idx, &device));
-            let l = loss.clone().into_scalar::<f32>() as f64;
-            let grads = GradientsParams::from_grads(loss.backward(), &params);
-            params = optim.step(lr, params, grads);
+            let (l, h) = fitter.step(train, idx, lr, &mut rng)?;
             loss_sum += l * idx.len() as f64;
             hits += h;
             observer.batch(l, h as f64 / idx.len() as f64);
         }
-        let inference = params.valid();
+        let w = fitter.weights()?;
         let (val_loss, val_accuracy, val_spikes) =
-            if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { evaluate(twin, &inference, val, 64) };
+            if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { fitter.evaluate(&w, val)? };
         let report = EpochReport {
             epoch,
             lr,
@@ -282,21 +455,18 @@ pub fn train(
         let (score, loss) = if val.is_empty() { (epoch as f64, 0.0) } else { (val_accuracy, val_loss) };
         let improved = score > best.2 || (score == best.2 && loss < best_loss);
         let averaged = cfg.average_epochs > 0 && epoch + cfg.average_epochs > cfg.epochs;
-        if improved || averaged {
-            let w = inference.weights(&twin.spec)?;
-            if averaged {
-                match &mut sum {
-                    None => sum = Some((w.clone(), 1)),
-                    Some((s, n)) => {
-                        add_weights(s, &w);
-                        *n += 1;
-                    }
+        if averaged {
+            match &mut sum {
+                None => sum = Some((w.clone(), 1)),
+                Some((s, n)) => {
+                    add_weights(s, &w);
+                    *n += 1;
                 }
             }
-            if improved {
-                best = (w, epoch, score);
-                best_loss = loss;
-            }
+        }
+        if improved {
+            best = (w, epoch, score);
+            best_loss = loss;
         }
         history.push(report);
         if cfg.patience > 0 && epoch - best.1 >= cfg.patience {
@@ -311,8 +481,7 @@ pub fn train(
         let (accuracy, chosen) = if val.is_empty() {
             (f64::NAN, true)
         } else {
-            let (loss, accuracy, _) =
-                evaluate(twin, &SnnParams::from_weights(&twin.spec, &mean, &Device::flex())?, val, 64);
+            let (loss, accuracy, _) = fitter.evaluate(&mean, val)?;
             (accuracy, accuracy > best.2 || (accuracy == best.2 && loss < best_loss))
         };
         average = Some((accuracy, chosen));

@@ -7,7 +7,7 @@ rows = [json.loads(l) for l in open(sys.argv[1] if len(sys.argv) > 1 else "resul
 stamp = next((l[2:].strip() for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("# 20")), "")
 peers = {(r["mode"], r["fw"]): r for r in rows if "fw" in r}
 ours_infer = next(r for r in rows if "ms_per_sample" in r)
-ours_train = next(r for r in rows if "ms_per_train_step" in r)
+ours_train = next(r for r in rows if "sparse_exact" in r)
 names = {"torch": "plain PyTorch", "snntorch": "snnTorch", "norse": "Norse"}
 cpu = next((r["cpu"] for r in rows if "cpu" in r), "?")
 print(f"Measured {stamp} on {cpu}, {rows[0].get('threads', '?')} threads (peers).\n")
@@ -18,12 +18,28 @@ for fw in ("torch", "snntorch", "norse"):
     r = peers.get(("infer", fw))
     if r:
         print(f"| {names[fw]} | {r['per_sample_ms']:.3f} | {r['us_per_input_event']:.3f} | {r['per_sample_ms'] / ours_infer['ms_per_sample']:.1f}x |")
-print("\n| conv SNN training step, batch 32 (forward, BPTT, Adam) | ms | ours relative |")
-print("| --- | --- | --- |")
-print(f"| braille (burn flex) | {ours_train['ms_per_train_step']:.1f} | |")
+print("\n| conv SNN training step, batch 32 (forward, BPTT, Adam) | ms | spike rate per layer | against plain PyTorch |")
+print("| --- | --- | --- | --- |")
+torch_train = peers.get(("train", "torch"))
+def against(ms):
+    if not torch_train:
+        return ""
+    r = torch_train["median_ms"] / ms
+    return f"{r:.1f}x faster" if r >= 1 else f"{1 / r:.1f}x slower"
+rates = lambda rs: " / ".join(f"{100 * r:.1f}%" for r in rs)
+for key in ("sparse", "sparse_exact", "dense"):
+    t = ours_train[key]
+    print(f"| braille, {t['trainer']} | {t['ms_per_train_step']:.1f} | {rates(ours_train['spike_rate_per_layer'])} | {against(t['ms_per_train_step'])} |")
 for fw in ("torch", "snntorch", "norse"):
     r = peers.get(("train", fw))
     if r:
-        ratio = ours_train["ms_per_train_step"] / r["median_ms"]
-        print(f"| {names[fw]} | {r['median_ms']:.1f} | {ratio:.1f}x slower |" if ratio >= 1 else f"| {names[fw]} | {r['median_ms']:.1f} | {1 / ratio:.1f}x faster |")
+        print(f"| {names[fw]} | {r['median_ms']:.1f} | {rates(r['spike_rate_per_layer'])} | {against(r['median_ms']) if fw != 'torch' else ''} |")
+mem = ", ".join(f"{ours_train[k]['trainer']} {ours_train[k]['peak_rss_mb']:.0f} MB" for k in ("sparse", "sparse_exact", "dense"))
+print(f"\ntraining memory, peak RSS of the process while each trainer ran: {mem}", end="")
+if torch_train:
+    print(f"; the peers' process (all three frameworks): {torch_train['process_peak_rss_mb']:.0f} MB, {torch_train['rss_before_build_mb']:.0f} MB before building the networks")
+else:
+    print()
+print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train['truncation_cosine']:.4f} against the exact one "
+      f"(relative error {ours_train['truncation_relative_error']:.3f}), {100 * ours_train['kept_fraction']:.1f}% of neuron-steps kept")
 print(f"\nsynaptic events per sample (ours): {ours_infer['synops_per_sample']:.0f}; input events per sample: {ours_infer['input_events_per_sample']:.0f}")

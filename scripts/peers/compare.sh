@@ -3,8 +3,9 @@
 # machine: the conv SNN of the shared peer benchmark (2x60x80 ON/OFF input, conv 5x5 s2 to 8, LIF,
 # conv 3x3 s2 to 16, LIF, dense to 26, LIF; 20 steps; 1.5% of pixels active per step) in plain
 # PyTorch, snnTorch and Norse (bench.py, interleaved so machine noise hits all alike), then in
-# `braille bench` (the event-driven engine, batch 1) and `braille bench --train` (BPTT + Adam on
-# burn, batch 32); prints the ratios as Markdown.
+# `braille bench` (the event-driven engine, batch 1) and `braille bench --train` (BPTT + Adam,
+# batch 32, with the sparse trainer, truncated and exact, and with burn); prints the ratios as
+# Markdown.
 #
 # Setup once (several GB; PyPI's torch is a CUDA build that runs on the CPU):
 #     python3 -m venv venv && ./venv/bin/pip install torch snntorch norse

@@ -109,6 +109,38 @@ fn stepped_equals_dense_with_pooling_recurrence_cuba_if_subtract_and_bias() {
 }
 
 #[test]
+fn stepped_equals_dense_with_a_recurrent_convolution() {
+    // the recurrent input of a convolution is C-order while its state is channel-last
+    for (bias, lif) in
+        [(None, NeuronParams::lif(0.85)), (Some(vec![0.05, -0.1, 0.02]), NeuronParams::cuba_lif(0.5, 0.8))]
+    {
+        let conv = Op::Conv2d {
+            in_shape: [2, 7, 9],
+            out_channels: 3,
+            kernel: [3, 3],
+            stride: [2, 2],
+            padding: [1, 1],
+            weight: dense_w(2 * 9, 3, 8, 1.8),
+            bias,
+        };
+        let n = 3 * 4 * 5;
+        let recurrent =
+            Layer { op: conv, neurons: Some(lif), recurrent: Some(dense_w(n, n, 9, 0.9)), recurrent_bias: None };
+        let out = Op::Dense { n_in: n, n_out: 4, weight: dense_w(n, 4, 10, 1.0), bias: None };
+        let net = Network::new(vec![2, 7, 9], vec![recurrent, layer(out, Some(NeuronParams::lif(0.9)))]).unwrap();
+        let mut without = net.clone();
+        without.layers[0].recurrent = None;
+        for seed in 0..4 {
+            let input = random_input(200 + seed, 30, net.n_inputs(), 0.12);
+            let (reference, _) = assert_same_output(&net, &input, 30);
+            let plain = forward_dense(&without, &input, 30).unwrap();
+            assert!(reference.spikes[0].iter().map(Vec::len).sum::<usize>() > 0, "the convolution must spike");
+            assert_ne!(reference.spikes[0], plain.spikes[0], "the recurrence must matter");
+        }
+    }
+}
+
+#[test]
 fn async_lif_decays_exactly_between_events() {
     let dense = Op::Dense { n_in: 1, n_out: 1, weight: vec![0.6], bias: None };
     let net = Network::new(vec![1], vec![layer(dense, Some(NeuronParams::lif(0.9)))]).unwrap();

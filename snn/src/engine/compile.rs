@@ -159,9 +159,10 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
     })
 }
 
-/// Output positions `(ky, kx, oy * ow + ox)` that input pixel `(y, x)` reaches.
+/// Output positions `(ky, kx, oy * ow + ox)` that input pixel `(y, x)` of a convolution with
+/// kernel `k`, stride `s` and padding `p` reaches, in an output of `out` rows and columns.
 #[inline]
-pub(super) fn conv_positions(
+pub fn conv_positions(
     y: usize,
     x: usize,
     k: [usize; 2],
@@ -191,8 +192,9 @@ pub(super) fn conv_positions(
     }
 }
 
+/// The outputs `(c * oh + oy) * ow + ox` that input `i` (C order) of a pooling reaches.
 #[inline]
-pub(super) fn pool_targets(
+pub fn pool_targets(
     i: usize,
     in_hw: [usize; 2],
     out_hw: [usize; 2],

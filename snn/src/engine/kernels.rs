@@ -49,7 +49,7 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
             schedule(s, all, plane, &mut order);
             let mut by_channel = std::mem::take(&mut s.by_channel);
             // LIF and IF without bias at 8 or 16 channels: one loop compiled for the width.
-            let lanes = c.neurons.filter(|p| p.kind != NeuronKind::CubaLif && c.bias.is_none());
+            let lanes = c.neurons.filter(|p| p.kind != NeuronKind::CubaLif && c.bias.is_none() && rec.is_none());
             let leak = lanes.is_some_and(|p| p.leak_term().to_bits() != 0);
             match (lanes, oc, leak) {
                 (Some(p), 8, false) => lif_positions::<8, false>(&p, s, &order, t, base, &mut by_channel, stats),
@@ -58,7 +58,7 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
                 (Some(p), 16, true) => lif_positions::<16, true>(&p, s, &order, t, base, &mut by_channel, stats),
                 _ => {
                     for &pos in &order {
-                        update_position(c, s, pos as usize, oc, t, base, &mut by_channel, stats);
+                        update_position(c, s, pos as usize, oc, t, base, rec.as_deref(), &mut by_channel, stats);
                     }
                 }
             }
@@ -120,10 +120,13 @@ pub(super) fn update_position(
     oc: usize,
     t: i64,
     base: i64,
+    rec: Option<&[f32]>,
     out: &mut Buckets,
     stats: &mut Stats,
 ) {
     let start = pos * oc;
+    // the recurrent input is C-order: channel `ch` of this position is `ch * plane + pos`
+    let plane = s.v.len() / oc;
     let (acc, v, i) = (&mut s.acc[start..start + oc], &mut s.v[start..start + oc], &mut s.i[start..start + oc]);
     let Some(p) = &c.neurons else {
         for ch in 0..oc {
@@ -148,7 +151,7 @@ pub(super) fn update_position(
     };
     stats.neuron_updates += ((behind.max(0) + 1) as usize * oc) as u64;
     s.last[pos] = t;
-    let lif = p.kind != NeuronKind::CubaLif && c.bias.is_none();
+    let lif = p.kind != NeuronKind::CubaLif && c.bias.is_none() && rec.is_none();
     let carry = if lif && oc <= 64 {
         lif_position(p, v, acc, behind, pos as u32, out)
     } else {
@@ -163,6 +166,9 @@ pub(super) fn update_position(
             let mut u = std::mem::take(&mut acc[ch]);
             if let Some(b) = &c.bias {
                 u += b[ch];
+            }
+            if let Some(r) = rec {
+                u += r[ch * plane + pos];
             }
             if p.step(&mut i[ch], &mut v[ch], u) {
                 out.push(ch, pos as u32);

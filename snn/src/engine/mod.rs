@@ -23,6 +23,7 @@ mod simd;
 use crate::error::{Error, Result};
 use crate::network::Network;
 use compile::{Compiled, Fan, compile, decay};
+pub use compile::{conv_positions, pool_targets};
 use fanout::{BitSet, Buckets, conv_inputs, fan_in, fan_in_spikes, fan_out};
 use kernels::evaluate;
 

@@ -1,0 +1,1185 @@
+//! The SNN's trainer that works where the spikes are: backpropagation through time with surrogate
+//! gradients, exact or truncated, without dense tensors. It runs the discrete update of
+//! [`snn::neuron::NeuronParams::step`] (the engine's in stepped mode, and the burn twin's,
+//! [`crate::snn::SnnTwin`], whose gradients it reproduces; see the tests).
+//!
+//! Forward, each layer takes a list of events per step (input counts, the layer below's spikes)
+//! and adds each one's fan-out (its weight row, or the convolution targets of its pixel) into the
+//! layer's currents; the membranes are then stepped densely. Per step it keeps only what BPTT
+//! needs: the spikes, and the neurons whose surrogate derivative is not zero with its value.
+//!
+//! Backward, layer by layer from the top, time reversed:
+//!
+//! ```text
+//! g_v'[t] = sum_{kept n at t} (g_out[t] + g_rec[t]) sigma'  +  (1 - z[t] if reset to zero) beta g_v'[t+1]
+//! g_i[t]  = g_v'[t] + alpha g_i[t+1]                                CubaLIF (g_u = g_i; else g_u = g_v')
+//! dW     += x[t] (x) g_u[t]       over the events x of the layer's input at t: the forward's fan-out
+//! g_x[t]  = W^T g_u[t]            only where the layer below keeps a surrogate at t
+//! ```
+//!
+//! The reset is detached, as in the twin. With the truncation off (`cutoff` 0) every neuron's
+//! surrogate is kept and the gradient is exact. With `cutoff` c > 0 the surrogate derivative is
+//! taken as zero where it is below c times its peak (Perez-Nieves and Goodman, "Sparse spiking
+//! gradient descent", NeurIPS 2021): the kept neurons are those near threshold, and the gradient
+//! sent down a layer, the costly product, is computed for them alone.
+//!
+//! Samples of a batch run in parallel (rayon), in fixed chunks summed in a fixed order, so the
+//! same seed gives the same weights whatever the number of threads.
+//!
+//! Internally, 3-d activations are channel-last (`[y][x][c]`), so that a pixel's fan-out over
+//! channels is contiguous; weights are laid out for fan-out (`[in][out]`, convolution
+//! `[in_c][ky][kx][out_c]`). [`SparseSnn::params`] and [`SparseSnn::weights`] convert from and to
+//! the engine's layouts.
+
+use rayon::prelude::*;
+use snn::engine::{conv_positions, pool_targets};
+use snn::model_file::Readout;
+use snn::network::PoolKind;
+use snn::neuron::{NeuronKind, NeuronParams, Reset, Surrogate};
+use snn::spec::{LayerWeights, NetworkSpec, OpSpec};
+
+/// One sample's input as `(step, input, count)` entries, in any order.
+pub type Entries = Vec<(u32, u32, f32)>;
+
+/// Events of one sample, step by step: step `t`'s are `idx[start[t]..start[t + 1]]` with their
+/// values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepEvents {
+    start: Vec<u32>,
+    idx: Vec<u32>,
+    val: Vec<f32>,
+}
+
+impl Default for StepEvents {
+    fn default() -> Self {
+        Self { start: vec![0], idx: Vec::new(), val: Vec::new() }
+    }
+}
+
+impl StepEvents {
+    /// `(step, index, value)` entries over `steps` steps (entries at later steps are left out;
+    /// repeated indices add up).
+    pub fn from_entries(steps: usize, entries: &mut [(u32, u32, f32)]) -> Self {
+        entries.sort_by_key(|e| (e.0, e.1));
+        let mut ev = StepEvents::default();
+        let mut it = entries.iter().peekable();
+        for t in 0..steps as u32 {
+            while let Some(&&(s, i, v)) = it.peek() {
+                if s != t {
+                    break;
+                }
+                ev.push(i, v);
+                it.next();
+            }
+            ev.end_step();
+        }
+        ev
+    }
+
+    #[inline]
+    fn push(&mut self, i: u32, v: f32) {
+        self.idx.push(i);
+        self.val.push(v);
+    }
+
+    #[inline]
+    fn end_step(&mut self) {
+        self.start.push(self.idx.len() as u32);
+    }
+
+    pub fn steps(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// Step `t`'s indices and values.
+    #[inline]
+    pub fn at(&self, t: usize) -> (&[u32], &[f32]) {
+        let (a, b) = (self.start[t] as usize, self.start[t + 1] as usize);
+        (&self.idx[a..b], &self.val[a..b])
+    }
+
+    /// Events in all.
+    pub fn len(&self) -> usize {
+        self.idx.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.idx.is_empty()
+    }
+
+    /// The same events with each index mapped by `f`.
+    fn map_indices(mut self, f: impl Fn(u32) -> u32) -> Self {
+        self.idx.iter_mut().for_each(|i| *i = f(*i));
+        self
+    }
+}
+
+/// How a layer's activations are laid out: flat, or channel-last over `plane` pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Layout {
+    Flat,
+    Hwc { c: usize, plane: usize },
+}
+
+impl Layout {
+    fn of(shape: &[usize]) -> Layout {
+        match shape {
+            [c, h, w] => Layout::Hwc { c: *c, plane: h * w },
+            _ => Layout::Flat,
+        }
+    }
+
+    /// The internal index of C-order index `i`.
+    #[inline]
+    fn internal(self, i: usize) -> usize {
+        match self {
+            Layout::Flat => i,
+            Layout::Hwc { c, plane } => (i % plane) * c + i / plane,
+        }
+    }
+}
+
+/// A layer's linear operation with its fan-out maps.
+#[derive(Debug, Clone)]
+enum Kernel {
+    /// Weights `[in][out]`.
+    Dense,
+    /// Weights `[in_c][k][out_c]`; pixel `p`'s targets are `targets[offsets[p]..offsets[p + 1]]`,
+    /// each (output pixel, kernel position).
+    Conv { ic: usize, oc: usize, kk: usize, offsets: Vec<u32>, targets: Vec<(u32, u32)> },
+    /// Pixel `p`'s output pixels are `targets[offsets[p]..offsets[p + 1]]`.
+    Pool { c: usize, weight: f32, offsets: Vec<u32>, targets: Vec<u32> },
+}
+
+#[derive(Debug, Clone)]
+struct Plan {
+    kernel: Kernel,
+    n_out: usize,
+    output: Layout,
+    neurons: Option<NeuronParams>,
+    /// Bias entries (0: none); output `o`'s is `o % bias_len` (channel-last convolutions).
+    bias_len: usize,
+    recurrent: bool,
+}
+
+/// A layer's trainable tensors in fan-out layouts; empty where the layer has none. Gradients and
+/// optimiser moments have the same form.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Tensors {
+    pub weight: Vec<f32>,
+    pub bias: Vec<f32>,
+    pub recurrent: Vec<f32>,
+}
+
+impl Tensors {
+    fn zeros_like(&self) -> Tensors {
+        Tensors {
+            weight: vec![0.0; self.weight.len()],
+            bias: vec![0.0; self.bias.len()],
+            recurrent: vec![0.0; self.recurrent.len()],
+        }
+    }
+
+    fn all(&self) -> [&Vec<f32>; 3] {
+        [&self.weight, &self.bias, &self.recurrent]
+    }
+
+    fn all_mut(&mut self) -> [&mut Vec<f32>; 3] {
+        [&mut self.weight, &mut self.bias, &mut self.recurrent]
+    }
+}
+
+/// A network's trainable tensors (or their gradients).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Params {
+    pub layers: Vec<Tensors>,
+}
+
+impl Params {
+    pub fn zeros_like(&self) -> Params {
+        Params { layers: self.layers.iter().map(Tensors::zeros_like).collect() }
+    }
+
+    /// Every tensor, layer by layer (weight, bias, recurrent; empty ones included).
+    pub fn tensors(&self) -> impl Iterator<Item = &Vec<f32>> {
+        self.layers.iter().flat_map(Tensors::all)
+    }
+
+    pub fn tensors_mut(&mut self) -> impl Iterator<Item = &mut Vec<f32>> {
+        self.layers.iter_mut().flat_map(Tensors::all_mut)
+    }
+
+    fn add(&mut self, other: &Params) {
+        for (a, b) in self.tensors_mut().zip(other.tensors()) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+        }
+    }
+}
+
+/// What one sample's forward pass keeps of a layer.
+#[derive(Debug, Clone, Default)]
+struct LayerTape {
+    /// What the next layer receives: spikes (times a dropout mask), or values.
+    out: StepEvents,
+    /// Spikes, for the reset and the recurrence.
+    spikes: StepEvents,
+    /// The neurons whose surrogate derivative is kept, with its value.
+    surr: StepEvents,
+    /// Leaky-integrator readout: each neuron's step of its highest membrane.
+    argmax: Vec<u32>,
+    n_spikes: usize,
+}
+
+/// One sample's forward pass.
+#[derive(Debug, Clone)]
+pub struct SampleOutput {
+    /// Spike counts or max membranes, in class order.
+    pub logits: Vec<f32>,
+    /// Spikes of each spiking layer.
+    pub spikes: Vec<usize>,
+    tape: Vec<LayerTape>,
+    /// The readout's highest membranes before the clamp at zero.
+    v_max: Vec<f32>,
+}
+
+/// A batch's gradient, loss and hits.
+#[derive(Debug, Clone)]
+pub struct BatchGradient {
+    pub grads: Params,
+    /// Summed over the batch (the gradient is of the mean).
+    pub loss_sum: f64,
+    pub hits: usize,
+    /// Spikes of each spiking layer, summed over the batch.
+    pub spikes: Vec<f64>,
+    /// Neuron-steps whose surrogate derivative was kept (all of them when exact), over the batch.
+    pub kept_surrogates: usize,
+}
+
+/// Forward and backward passes of a network, sparse.
+#[derive(Debug, Clone)]
+pub struct SparseSnn {
+    pub spec: NetworkSpec,
+    pub surrogate: Surrogate,
+    pub readout: Readout,
+    /// Backpropagate the readout's clamp at zero as it is instead of straight through (as
+    /// [`crate::snn::SnnTwin::clamped_readout_gradient`]).
+    pub clamped_readout_gradient: bool,
+    /// Truncation: surrogate derivatives below this fraction of their peak count as zero (0: exact).
+    cutoff: f32,
+    /// `|v - v_th|` beyond which the surrogate is truncated (infinite when exact).
+    x_cut: f32,
+    input: Layout,
+    plans: Vec<Plan>,
+}
+
+/// Whether both trainers can train `spec` read by `readout`: no recurrent biases, and an output
+/// layer that fits the readout.
+pub fn check_trainable(spec: &NetworkSpec, readout: Readout) -> snn::Result<()> {
+    if let Some(k) = spec.layers.iter().position(|l| l.recurrent_bias) {
+        return Err(snn::Error::Network(format!("layer {k}: recurrent biases are not trained here")));
+    }
+    let last = spec.layers.last().and_then(|l| l.neurons).map(|p| p.kind);
+    match (readout, last) {
+        (Readout::MaxMembrane, Some(NeuronKind::Li)) => Ok(()),
+        (Readout::SpikeCount, Some(k)) if k != NeuronKind::Li => Ok(()),
+        _ => Err(snn::Error::Network(format!("readout {readout:?} does not fit an output layer of {last:?} neurons"))),
+    }
+}
+
+/// The truncation `braille train` uses unless told: surrogate derivatives below 1% of their peak
+/// count as zero.
+pub const DEFAULT_CUTOFF: f32 = 0.01;
+
+/// Samples per parallel chunk at most: chunks are summed in order, so results do not depend on
+/// the thread count.
+const CHUNKS: usize = 8;
+
+impl SparseSnn {
+    /// The trainer of `spec` with `surrogate` and `readout`, truncating surrogate derivatives
+    /// below `cutoff` times their peak (0: exact).
+    pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout, cutoff: f32) -> snn::Result<SparseSnn> {
+        let shapes = spec.shapes()?;
+        if !(0.0..1.0).contains(&cutoff) {
+            return Err(snn::Error::Network(format!("gradient cutoff {cutoff} must lie in [0, 1)")));
+        }
+        check_trainable(&spec, readout)?;
+        let input = Layout::of(&spec.input_shape);
+        let mut plans = Vec::with_capacity(spec.layers.len());
+        for (l, s) in spec.layers.iter().zip(&shapes) {
+            let in_hw = || (s.input.len() == 3).then(|| [s.input[1], s.input[2]]);
+            let out_hw = [s.output.get(1).copied().unwrap_or(1), s.output.get(2).copied().unwrap_or(1)];
+            let kernel = match l.op {
+                OpSpec::Dense { .. } => Kernel::Dense,
+                OpSpec::Conv2d { out_channels, kernel, stride, padding } => {
+                    let [h, w] =
+                        in_hw().ok_or_else(|| snn::Error::Network("a convolution needs a 3-d input".into()))?;
+                    let (mut offsets, mut targets) = (vec![0u32], Vec::new());
+                    for y in 0..h {
+                        for x in 0..w {
+                            conv_positions(y, x, kernel, stride, padding, out_hw, |ky, kx, q| {
+                                targets.push((q as u32, (ky * kernel[1] + kx) as u32));
+                            });
+                            offsets.push(targets.len() as u32);
+                        }
+                    }
+                    Kernel::Conv { ic: s.input[0], oc: out_channels, kk: kernel[0] * kernel[1], offsets, targets }
+                }
+                OpSpec::Pool { kind, kernel, stride } => {
+                    let [h, w] = in_hw().ok_or_else(|| snn::Error::Network("a pooling needs a 3-d input".into()))?;
+                    let (mut offsets, mut targets) = (vec![0u32], Vec::new());
+                    for p in 0..h * w {
+                        // channel 0's targets are the pixel's output pixels
+                        pool_targets(p, [h, w], out_hw, kernel, stride, |q| targets.push(q as u32));
+                        offsets.push(targets.len() as u32);
+                    }
+                    let weight = match kind {
+                        PoolKind::Sum => 1.0,
+                        PoolKind::Avg => 1.0 / (kernel[0] * kernel[1]) as f32,
+                    };
+                    Kernel::Pool { c: s.input[0], weight, offsets, targets }
+                }
+            };
+            plans.push(Plan {
+                kernel,
+                n_out: s.output.iter().product(),
+                output: Layout::of(&s.output),
+                neurons: l.neurons,
+                bias_len: s.bias.first().copied().unwrap_or(0),
+                recurrent: l.recurrent,
+            });
+        }
+        let x_cut = truncation_width(surrogate, cutoff);
+        Ok(SparseSnn { spec, surrogate, readout, clamped_readout_gradient: false, cutoff, x_cut, input, plans })
+    }
+
+    pub fn cutoff(&self) -> f32 {
+        self.cutoff
+    }
+
+    pub fn n_outputs(&self) -> usize {
+        self.plans.last().map_or(0, |p| p.n_out)
+    }
+
+    /// The layout of the layer below `k` (the input for `k` = 0).
+    fn input_layout(&self, k: usize) -> Layout {
+        if k == 0 { self.input } else { self.plans[k - 1].output }
+    }
+
+    /// `weights` (engine layouts) in fan-out layouts.
+    pub fn params(&self, weights: &[LayerWeights]) -> snn::Result<Params> {
+        // building checks every length against the spec
+        self.spec.build(weights.to_vec())?;
+        let shapes = self.spec.shapes()?;
+        let layers = self
+            .plans
+            .iter()
+            .zip(weights)
+            .zip(&shapes)
+            .enumerate()
+            .map(|(k, ((p, w), s))| {
+                let weight = match &p.kernel {
+                    Kernel::Dense => {
+                        let (n_out, n_in) = (s.weight[0], s.weight[1]);
+                        let inl = self.input_layout(k);
+                        let mut wt = vec![0.0; n_in * n_out];
+                        for o in 0..n_out {
+                            for i in 0..n_in {
+                                wt[inl.internal(i) * n_out + o] = w.weight[o * n_in + i];
+                            }
+                        }
+                        wt
+                    }
+                    Kernel::Conv { ic, oc, kk, .. } => {
+                        let mut wt = vec![0.0; ic * kk * oc];
+                        for o in 0..*oc {
+                            for c in 0..*ic {
+                                for q in 0..*kk {
+                                    wt[(c * kk + q) * oc + o] = w.weight[(o * ic + c) * kk + q];
+                                }
+                            }
+                        }
+                        wt
+                    }
+                    Kernel::Pool { .. } => Vec::new(),
+                };
+                let recurrent = w.recurrent.as_ref().map_or_else(Vec::new, |r| {
+                    let n = p.n_out;
+                    let mut rt = vec![0.0; n * n];
+                    for o in 0..n {
+                        for i in 0..n {
+                            rt[p.output.internal(i) * n + p.output.internal(o)] = r[o * n + i];
+                        }
+                    }
+                    rt
+                });
+                Tensors { weight, bias: w.bias.clone().unwrap_or_default(), recurrent }
+            })
+            .collect();
+        Ok(Params { layers })
+    }
+
+    /// `params` in the engine's layouts.
+    pub fn weights(&self, params: &Params) -> snn::Result<Vec<LayerWeights>> {
+        let shapes = self.spec.shapes()?;
+        Ok(self
+            .plans
+            .iter()
+            .zip(&params.layers)
+            .zip(&shapes)
+            .enumerate()
+            .map(|(k, ((p, t), s))| {
+                let weight = match &p.kernel {
+                    Kernel::Dense => {
+                        let (n_out, n_in) = (s.weight[0], s.weight[1]);
+                        let inl = self.input_layout(k);
+                        let mut w = vec![0.0; n_in * n_out];
+                        for o in 0..n_out {
+                            for i in 0..n_in {
+                                w[o * n_in + i] = t.weight[inl.internal(i) * n_out + o];
+                            }
+                        }
+                        w
+                    }
+                    Kernel::Conv { ic, oc, kk, .. } => {
+                        let mut w = vec![0.0; ic * kk * oc];
+                        for o in 0..*oc {
+                            for c in 0..*ic {
+                                for q in 0..*kk {
+                                    w[(o * ic + c) * kk + q] = t.weight[(c * kk + q) * oc + o];
+                                }
+                            }
+                        }
+                        w
+                    }
+                    Kernel::Pool { .. } => Vec::new(),
+                };
+                let recurrent = p.recurrent.then(|| {
+                    let n = p.n_out;
+                    let mut r = vec![0.0; n * n];
+                    for o in 0..n {
+                        for i in 0..n {
+                            r[o * n + i] = t.recurrent[p.output.internal(i) * n + p.output.internal(o)];
+                        }
+                    }
+                    r
+                });
+                LayerWeights { weight, bias: (p.bias_len > 0).then(|| t.bias.clone()), recurrent, recurrent_bias: None }
+            })
+            .collect())
+    }
+
+    /// A sample's input events (network input indices, C order) in the internal layout.
+    pub fn input_events(&self, events: StepEvents) -> StepEvents {
+        let layout = self.input;
+        events.map_indices(|i| layout.internal(i as usize) as u32)
+    }
+
+    /// Dropout masks of one sample: each hidden spiking neuron kept with probability
+    /// `1 - dropout` (its spikes then scaled by `1 / (1 - dropout)`), as the twin's.
+    pub fn dropout_masks(&self, dropout: f64, rng: &mut impl rand::Rng) -> Vec<Option<Vec<f32>>> {
+        let last = self.plans.len().saturating_sub(1);
+        self.plans
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let hidden_spiking = k < last && p.neurons.is_some_and(|n| n.kind != NeuronKind::Li);
+                (dropout > 0.0 && hidden_spiking).then(|| {
+                    let keep = (1.0 / (1.0 - dropout)) as f32;
+                    (0..p.n_out).map(|_| if rng.random_bool(1.0 - dropout) { keep } else { 0.0 }).collect()
+                })
+            })
+            .collect()
+    }
+
+    /// One sample forward (internal input layout, [`Self::input_events`]); with `tape`, what
+    /// the backward pass needs is kept.
+    pub fn forward(&self, params: &Params, input: &StepEvents, masks: &[Option<Vec<f32>>], tape: bool) -> SampleOutput {
+        let steps = input.steps();
+        let last = self.plans.len() - 1;
+        let mut layers: Vec<LayerTape> = Vec::with_capacity(self.plans.len());
+        let mut v_max = Vec::new();
+        for (k, plan) in self.plans.iter().enumerate() {
+            let x = if k == 0 { input } else { &layers[k - 1].out };
+            let w = &params.layers[k];
+            let n = plan.n_out;
+            let mask = masks.get(k).and_then(Option::as_deref);
+            let mut lt = LayerTape::default();
+            let (mut u, mut v, mut cur) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+            let mut near = Vec::new();
+            let li = plan.neurons.is_some_and(|p| p.kind == NeuronKind::Li);
+            if li {
+                v_max = vec![f32::NEG_INFINITY; n];
+                lt.argmax = vec![0; n];
+            }
+            for t in 0..steps {
+                if plan.bias_len > 0 {
+                    for (o, u) in u.iter_mut().enumerate() {
+                        *u = w.bias[o % plan.bias_len];
+                    }
+                } else {
+                    u.fill(0.0);
+                }
+                let (xi, xv) = x.at(t);
+                for (&i, &xv) in xi.iter().zip(xv) {
+                    scatter(plan, &w.weight, i as usize, xv, &mut u);
+                }
+                if plan.recurrent && t > 0 {
+                    for &j in lt.spikes.at(t - 1).0 {
+                        axpy(&mut u, &w.recurrent[j as usize * n..][..n], 1.0);
+                    }
+                }
+                match plan.neurons {
+                    None => {
+                        for (o, &u) in u.iter().enumerate() {
+                            if u != 0.0 {
+                                lt.out.push(o as u32, u);
+                            }
+                        }
+                    }
+                    Some(np) if li => {
+                        let leak = np.leak_term();
+                        for o in 0..n {
+                            let vp = v[o] * np.beta + leak + u[o];
+                            v[o] = vp;
+                            if vp > v_max[o] {
+                                v_max[o] = vp;
+                                lt.argmax[o] = t as u32;
+                            }
+                            if k < last && vp != 0.0 {
+                                lt.out.push(o as u32, vp);
+                            }
+                        }
+                    }
+                    Some(np) => {
+                        // dense and branch-free first (it vectorises), then the few near threshold
+                        let leak = np.leak_term();
+                        if np.kind == NeuronKind::CubaLif {
+                            for (c, u) in cur.iter_mut().zip(u.iter_mut()) {
+                                *c = *c * np.alpha + *u;
+                                *u = *c;
+                            }
+                        }
+                        for (v, &drive) in v.iter_mut().zip(&u) {
+                            *v = *v * np.beta + leak + drive;
+                        }
+                        let low = if tape { np.v_th - self.x_cut } else { np.v_th };
+                        above(&v, low, &mut near);
+                        for &o in &near {
+                            let o = o as usize;
+                            let v = &mut v[o];
+                            let d = *v - np.v_th;
+                            if tape && d.abs() < self.x_cut {
+                                lt.surr.push(o as u32, self.surrogate.derivative(d));
+                            }
+                            if d > 0.0 {
+                                lt.spikes.push(o as u32, 1.0);
+                                let m = mask.map_or(1.0, |m| m[o]);
+                                if m != 0.0 {
+                                    lt.out.push(o as u32, m);
+                                }
+                                *v = match np.reset {
+                                    Reset::Subtract => *v - np.v_th,
+                                    Reset::Zero => np.v_reset,
+                                };
+                            }
+                        }
+                    }
+                }
+                lt.out.end_step();
+                lt.spikes.end_step();
+                lt.surr.end_step();
+            }
+            lt.n_spikes = lt.spikes.len();
+            layers.push(lt);
+        }
+        let out = &self.plans[last];
+        let mut counts = vec![0f32; out.n_out];
+        for &o in &layers[last].spikes.idx {
+            counts[o as usize] += 1.0;
+        }
+        let logits = (0..out.n_out)
+            .map(|c| {
+                let o = out.output.internal(c);
+                match self.readout {
+                    Readout::SpikeCount => counts[o],
+                    Readout::MaxMembrane if steps == 0 => 0.0,
+                    Readout::MaxMembrane => v_max[o].max(0.0),
+                }
+            })
+            .collect();
+        let spikes = self
+            .plans
+            .iter()
+            .zip(&layers)
+            .filter(|(p, _)| p.neurons.is_some_and(|n| n.kind != NeuronKind::Li))
+            .map(|(_, l)| l.n_spikes)
+            .collect();
+        SampleOutput { logits, spikes, tape: if tape { layers } else { Vec::new() }, v_max }
+    }
+
+    /// One sample backward: adds the gradient of the loss, given `g_logits` (its gradient by the
+    /// logits, in class order), into `grads`.
+    pub fn backward(
+        &self,
+        params: &Params,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        out: &SampleOutput,
+        g_logits: &[f32],
+        grads: &mut Params,
+    ) {
+        let steps = input.steps();
+        let last = self.plans.len() - 1;
+        let tape = &out.tape;
+        assert_eq!(tape.len(), self.plans.len(), "backward needs a forward pass with its tape");
+        let top = &self.plans[last];
+        // the readout's gradient by internal index
+        let mut g_read = vec![0f32; top.n_out];
+        for (c, &g) in g_logits.iter().enumerate() {
+            let o = top.output.internal(c);
+            let clamped = self.readout == Readout::MaxMembrane && self.clamped_readout_gradient && out.v_max[o] < 0.0;
+            g_read[o] = if clamped { 0.0 } else { g };
+        }
+        let mut g_out = match self.readout {
+            Readout::SpikeCount => g_read.repeat(steps),
+            Readout::MaxMembrane => vec![0f32; steps * top.n_out],
+        };
+        for k in (0..=last).rev() {
+            let plan = &self.plans[k];
+            let (w, gw, lt) = (&params.layers[k], &mut grads.layers[k], &tape[k]);
+            let x = if k == 0 { input } else { &tape[k - 1].out };
+            let n = plan.n_out;
+            let mask = masks.get(k).and_then(Option::as_deref);
+            let below = k.checked_sub(1).map(|b| (&self.plans[b], &tape[b]));
+            let nb = below.map_or(0, |(b, _)| b.n_out);
+            let mut g_below = vec![0f32; steps * nb];
+            let (mut g_u, mut carry_v, mut carry_i, mut g_rec) =
+                (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+            for t in (0..steps).rev() {
+                let go = &g_out[t * n..][..n];
+                match plan.neurons {
+                    None => g_u.copy_from_slice(go),
+                    Some(np) => {
+                        if np.kind == NeuronKind::Li {
+                            g_u.copy_from_slice(&carry_v);
+                            if k == last {
+                                for (o, g) in g_u.iter_mut().enumerate() {
+                                    if lt.argmax[o] as usize == t {
+                                        *g += g_read[o];
+                                    }
+                                }
+                            } else {
+                                g_u.iter_mut().zip(go).for_each(|(g, d)| *g += d);
+                            }
+                        } else {
+                            if np.reset == Reset::Zero {
+                                for &j in lt.spikes.at(t).0 {
+                                    carry_v[j as usize] = 0.0;
+                                }
+                            }
+                            g_u.copy_from_slice(&carry_v);
+                            let (si, sv) = lt.surr.at(t);
+                            for (&o, &s) in si.iter().zip(sv) {
+                                let o = o as usize;
+                                let gz = go[o] * mask.map_or(1.0, |m| m[o]) + g_rec[o];
+                                g_u[o] += gz * s;
+                            }
+                        }
+                        for (c, g) in carry_v.iter_mut().zip(&g_u) {
+                            *c = np.beta * g;
+                        }
+                        if np.kind == NeuronKind::CubaLif {
+                            for (g, c) in g_u.iter_mut().zip(carry_i.iter_mut()) {
+                                *g += np.alpha * *c;
+                                *c = *g;
+                            }
+                        }
+                    }
+                }
+                if plan.bias_len > 0 {
+                    for (o, g) in g_u.iter().enumerate() {
+                        gw.bias[o % plan.bias_len] += g;
+                    }
+                }
+                let (xi, xv) = x.at(t);
+                for (&i, &xv) in xi.iter().zip(xv) {
+                    weight_grad(plan, &mut gw.weight, i as usize, xv, &g_u);
+                }
+                if plan.recurrent {
+                    g_rec.fill(0.0);
+                    if t > 0 {
+                        for &j in lt.spikes.at(t - 1).0 {
+                            axpy(&mut gw.recurrent[j as usize * n..][..n], &g_u, 1.0);
+                        }
+                        for &j in lt.surr.at(t - 1).0 {
+                            g_rec[j as usize] = dot(&w.recurrent[j as usize * n..][..n], &g_u);
+                        }
+                    }
+                }
+                if let Some((b, bt)) = below {
+                    let gb = &mut g_below[t * nb..][..nb];
+                    match b.neurons {
+                        Some(bn) if bn.kind != NeuronKind::Li => {
+                            for &i in bt.surr.at(t).0 {
+                                gb[i as usize] = gather(plan, &w.weight, i as usize, &g_u);
+                            }
+                        }
+                        _ => {
+                            for (i, g) in gb.iter_mut().enumerate() {
+                                *g = gather(plan, &w.weight, i, &g_u);
+                            }
+                        }
+                    }
+                }
+            }
+            g_out = g_below;
+        }
+    }
+
+    /// The gradient of the mean cross-entropy over a batch of `(input events, label)`, with a
+    /// dropout mask set per sample (`masks[j]`, or none).
+    pub fn batch_gradient(
+        &self,
+        params: &Params,
+        samples: &[(&StepEvents, usize)],
+        masks: &[Vec<Option<Vec<f32>>>],
+    ) -> BatchGradient {
+        let b = samples.len().max(1);
+        let chunk = b.div_ceil(CHUNKS);
+        let parts: Vec<BatchGradient> = samples
+            .par_chunks(chunk)
+            .enumerate()
+            .map(|(c, part)| {
+                let mut acc = BatchGradient {
+                    grads: params.zeros_like(),
+                    loss_sum: 0.0,
+                    hits: 0,
+                    spikes: Vec::new(),
+                    kept_surrogates: 0,
+                };
+                for (j, &(input, label)) in part.iter().enumerate() {
+                    let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
+                    let out = self.forward(params, input, m, true);
+                    let (loss, mut g, hit) = cross_entropy(&out.logits, label);
+                    g.iter_mut().for_each(|g| *g /= b as f32);
+                    self.backward(params, input, m, &out, &g, &mut acc.grads);
+                    acc.loss_sum += loss;
+                    acc.kept_surrogates += out.tape.iter().map(|l| l.surr.len()).sum::<usize>();
+                    acc.hits += hit as usize;
+                    add_spikes(&mut acc.spikes, out.spikes.iter().map(|&s| s as f64));
+                }
+                acc
+            })
+            .collect();
+        let mut parts = parts.into_iter();
+        let mut total = parts.next().unwrap_or_else(|| BatchGradient {
+            grads: params.zeros_like(),
+            loss_sum: 0.0,
+            hits: 0,
+            spikes: Vec::new(),
+            kept_surrogates: 0,
+        });
+        for p in parts {
+            total.grads.add(&p.grads);
+            total.loss_sum += p.loss_sum;
+            total.hits += p.hits;
+            total.kept_surrogates += p.kept_surrogates;
+            add_spikes(&mut total.spikes, p.spikes.iter().copied());
+        }
+        total
+    }
+
+    /// Forward passes of `inputs` in parallel (no tape): each one's logits and spikes per layer.
+    pub fn infer(&self, params: &Params, inputs: &[&StepEvents]) -> Vec<(Vec<f32>, Vec<usize>)> {
+        inputs
+            .par_iter()
+            .map(|x| {
+                let out = self.forward(params, x, &[], false);
+                (out.logits, out.spikes)
+            })
+            .collect()
+    }
+}
+
+fn add_spikes(acc: &mut Vec<f64>, s: impl ExactSizeIterator<Item = f64>) {
+    acc.resize(s.len().max(acc.len()), 0.0);
+    acc.iter_mut().zip(s).for_each(|(a, s)| *a += s);
+}
+
+/// Cross-entropy of `logits` against `label`: the loss, its gradient by the logits, and whether
+/// the highest logit (the first of ties) is the label.
+pub fn cross_entropy(logits: &[f32], label: usize) -> (f64, Vec<f32>, bool) {
+    let m = logits.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let e: Vec<f64> = logits.iter().map(|&l| ((l - m) as f64).exp()).collect();
+    let s: f64 = e.iter().sum();
+    let loss = -((logits[label] - m) as f64 - s.ln());
+    let g = e.iter().enumerate().map(|(c, &e)| (e / s) as f32 - (c == label) as u32 as f32).collect();
+    let best = logits.iter().enumerate().fold(0, |b, (c, &l)| if l > logits[b] { c } else { b });
+    (loss, g, best == label)
+}
+
+/// `|x|` beyond which `surrogate`'s derivative is below `cutoff` times its peak (infinite for 0).
+fn truncation_width(surrogate: Surrogate, cutoff: f32) -> f32 {
+    if cutoff <= 0.0 {
+        return f32::INFINITY;
+    }
+    match surrogate {
+        // 1 / (1 + s x)^2 = c
+        Surrogate::FastSigmoid { slope } => (1.0 / cutoff.sqrt() - 1.0) / slope,
+        // 1 / (1 + a^2) = c, a = pi alpha x / 2
+        Surrogate::Arctan { alpha } => 2.0 * (1.0 / cutoff - 1.0).sqrt() / (std::f32::consts::PI * alpha),
+        Surrogate::Triangle { width } => width * (1.0 - cutoff),
+    }
+}
+
+/// The indices of `v` above `low`, ascending, into `out`: compared 16 at a time into a bit mask
+/// (it vectorises), so that the few neurons near threshold cost a branch per 16.
+#[inline(never)]
+fn above(v: &[f32], low: f32, out: &mut Vec<u32>) {
+    out.clear();
+    for (c, chunk) in v.chunks(16).enumerate() {
+        let mut mask = 0u32;
+        for (j, &x) in chunk.iter().enumerate() {
+            mask |= ((x > low) as u32) << j;
+        }
+        while mask != 0 {
+            out.push((c * 16) as u32 + mask.trailing_zeros());
+            mask &= mask - 1;
+        }
+    }
+}
+
+#[inline]
+fn axpy(y: &mut [f32], x: &[f32], a: f32) {
+    for (y, x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
+
+#[inline]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    // four partial sums, so that the compiler vectorises it
+    let mut s = [0f32; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for l in 0..4 {
+            s[l] += x[l] * y[l];
+        }
+    }
+    let tail: f32 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (s[0] + s[1]) + (s[2] + s[3]) + tail
+}
+
+/// Adds input `i`'s fan-out, times `x`, into `u`.
+#[inline]
+fn scatter(plan: &Plan, w: &[f32], i: usize, x: f32, u: &mut [f32]) {
+    let n = plan.n_out;
+    match &plan.kernel {
+        Kernel::Dense => axpy(u, &w[i * n..][..n], x),
+        Kernel::Conv { ic, oc, kk, offsets, targets } => {
+            let (p, c) = (i / ic, i % ic);
+            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
+                axpy(&mut u[q as usize * oc..][..*oc], &w[(c * kk + k as usize) * oc..][..*oc], x);
+            }
+        }
+        Kernel::Pool { c, weight, offsets, targets } => {
+            let (p, ch) = (i / c, i % c);
+            for &q in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
+                u[q as usize * c + ch] += weight * x;
+            }
+        }
+    }
+}
+
+/// Adds `x` times the gradient `g` of input `i`'s targets into its weights' gradient.
+#[inline]
+fn weight_grad(plan: &Plan, gw: &mut [f32], i: usize, x: f32, g: &[f32]) {
+    let n = plan.n_out;
+    match &plan.kernel {
+        Kernel::Dense => axpy(&mut gw[i * n..][..n], g, x),
+        Kernel::Conv { ic, oc, kk, offsets, targets } => {
+            let (p, c) = (i / ic, i % ic);
+            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
+                axpy(&mut gw[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc], x);
+            }
+        }
+        Kernel::Pool { .. } => {}
+    }
+}
+
+/// The gradient by input `i`: its weights to its targets against their gradient `g`.
+#[inline]
+fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
+    let n = plan.n_out;
+    match &plan.kernel {
+        Kernel::Dense => dot(&w[i * n..][..n], g),
+        Kernel::Conv { ic, oc, kk, offsets, targets } => {
+            let (p, c) = (i / ic, i % ic);
+            targets[offsets[p] as usize..offsets[p + 1] as usize]
+                .iter()
+                .map(|&(q, k)| dot(&w[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc]))
+                .sum()
+        }
+        Kernel::Pool { c, weight, offsets, targets } => {
+            let (p, ch) = (i / c, i % c);
+            targets[offsets[p] as usize..offsets[p + 1] as usize].iter().map(|&q| weight * g[q as usize * c + ch]).sum()
+        }
+    }
+}
+
+/// Adam (AdamW with a weight decay), with each tensor's gradient norm clipped, as burn's
+/// `AdamConfig` / `AdamWConfig` with their defaults (betas 0.9 and 0.999, epsilon 1e-5).
+#[derive(Debug, Clone)]
+pub struct Adam {
+    pub weight_decay: f32,
+    /// 0: no clipping.
+    pub clip_norm: f32,
+    m: Params,
+    v: Params,
+    time: i32,
+}
+
+impl Adam {
+    pub fn new(params: &Params, weight_decay: f32, clip_norm: f32) -> Adam {
+        Adam { weight_decay, clip_norm, m: params.zeros_like(), v: params.zeros_like(), time: 0 }
+    }
+
+    /// One step of `lr` along `grads`.
+    pub fn step(&mut self, params: &mut Params, grads: &Params, lr: f64) {
+        const B1: f32 = 0.9;
+        const B2: f32 = 0.999;
+        const EPS: f32 = 1e-5;
+        self.time += 1;
+        let bc2 = (1.0 - B2.powi(self.time)).sqrt();
+        let factor = bc2 / (1.0 - B1.powi(self.time));
+        let decay = 1.0 - (lr * self.weight_decay as f64) as f32;
+        let lr = lr as f32;
+        for (((p, g), m), v) in
+            params.tensors_mut().zip(grads.tensors()).zip(self.m.tensors_mut()).zip(self.v.tensors_mut())
+        {
+            let clip = if self.clip_norm > 0.0 {
+                let norm = g.iter().map(|g| g * g).sum::<f32>().sqrt();
+                (self.clip_norm / (norm + f32::MIN_POSITIVE)).min(1.0)
+            } else {
+                1.0
+            };
+            for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+                let g = g * clip;
+                *m = *m * B1 + g * (1.0 - B1);
+                *v = *v * B2 + g * g * (1.0 - B2);
+                let delta = *m * factor / (v.sqrt() + EPS * bc2);
+                if self.weight_decay > 0.0 {
+                    *p *= decay;
+                }
+                *p -= lr * delta;
+            }
+        }
+    }
+}
+
+#[cfg(all(test, feature = "train"))]
+mod tests {
+    use super::*;
+    use crate::snn::{LayerParams, SnnParams, SnnTwin};
+    use burn::module::Param;
+    use burn::nn::loss::CrossEntropyLossConfig;
+    use burn::tensor::{Device, Int, Tensor, TensorData};
+    use rand::{Rng, SeedableRng};
+    use snn::spec::LayerSpec;
+
+    fn layer(op: OpSpec, neurons: Option<NeuronParams>, recurrent: bool, bias: bool) -> LayerSpec {
+        LayerSpec { op, neurons, recurrent, bias, recurrent_bias: false }
+    }
+
+    /// Conv, IF, LIF, CubaLIF with recurrence, sum and average pooling, biases, both resets and
+    /// both readouts.
+    fn networks() -> Vec<(NetworkSpec, Readout)> {
+        let conv = |out_channels, k, stride, padding| OpSpec::Conv2d {
+            out_channels,
+            kernel: [k, k],
+            stride: [stride, stride],
+            padding: [padding, padding],
+        };
+        let pool = |kind| OpSpec::Pool { kind, kernel: [2, 2], stride: [2, 2] };
+        let cuba = NeuronParams::cuba_lif(0.7, 0.85).with_reset(Reset::Subtract);
+        let a = NetworkSpec {
+            input_shape: vec![2, 8, 10],
+            layers: vec![
+                layer(conv(4, 3, 1, 1), Some(NeuronParams::lif(0.8)), false, true),
+                layer(pool(PoolKind::Sum), None, false, false),
+                layer(OpSpec::Dense { n_out: 12 }, Some(cuba), true, true),
+                layer(OpSpec::Dense { n_out: 5 }, Some(NeuronParams::leaky_integrator(0.9)), false, true),
+            ],
+        };
+        let b = NetworkSpec {
+            input_shape: vec![2, 9, 11],
+            layers: vec![
+                layer(
+                    conv(3, 3, 2, 0),
+                    Some(NeuronParams::integrate_and_fire().with_reset(Reset::Subtract)),
+                    false,
+                    false,
+                ),
+                layer(pool(PoolKind::Avg), None, false, false),
+                layer(conv(5, 2, 1, 1), Some(NeuronParams::lif(0.9)), true, true),
+                layer(OpSpec::Dense { n_out: 7 }, Some(cuba.with_reset(Reset::Zero)), true, false),
+                layer(OpSpec::Dense { n_out: 4 }, Some(NeuronParams::lif(0.85)), false, false),
+            ],
+        };
+        vec![(a, Readout::MaxMembrane), (b, Readout::SpikeCount)]
+    }
+
+    /// Random input counts (C order) of `batch` samples over `steps` steps.
+    fn inputs(seed: u64, batch: usize, steps: usize, n: usize, p: f64) -> Vec<Vec<(u32, u32, f32)>> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..batch)
+            .map(|_| {
+                let mut e = Vec::new();
+                for t in 0..steps as u32 {
+                    for i in 0..n as u32 {
+                        if rng.random_bool(p) {
+                            e.push((t, i, rng.random_range(1..3) as f32));
+                        }
+                    }
+                }
+                e
+            })
+            .collect()
+    }
+
+    /// The twin's gradient of the mean cross-entropy, in engine layouts.
+    fn burn_gradient(
+        spec: &NetworkSpec,
+        readout: Readout,
+        weights: &[LayerWeights],
+        batch: &[Vec<(u32, u32, f32)>],
+        labels: &[usize],
+        steps: usize,
+    ) -> Vec<LayerWeights> {
+        let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 5.0 }, readout).unwrap();
+        let device = Device::flex().autodiff();
+        let params = SnnParams::from_weights(spec, weights, &device).unwrap();
+        let n: usize = spec.input_shape.iter().product();
+        let b = batch.len();
+        let out = twin.forward(&params, &crate::train::dense_input(batch, steps, n, &device));
+        let y: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
+        let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
+        let loss = CrossEntropyLossConfig::new().init(&device).forward(out.logits, y);
+        let grads = loss.backward();
+        let plain = Device::flex();
+        let grad = |p: &Option<Param<Tensor<2>>>| {
+            p.as_ref()
+                .map(|p| Param::from_tensor(Tensor::<2>::from_data(p.val().grad(&grads).unwrap().to_data(), &plain)))
+        };
+        let layers = params
+            .layers
+            .iter()
+            .map(|l| LayerParams {
+                dense: grad(&l.dense),
+                conv: l.conv.as_ref().map(|p| {
+                    Param::from_tensor(Tensor::<4>::from_data(p.val().grad(&grads).unwrap().to_data(), &plain))
+                }),
+                bias: l.bias.as_ref().map(|p| {
+                    Param::from_tensor(Tensor::<1>::from_data(p.val().grad(&grads).unwrap().to_data(), &plain))
+                }),
+                recurrent: grad(&l.recurrent),
+            })
+            .collect();
+        SnnParams { layers }.weights(spec).unwrap()
+    }
+
+    fn flat(w: &[LayerWeights]) -> Vec<f32> {
+        w.iter()
+            .flat_map(|l| {
+                l.weight
+                    .iter()
+                    .chain(l.bias.iter().flatten())
+                    .chain(l.recurrent.iter().flatten())
+                    .copied()
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn layouts_round_trip() {
+        for (spec, readout) in networks() {
+            let net = SparseSnn::new(spec.clone(), Surrogate::FastSigmoid { slope: 5.0 }, readout, 0.0).unwrap();
+            let w = spec.init(3, 1.0).unwrap();
+            assert_eq!(net.weights(&net.params(&w).unwrap()).unwrap(), w);
+        }
+    }
+
+    #[test]
+    fn exact_gradients_equal_the_burn_twins_and_truncated_ones_stay_close() {
+        let steps = 14;
+        for (case, (spec, readout)) in networks().into_iter().enumerate() {
+            let n_in: usize = spec.input_shape.iter().product();
+            let n_out = spec.shapes().unwrap().last().unwrap().output.iter().product::<usize>();
+            let weights = spec.init(10 + case as u64, 3.0).unwrap();
+            let batch = inputs(20 + case as u64, 3, steps, n_in, 0.12);
+            let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
+            let want = flat(&burn_gradient(&spec, readout, &weights, &batch, &labels, steps));
+            let surrogate = Surrogate::FastSigmoid { slope: 5.0 };
+            let grad = |cutoff: f32| {
+                let net = SparseSnn::new(spec.clone(), surrogate, readout, cutoff).unwrap();
+                let params = net.params(&weights).unwrap();
+                let events: Vec<StepEvents> =
+                    batch.iter().map(|e| net.input_events(StepEvents::from_entries(steps, &mut e.clone()))).collect();
+                let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
+                let g = net.batch_gradient(&params, &samples, &[]);
+                // every spiking layer spiked, so every path of the gradient was taken
+                assert!(g.spikes.iter().all(|&s| s > 0.0), "case {case}: spikes per layer {:?}", g.spikes);
+                flat(&net.weights(&g.grads).unwrap())
+            };
+            let exact = grad(0.0);
+            let scale = want.iter().fold(0f32, |m, g| m.max(g.abs()));
+            assert!(scale > 0.0);
+            for (k, (a, b)) in exact.iter().zip(&want).enumerate() {
+                assert!((a - b).abs() <= 1e-4 * scale + 1e-6, "case {case}, entry {k}: sparse {a} vs burn {b}");
+            }
+            // truncated at 5% of the surrogate's peak: close, not equal
+            let cut = grad(0.05);
+            let dot: f32 = cut.iter().zip(&want).map(|(a, b)| a * b).sum();
+            let norm = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt();
+            let cosine = dot / (norm(&cut) * norm(&want));
+            assert!(cosine > 0.9 && cut != exact, "case {case}: cosine {cosine}");
+        }
+    }
+
+    #[test]
+    fn the_forward_pass_is_the_engines() {
+        use snn::engine::{Engine, Mode};
+        for (spec, readout) in networks() {
+            let weights = spec.init(4, 3.0).unwrap();
+            let net = SparseSnn::new(spec.clone(), Surrogate::FastSigmoid { slope: 5.0 }, readout, 0.0).unwrap();
+            let params = net.params(&weights).unwrap();
+            let n_in: usize = spec.input_shape.iter().product();
+            let steps = 12;
+            for mut e in inputs(7, 3, steps, n_in, 0.1) {
+                let out = net.forward(
+                    &params,
+                    &net.input_events(StepEvents::from_entries(steps, &mut e.clone())),
+                    &[],
+                    false,
+                );
+                let network = spec.build(weights.clone()).unwrap();
+                let engine = Engine::new(&network, 1_000, Mode::Stepped).unwrap();
+                let mut st = engine.state(0);
+                e.sort_by_key(|x| x.0);
+                for (t, i, c) in e {
+                    engine.push(&mut st, t as i64 * 1_000 + 1, i, c).unwrap();
+                }
+                engine.finish(&mut st, steps as i64 * 1_000);
+                let want: Vec<f32> = match readout {
+                    Readout::SpikeCount => st.output_counts(net.n_outputs()).iter().map(|&c| c as f32).collect(),
+                    Readout::MaxMembrane => st.output_v_max().iter().map(|v| v.max(0.0)).collect(),
+                };
+                for (a, b) in out.logits.iter().zip(&want) {
+                    assert!((a - b).abs() <= 1e-4 * (1.0 + b.abs()), "{:?} vs {want:?}", out.logits);
+                }
+            }
+        }
+    }
+}
