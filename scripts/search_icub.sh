@@ -5,16 +5,32 @@
 # accuracy is looked at once (--eval-test). Writes models/search/ and docs/results/search/, then
 # the floors beside them. About 35 (raw1350) and 75 (th10) minutes on one core each; the two run
 # side by side here.
-# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
-# became the default (2026-11-25; docs/results/trainers.md compares the two).
+# --trainer dense --trial-seeds 1: these searches (models/search/{raw1350,th10}) were run with
+# burn's autodiff and one seed per trial, before the sparse trainer and three seeds per trial
+# became the defaults (2026-11-25). `--three-seeds` runs the later searches instead: raw1350 with
+# three seeds per trial (dense, two shards; models/search/raw1350-3seeds) and th10 with the
+# defaults as they are now (sparse trainer, three seeds per trial; models/search/th10-3seeds).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 mkdir -p models/search docs/results/search
-$b train --trainer dense --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \
+if [[ "${1:-}" == "--three-seeds" ]]; then
+  r=data/icub_braille/raw1350 l=docs/results/search/raw1350-3seeds
+  for s in 0/2 1/2; do
+    $b train --trainer dense --data $r --search --trial-seeds 3 --search-trials 16 --budget-min 33 --shard $s \
+      --search-dir $l --out models/search/raw1350-3seeds.safetensors --quiet &
+  done
+  wait
+  $b train --trainer dense --data $r --collect $l --trial-seeds 3 --seeds 3 --eval-test \
+    --out models/search/raw1350-3seeds.safetensors --quiet --force
+  $b train --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
+    --out models/search/th10-3seeds.safetensors --search-dir docs/results/search/th10-3seeds --quiet --force
+  exit 0
+fi
+$b train --trainer dense --trial-seeds 1 --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \
   --out models/search/raw1350.safetensors --search-dir docs/results/search/raw1350 --quiet --force &
-$b train --trainer dense --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
+$b train --trainer dense --trial-seeds 1 --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
   --out models/search/th10.safetensors --search-dir docs/results/search/th10 --quiet --force &
 wait
 for d in raw1350 th10; do

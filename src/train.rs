@@ -50,7 +50,7 @@ pub struct Args {
     search_epochs: usize,
     /// --search: seeds per trial; a trial's score is their mean (a recipe that trains well only
     /// with some seeds loses), and the final models train for the most epochs any of them ran.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 3)]
     trial_seeds: u64,
     /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
     /// then `--collect DIR` picks the winner from every shard's log.

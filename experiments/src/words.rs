@@ -97,19 +97,27 @@ impl SpeedError {
     }
 }
 
-/// The true speed under the sensor at stream time `t_s`: from the two truth cells whose centres
-/// passed the sensor's centre nearest before and after it (a whole row's mean speed when fewer
-/// than two did).
+/// The true speed under the sensor at stream time `t_s`: the motion's speed then
+/// ([`sim::ScanTruth::speed_at_mm_s`]). Truth files without the motion's swings (written before
+/// 2026-11-25) give the mean speed between the two dot columns that passed the sensor's centre
+/// nearest before and after `t_s` (a whole row's mean speed when fewer than two did).
 pub fn truth_speed_at(truth: &sim::ScanTruth, t_s: f64) -> f64 {
-    let mut c: Vec<(f64, f64)> =
-        truth.characters.iter().filter_map(|c| c.t_cell_center_s.map(|t| (t, c.x_mm))).collect();
+    if !truth.speed_swings.is_empty() {
+        return truth.speed_at_mm_s(t_s);
+    }
+    let mut c: Vec<(f64, f64)> = truth
+        .characters
+        .iter()
+        .flat_map(|c| c.columns.iter().filter_map(|k| k.t_center_s.map(|t| (t, k.x_mm))))
+        .collect();
     c.sort_by(|a, b| a.0.total_cmp(&b.0));
+    c.dedup_by(|b, a| b.0 <= a.0);
     if c.len() < 2 {
         return truth.scan.speed_mm_s;
     }
     let k = c.partition_point(|p| p.0 < t_s).clamp(1, c.len() - 1);
     let (a, b) = (c[k - 1], c[k]);
-    if b.0 > a.0 { ((b.1 - a.1) / (b.0 - a.0)).abs() } else { truth.scan.speed_mm_s }
+    ((b.1 - a.1) / (b.0 - a.0)).abs()
 }
 
 /// One simulated scan, read.

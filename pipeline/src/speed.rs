@@ -2,12 +2,17 @@
 //!
 //! A slide moves the gel's image along the sensor's x axis. The estimator is contrast
 //! maximisation (Gallego, Rebecq and Scaramuzza, "A unifying contrast maximization framework for
-//! event cameras", CVPR 2018) restricted to that one motion: the events of the last `window_ms`
+//! event cameras", CVPR 2018) restricted to that one motion: the events of a recent window
 //! are moved back along x to a common time at a candidate image velocity, and at the true velocity
 //! the events of each dot edge land on the same pixels, so the image of moved events is sharpest.
 //! Sharpness is the sum of squared counts of that image (ON and OFF apart). The candidates are a
 //! log-spaced grid of speeds in both directions, refined by a parabola through the best candidate
 //! and its neighbours.
+//!
+//! Searching every candidate at every update is costly, so the whole range is searched at the
+//! start, after a lost estimate and once a second; in between, a few candidates a few per cent
+//! apart around the last estimate are searched (tracking), and the window holds a fixed length of
+//! motion at that estimate (shorter at higher speeds, so it follows a changing speed sooner).
 //!
 //! Events of noise alone are about as sharp at every velocity, so an estimate is given only when
 //! the sharpest candidate stands out from the median candidate by `min_gain`: silence and noise
@@ -23,23 +28,42 @@ use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct SpeedEstimatorConfig {
     /// The sensor's calibration: the width of its field of view on the gel (Evetac: 18.6 mm).
     pub fov_width_mm: f64,
-    /// Events of this much stream time go into one estimate.
+    /// A window holds the events of this much motion at the last estimate (so a window holds
+    /// about as many pixels of motion, and as many events, at every speed), within
+    /// `min_window_ms..=window_ms`. 1 mm and 40 ms were chosen on the validation board
+    /// (docs/reading.md): shorter windows lag less behind a changing speed.
+    pub window_mm: f64,
+    pub min_window_ms: f64,
+    /// The longest window, and the window before the first estimate.
     pub window_ms: f64,
     /// Stream time between estimates.
     pub update_ms: f64,
     /// The range of speeds searched.
     pub min_mm_s: f64,
     pub max_mm_s: f64,
-    /// Candidate speeds per direction, log-spaced over the range.
+    /// Candidate speeds per direction of the whole-range search, log-spaced over the range.
     pub candidates: usize,
-    /// At most this many events (every k-th of the window) are moved per candidate.
+    /// The local search around the last estimate: candidates `local_step` apart (relative),
+    /// `local_half_width` either side, walking on while the sharpest is at an end.
+    pub local_step: f64,
+    pub local_half_width: usize,
+    /// A whole-range search at the first update, after an update gave no estimate, when the local
+    /// search loses its peak, and at least this often (0: at every update).
+    pub global_every_ms: f64,
+    /// After an update that gave no estimate (noise, a pause), the next search waits this long.
+    pub retry_ms: f64,
+    /// At most this many events (every k-th of the window) are moved per candidate. Events are
+    /// thinned as they come in (one in a power of two) to about twice this many per window.
     pub max_events: usize,
     /// Fewer events in the window than this give no estimate.
     pub min_events: usize,
-    /// The sharpest candidate must be this many times as sharp as the median candidate.
+    /// The sharpest candidate must be this many times as sharp as the median candidate (of the
+    /// whole range), or as the median of three blurred references (the local search: the
+    /// reverse direction, half and a third of the speed).
     pub min_gain: f64,
     /// Bin sizes of the image of moved events, in pixels.
     pub bin_x_px: u16,
@@ -50,12 +74,18 @@ impl Default for SpeedEstimatorConfig {
     fn default() -> Self {
         Self {
             fov_width_mm: 18.6,
+            window_mm: 1.0,
+            min_window_ms: 40.0,
             window_ms: 250.0,
             update_ms: 50.0,
             min_mm_s: 2.0,
             max_mm_s: 100.0,
             candidates: 48,
-            max_events: 6000,
+            local_step: 0.03,
+            local_half_width: 3,
+            global_every_ms: 1000.0,
+            retry_ms: 150.0,
+            max_events: 2000,
             min_events: 300,
             min_gain: 1.3,
             bin_x_px: 2,
@@ -65,13 +95,25 @@ impl Default for SpeedEstimatorConfig {
 }
 
 impl SpeedEstimatorConfig {
+    /// The exhaustive reference (the estimator until 2026-11-25): a fixed 250 ms window, 6 000
+    /// events and the whole range at every update. About 25 times the default's work.
+    pub fn exhaustive() -> Self {
+        Self { min_window_ms: 250.0, global_every_ms: 0.0, retry_ms: 0.0, max_events: 6000, ..Self::default() }
+    }
+
     fn validate(&self) -> Result<()> {
         let ok = self.fov_width_mm > 0.0
-            && self.window_ms > 0.0
+            && self.window_mm > 0.0
+            && self.min_window_ms > 0.0
+            && self.window_ms >= self.min_window_ms
             && self.update_ms > 0.0
             && self.min_mm_s > 0.0
             && self.max_mm_s > self.min_mm_s
             && self.candidates >= 3
+            && self.local_step > 0.0
+            && self.local_half_width >= 1
+            && self.global_every_ms >= 0.0
+            && self.retry_ms >= 0.0
             && self.max_events >= 1
             && self.min_gain >= 1.0
             && self.bin_x_px >= 1
@@ -88,8 +130,18 @@ pub struct SpeedEstimate {
     pub speed_mm_s: f64,
     /// The image moves towards decreasing x (a forward scan).
     pub forward: bool,
-    /// Sharpness of the best candidate over the median's.
+    /// Sharpness of the best candidate over the median's (or the references').
     pub gain: f64,
+}
+
+/// An event kept in the window: its time, x, y bin and polarity, and how many events it stands for
+/// (itself and those passed over before it).
+#[derive(Debug, Clone, Copy)]
+struct Kept {
+    t_us: i64,
+    x: u16,
+    yb: u16,
+    weight: u32,
 }
 
 /// The online estimator of one stream: the events of the last window, and the last estimate.
@@ -98,26 +150,45 @@ pub struct SpeedEstimator {
     cfg: SpeedEstimatorConfig,
     width: u16,
     height: u16,
+    px_per_mm: f64,
     window_us: i64,
+    min_window_us: i64,
     update_us: i64,
-    /// (t, x, y bin and polarity) of the window's events, oldest first.
-    events: VecDeque<(i64, u16, u16)>,
+    global_every_us: i64,
+    /// (t, x, y bin and polarity, events it stands for) of the longest window's kept events,
+    /// oldest first.
+    events: VecDeque<Kept>,
+    /// One event in `keep_every` is kept (a power of two, set at each update from the rate), and
+    /// the count of those passed over since the last kept one.
+    keep_every: u32,
+    skipped: u32,
+    /// Events pushed since the last update.
+    arrived: u64,
+    /// No search before this stream time (after an update that gave no estimate).
+    retry_at_us: i64,
+    retry_us: i64,
     /// The largest number of events kept (the busiest window the readout can fill, bounded).
     cap: usize,
     next_update_us: Option<i64>,
     last: Option<SpeedEstimate>,
-    /// Candidate image speeds, pixels per microsecond.
+    /// The stream time of the last whole-range search.
+    last_global_us: Option<i64>,
+    /// Candidate image speeds of the whole-range search, pixels per microsecond.
     speeds_px_us: Vec<f64>,
     /// The image of moved events: columns wide enough for the fastest candidate's shift either
     /// way (`max_shift_px` each side), rows of y bins times two polarities.
     max_shift_px: f64,
     cols: usize,
     hist: Vec<u32>,
-    touched: Vec<u32>,
-    /// The events of one update, as the candidates move them (reused).
-    sample: Vec<(f64, f64, u32)>,
+    /// The image bins one candidate filled (to clear them).
+    filled: Vec<u32>,
+    /// The events of one update: x, time before the update and the row's offset in the image.
+    sample: Vec<(f32, f32, u32)>,
     /// Estimates given so far.
     pub estimates: u64,
+    /// Updates run, and those that searched the whole range.
+    pub updates: u64,
+    pub global_searches: u64,
 }
 
 impl SpeedEstimator {
@@ -135,19 +206,30 @@ impl SpeedEstimator {
         Ok(SpeedEstimator {
             width: resolution.width,
             height: resolution.height,
+            px_per_mm,
             window_us,
+            min_window_us: (cfg.min_window_ms * 1e3) as i64,
             update_us: (cfg.update_ms * 1e3).max(1.0) as i64,
+            global_every_us: (cfg.global_every_ms * 1e3) as i64,
             events: VecDeque::new(),
+            keep_every: 1,
+            skipped: 0,
+            arrived: 0,
+            retry_at_us: i64::MIN,
+            retry_us: (cfg.retry_ms * 1e3) as i64,
             cap: 2_000_000,
             next_update_us: None,
             last: None,
+            last_global_us: None,
             speeds_px_us,
             max_shift_px,
             cols,
             hist: vec![0; cols * rows],
-            touched: Vec::new(),
+            filled: Vec::new(),
             sample: Vec::new(),
             estimates: 0,
+            updates: 0,
+            global_searches: 0,
             cfg,
         })
     }
@@ -163,8 +245,14 @@ impl SpeedEstimator {
         if e.x >= self.width || e.y >= self.height {
             return;
         }
+        self.arrived += 1;
+        self.skipped += 1;
+        if self.skipped < self.keep_every {
+            return;
+        }
+        let weight = std::mem::take(&mut self.skipped);
         let yb = (e.y / self.cfg.bin_y_px) * 2 + e.polarity.index() as u16;
-        self.events.push_back((e.t_us, e.x, yb));
+        self.events.push_back(Kept { t_us: e.t_us, x: e.x, yb, weight });
         if self.events.len() > self.cap {
             self.events.pop_front();
         }
@@ -188,73 +276,176 @@ impl SpeedEstimator {
         if !self.due(t_us) {
             return None;
         }
+        let previous_update = self.next_update_us.map(|n| n - self.update_us);
         self.next_update_us = Some(t_us + self.update_us);
-        while self.events.front().is_some_and(|e| e.0 < t_us - self.window_us) {
+        self.updates += 1;
+        while self.events.front().is_some_and(|e| e.t_us < t_us - self.window_us) {
             self.events.pop_front();
         }
-        let est = self.estimate_window(t_us)?;
-        self.last = Some(est);
-        self.estimates += 1;
-        Some(est)
+        // the last estimate, if the previous update gave it: the local search starts there
+        let tracked = self.last.filter(|l| previous_update.is_some_and(|p| l.t_us >= p));
+        let searches = self.global_searches;
+        let est =
+            if tracked.is_some() || t_us >= self.retry_at_us { self.estimate_window(t_us, tracked) } else { None };
+        match est {
+            Some(est) => {
+                self.last = Some(est);
+                self.estimates += 1;
+            }
+            // a whole-range search found nothing: wait before the next
+            None if self.global_searches > searches => self.retry_at_us = t_us + self.retry_us,
+            None => {}
+        }
+        // thin the coming events to about twice `max_events` per window at this rate
+        let since_us = previous_update.map_or(self.update_us, |p| (t_us - p).max(1));
+        let per_window =
+            self.arrived as f64 * self.window_for(self.last.filter(|l| l.t_us == t_us)) as f64 / since_us as f64;
+        let keep = (per_window / (2 * self.cfg.max_events) as f64).max(1.0);
+        self.keep_every = 1 << (keep.log2().floor() as u32).min(16);
+        self.arrived = 0;
+        est
+    }
+
+    /// The window of an update that tracks `tracked` (the longest without).
+    fn window_for(&self, tracked: Option<SpeedEstimate>) -> i64 {
+        tracked.map_or(self.window_us, |l| {
+            ((self.cfg.window_mm / l.speed_mm_s * 1e6) as i64).clamp(self.min_window_us, self.window_us)
+        })
     }
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.events.capacity() * std::mem::size_of::<(i64, u16, u16)>()
-            + (self.hist.capacity() + self.touched.capacity()) * 4
-            + self.sample.capacity() * std::mem::size_of::<(f64, f64, u32)>()
+        self.events.capacity() * std::mem::size_of::<Kept>()
+            + (self.hist.capacity() + self.filled.capacity()) * 4
+            + self.sample.capacity() * std::mem::size_of::<(f32, f32, u32)>()
     }
 
-    /// Sharpness of the sampled events (`sample`: x, time before `t_ref` and the row's offset in
-    /// the image) moved to `t_ref` at `v` pixels per microsecond (signed: negative for an image
-    /// moving towards decreasing x).
-    fn sharpness(&mut self, sample: &[(f64, f64, u32)], v: f64) -> f64 {
-        let (bx, cols) = (self.cfg.bin_x_px as f64, self.cols);
-        for &(x, dt, row) in sample {
-            // where the event's pixel content is at t_ref
-            let x_ref = x + v * dt + self.max_shift_px;
-            let c = ((x_ref / bx) as usize).min(cols - 1);
+    /// Sharpness of the sampled events moved to the update's time at `v` pixels per microsecond
+    /// (signed: negative for an image moving towards decreasing x): the sum of squared counts of
+    /// the image, kept as the sum of `2h + 1` over the increments.
+    fn sharpness(&mut self, v: f64) -> f64 {
+        let (v, off, inv_bx, last) =
+            (v as f32, self.max_shift_px as f32, 1.0 / self.cfg.bin_x_px as f32, self.cols - 1);
+        let (hist, filled) = (&mut self.hist, &mut self.filled);
+        filled.clear();
+        let mut s = 0u64;
+        for &(x, dt, row) in &self.sample {
+            // where the event's pixel content is at the update's time
+            let c = (((x + v * dt + off) * inv_bx) as usize).min(last);
             let i = row as usize + c;
-            if self.hist[i] == 0 {
-                self.touched.push(i as u32);
-            }
-            self.hist[i] += 1;
+            let h = hist[i];
+            s += 2 * h as u64 + 1;
+            hist[i] = h + 1;
+            filled.push(i as u32);
         }
-        let mut s = 0f64;
-        for &i in &self.touched {
-            let h = std::mem::take(&mut self.hist[i as usize]) as f64;
-            s += h * h;
+        for &i in filled.iter() {
+            hist[i as usize] = 0;
         }
-        self.touched.clear();
-        s
+        s as f64
     }
 
-    fn estimate_window(&mut self, t_ref: i64) -> Option<SpeedEstimate> {
-        let n = self.events.len();
-        if n < self.cfg.min_events {
+    /// The image speed of `speed_mm_s` in a direction, pixels per microsecond (signed).
+    fn px_us(&self, speed_mm_s: f64, forward: bool) -> f64 {
+        let v = speed_mm_s * self.px_per_mm * 1e-6;
+        if forward { -v } else { v }
+    }
+
+    fn estimate_window(&mut self, t_ref: i64, tracked: Option<SpeedEstimate>) -> Option<SpeedEstimate> {
+        let window_us = self.window_for(tracked);
+        let first = self.events.partition_point(|e| e.t_us < t_ref - window_us);
+        let kept = self.events.len() - first;
+        let n: u64 = self.events.range(first..).map(|e| e.weight as u64).sum();
+        if n < self.cfg.min_events as u64 {
             return None;
         }
-        let stride = n.div_ceil(self.cfg.max_events);
-        let k = self.speeds_px_us.len();
-        // every stride-th event, taken once for all candidates
-        let cols = self.cols;
+        // every stride-th event kept, taken once for all candidates
+        let stride = kept.div_ceil(self.cfg.max_events);
+        let cols = self.cols as u32;
         let mut sample = std::mem::take(&mut self.sample);
         sample.clear();
         sample.extend(
             self.events
-                .iter()
+                .range(first..)
                 .step_by(stride)
-                .map(|&(t, x, yb)| (x as f64, (t_ref - t) as f64, yb as u32 * cols as u32)),
+                .map(|e| (e.x as f32, (t_ref - e.t_us) as f32, e.yb as u32 * cols)),
         );
+        self.sample = sample;
+        let global_due = self.last_global_us.is_none_or(|g| t_ref - g >= self.global_every_us);
+        match tracked {
+            Some(l) if !global_due => self.local_search(t_ref, l).or_else(|| self.global_search(t_ref)),
+            _ => self.global_search(t_ref),
+        }
+    }
+
+    /// Candidates `local_step` apart around the last estimate, in its direction, walking on while
+    /// the sharpest is at an end (at most as far again); `None` when the peak stays at an end or
+    /// does not stand out from the blurred references.
+    fn local_search(&mut self, t_ref: i64, last: SpeedEstimate) -> Option<SpeedEstimate> {
+        let step = self.cfg.local_step.ln_1p();
+        let h = self.cfg.local_half_width as i64;
+        let (lo, hi) = (self.cfg.min_mm_s.ln(), self.cfg.max_mm_s.ln());
+        let centre = last.speed_mm_s.ln();
+        let speed_at = |k: i64| (centre + step * k as f64).exp();
+        let inside = |k: i64| (lo..=hi).contains(&(centre + step * k as f64));
+        let mut s: Vec<(i64, f64)> = Vec::with_capacity(4 * h as usize + 1);
+        for k in -h..=h {
+            if inside(k) {
+                let v = self.px_us(speed_at(k), last.forward);
+                s.push((k, self.sharpness(v)));
+            }
+        }
+        // walk on while the sharpest is at an end
+        loop {
+            let (best, _) = *s.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+            let (first, end) = (s[0].0, s[s.len() - 1].0);
+            let next = if best == end && end < 2 * h {
+                end + 1
+            } else if best == first && first > -2 * h {
+                first - 1
+            } else {
+                break;
+            };
+            if !inside(next) {
+                break;
+            }
+            let v = self.px_us(speed_at(next), last.forward);
+            let x = self.sharpness(v);
+            if next > end { s.push((next, x)) } else { s.insert(0, (next, x)) }
+        }
+        let j = s.iter().enumerate().max_by(|a, b| a.1.1.total_cmp(&b.1.1)).map(|(j, _)| j)?;
+        if j == 0 || j + 1 == s.len() {
+            return None;
+        }
+        let peak = s[j].1;
+        let speed = speed_at(s[j].0);
+        let mut refs = [
+            self.sharpness(self.px_us(speed, !last.forward)),
+            self.sharpness(self.px_us(speed / 2.0, last.forward)),
+            self.sharpness(self.px_us(speed / 3.0, last.forward)),
+        ];
+        refs.sort_by(f64::total_cmp);
+        let gain = peak / refs[1].max(f64::MIN_POSITIVE);
+        if gain < self.cfg.min_gain {
+            return None;
+        }
+        let offset = parabola(s[j - 1].1, peak, s[j + 1].1);
+        let speed_mm_s = (centre + step * (s[j].0 as f64 + offset)).exp();
+        Some(SpeedEstimate { t_us: t_ref, speed_mm_s, forward: last.forward, gain })
+    }
+
+    /// Every candidate of the range, in both directions.
+    fn global_search(&mut self, t_ref: i64) -> Option<SpeedEstimate> {
+        self.global_searches += 1;
+        self.last_global_us = Some(t_ref);
+        let k = self.speeds_px_us.len();
         // [forward candidates..., reverse candidates...]
         let mut s = Vec::with_capacity(2 * k);
         for dir in [-1.0, 1.0] {
             for j in 0..k {
                 let v = dir * self.speeds_px_us[j];
-                s.push(self.sharpness(&sample, v));
+                s.push(self.sharpness(v));
             }
         }
-        self.sample = sample;
         let (best, &peak) = s.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
         let mut sorted = s.clone();
         sorted.sort_by(f64::total_cmp);
@@ -266,17 +457,18 @@ impl SpeedEstimator {
         let (forward, j) = (best < k, best % k);
         let base = if forward { 0 } else { k };
         // a parabola through the best and its neighbours, in log speed (an even grid)
-        let offset = if j > 0 && j + 1 < k {
-            let (a, b, c) = (s[base + j - 1], s[base + j], s[base + j + 1]);
-            let d = a - 2.0 * b + c;
-            if d < 0.0 { (0.5 * (a - c) / d).clamp(-0.5, 0.5) } else { 0.0 }
-        } else {
-            0.0
-        };
+        let offset = if j > 0 && j + 1 < k { parabola(s[base + j - 1], s[base + j], s[base + j + 1]) } else { 0.0 };
         let step = (self.cfg.max_mm_s / self.cfg.min_mm_s).ln() / (k - 1) as f64;
         let speed_mm_s = self.cfg.min_mm_s * (step * (j as f64 + offset)).exp();
         Some(SpeedEstimate { t_us: t_ref, speed_mm_s, forward, gain })
     }
+}
+
+/// The vertex of the parabola through three evenly spaced values around the largest, as an
+/// offset from the middle one in steps (within half a step).
+fn parabola(a: f64, b: f64, c: f64) -> f64 {
+    let d = a - 2.0 * b + c;
+    if d < 0.0 { (0.5 * (a - c) / d).clamp(-0.5, 0.5) } else { 0.0 }
 }
 
 #[cfg(test)]
@@ -342,6 +534,57 @@ pub(crate) mod tests {
             for e in &est[5..] {
                 assert!((e.speed_mm_s / speed - 1.0).abs() < 0.05, "{speed} mm/s: {e:?}");
                 assert_eq!(e.forward, forward, "{e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn tracking_searches_the_whole_range_about_once_a_second() {
+        let events = moving(32.0, true, 0.05, 3.0, 11);
+        let mut e = SpeedEstimator::new(SpeedEstimatorConfig::default(), Resolution::DVXPLORER).unwrap();
+        let mut est = Vec::new();
+        for ev in &events {
+            e.push(ev);
+            if e.due(ev.t_us) {
+                est.extend(e.update(ev.t_us));
+            }
+        }
+        assert!(est.len() >= 55, "{} estimates of {} updates", est.len(), e.updates);
+        for x in &est[5..] {
+            assert!((x.speed_mm_s / 32.0 - 1.0).abs() < 0.05 && x.forward, "{x:?}");
+        }
+        // the first update, then one a second
+        assert!(e.global_searches <= 4, "{} whole-range searches of {} updates", e.global_searches, e.updates);
+        let mut full = SpeedEstimator::new(SpeedEstimatorConfig::exhaustive(), Resolution::DVXPLORER).unwrap();
+        for ev in &events {
+            full.push(ev);
+            if full.due(ev.t_us) {
+                full.update(ev.t_us);
+            }
+        }
+        // (the first update, at the first event, has too few events to search)
+        assert_eq!(full.global_searches, full.updates - 1);
+    }
+
+    #[test]
+    fn a_change_of_speed_or_direction_is_followed() {
+        // 1.5 s forward at 8 mm/s, then 24 mm/s, then 24 mm/s the other way
+        let mut events = Vec::new();
+        for (k, (speed, forward)) in [(8.0, true), (24.0, true), (24.0, false)].into_iter().enumerate() {
+            let t0 = k as i64 * 1_500_000;
+            events.extend(
+                moving(speed, forward, 0.05, 1.5, 5 + k as u64).into_iter().map(|e| Event { t_us: e.t_us + t0, ..e }),
+            );
+        }
+        let est = run(&events);
+        for x in &est {
+            let (t, phase) = (x.t_us % 1_500_000, x.t_us / 1_500_000);
+            let (speed, forward) = [(8.0, true), (24.0, true), (24.0, false)][phase as usize];
+            // a changed direction is found by the next whole-range search (at most a second on)
+            let settle_us = if phase == 2 { 1_300_000 } else { 500_000 };
+            if t > settle_us {
+                assert!((x.speed_mm_s / speed - 1.0).abs() < 0.05, "phase {phase}: {x:?}");
+                assert_eq!(x.forward, forward, "phase {phase}: {x:?}");
             }
         }
     }

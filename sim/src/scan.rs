@@ -173,11 +173,30 @@ pub struct ScanTruth {
     /// The depth under the sensor's centre at the start, middle and end of the slide.
     #[serde(default)]
     pub depth_profile_mm: Vec<f64>,
+    /// The slide's swings of speed around its mean (the arm's ripple, then a hand's swings), each
+    /// (relative amplitude, angular frequency in rad/s, phase in rad) in time from the slide's
+    /// start ([`ScanTruth::speed_at_mm_s`]). Empty in truth files written before 2026-11-25.
+    #[serde(default)]
+    pub speed_swings: Vec<(f64, f64, f64)>,
     pub timeline: Timeline,
     pub resolution: Resolution,
     pub pitch_mm: f64,
     pub fov_width_mm: f64,
     pub characters: Vec<CharacterTruth>,
+}
+
+impl ScanTruth {
+    /// The board's speed under the sensor at stream time `t_s`, mm/s: the mean speed and its
+    /// swings during the slide, 0 before and after it. (The gel's surface follows it with the
+    /// lag of its dynamics.)
+    pub fn speed_at_mm_s(&self, t_s: f64) -> f64 {
+        let tl = &self.timeline;
+        if !(tl.slide_start_s..=tl.slide_end_s).contains(&t_s) {
+            return 0.0;
+        }
+        let (t, v) = (t_s - tl.slide_start_s, self.scan.speed_mm_s);
+        self.speed_swings.iter().fold(v, |acc, &(a, w, phase)| acc + v * a * (w * t + phase).sin())
+    }
 }
 
 /// A simulated scan: events in time order and the ground truth.
@@ -1160,6 +1179,7 @@ fn truth(
         yaw_deg: 0.0,
         depth_tilt_mm_per_100mm: 0.0,
         depth_profile_mm: Vec::new(),
+        speed_swings: motion.terms.clone(),
         timeline,
         resolution: sensor.camera.resolution,
         pitch_mm: sensor.camera.pitch_mm(),

@@ -70,6 +70,33 @@ fn nuisances_are_drawn_per_trial_and_clean_scans_keep_their_events() {
     let slide = h.truth.timeline.slide_end_s - h.truth.timeline.slide_start_s;
     assert!((slide * 16.0 / 195.0 - 1.0).abs() < 0.2, "{slide} s for 195 mm at 16 mm/s on average");
     assert!(h.events.windows(2).all(|w| w[0].t_us <= w[1].t_us));
+    // The truth's speed is the motion's: integrated between two dot columns' passages it gives
+    // their distance, and it swings by about the variation asked for.
+    let words = Board::new(BoardKind::Text("HELP WATER".into()), setup.geometry.clone(), 1).unwrap();
+    let h = simulate(&words, &sensor, &hand).unwrap();
+    let slide = h.truth.timeline.slide_end_s - h.truth.timeline.slide_start_s;
+    let cols: Vec<(f64, f64)> = h
+        .truth
+        .characters
+        .iter()
+        .flat_map(|c| c.columns.iter().filter_map(|k| k.t_center_s.map(|t| (t, k.x_mm))))
+        .collect();
+    assert!(cols.len() > 10, "{} columns", cols.len());
+    for w in cols.windows(2) {
+        let ((t0, x0), (t1, x1)) = (w[0], w[1]);
+        let n = 200;
+        let travel: f64 =
+            (0..n).map(|i| h.truth.speed_at_mm_s(t0 + (i as f64 + 0.5) * (t1 - t0) / n as f64)).sum::<f64>()
+                * (t1 - t0)
+                / n as f64;
+        assert!((travel - (x1 - x0).abs()).abs() < 0.01, "{travel} mm against {} mm", (x1 - x0).abs());
+    }
+    let tl = &h.truth.timeline;
+    let speeds: Vec<f64> =
+        (1..100).map(|i| h.truth.speed_at_mm_s(tl.slide_start_s + i as f64 * slide / 100.0)).collect();
+    let (lo, hi) = speeds.iter().fold((f64::MAX, 0f64), |(l, u), &v| (l.min(v), u.max(v)));
+    assert!(lo > 0.0 && lo < 16.0 * 0.85 && hi > 16.0 * 1.15, "{lo}-{hi} mm/s");
+    assert_eq!(h.truth.speed_at_mm_s(tl.slide_end_s + 0.01), 0.0);
 }
 
 #[test]

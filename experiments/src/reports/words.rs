@@ -246,7 +246,7 @@ pub fn markdown(r: &WordsReport) -> String {
     let _ = writeln!(m, "## The speed estimate\n");
     let _ = writeln!(
         m,
-        "The speed each character was read at (with estimated timing) against the true speed under the sensor then (from the two printed cells whose centres passed the sensor nearest before and after the character's detections), over every character read; relative error.\n\n| condition | architecture | characters | median | mean absolute | 90th percentile absolute | largest |\n| --- | --- | --- | --- | --- | --- | --- |"
+        "The speed each character was read at (with estimated timing) against the true speed under the sensor then (the simulated motion's speed, with its ripple and swings, at the middle of the character's detections), over every character read; relative error.\n\n| condition | architecture | characters | median | mean absolute | 90th percentile absolute | largest |\n| --- | --- | --- | --- | --- | --- | --- |"
     );
     for s in r.scores.iter().filter(|s| s.timing == TimingMode::Estimated) {
         let e = &s.speed_error;
