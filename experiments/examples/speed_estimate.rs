@@ -17,14 +17,16 @@ use std::time::Instant;
 const HAND_VARIATION: f64 = 0.4;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let realism: Realism = match std::env::args().nth(1).as_deref() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |i: usize| args.get(i).map(String::as_str);
+    let realism: Realism = match arg(0) {
         None | Some("nominal") => Realism::Nominal,
         Some("clean") => Realism::Clean,
         Some("harsh") => Realism::Harsh,
         Some(other) => return Err(format!("unknown preset {other}").into()),
     };
-    let trials: u64 = std::env::args().nth(2).map_or(Ok(3), |s| s.parse())?;
-    let validation = std::env::args().nth(4).as_deref() == Some("VAL");
+    let trials: u64 = arg(1).map_or(Ok(3), str::parse)?;
+    let validation = arg(3) == Some("VAL");
     let (world, kind, seed) = if validation {
         (World::train(realism), BoardKind::Val, 2_000_003)
     } else {
@@ -33,17 +35,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let setup = world.setup();
     let board = world.board(&setup, &kind)?;
     let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
-    let exhaustive = std::env::args().nth(3).as_deref() == Some("exhaustive");
+    let exhaustive = arg(2) == Some("exhaustive");
     let mut cfg = if exhaustive { SpeedEstimatorConfig::exhaustive() } else { SpeedEstimatorConfig::default() };
     // a window length to try on the validation board: mm of motion, and the shortest in ms
-    if let Some(w) = std::env::args().nth(5) {
+    if let Some(w) = arg(4) {
         cfg.window_mm = w.parse()?;
     }
-    if let Some(w) = std::env::args().nth(6) {
+    if let Some(w) = arg(5) {
         cfg.min_window_ms = w.parse()?;
     }
     println!("# The online speed estimator on SIMULATED scans\n");
-    let args: Vec<String> = std::env::args().skip(1).collect();
     let method = if exhaustive {
         format!(
             "the exhaustive reference configuration: every candidate speed of the range at every update, over a fixed {} ms window of up to {} events",

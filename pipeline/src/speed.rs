@@ -361,15 +361,13 @@ impl SpeedEstimator {
         // every stride-th event kept, taken once for all candidates
         let stride = kept.div_ceil(self.cfg.max_events);
         let cols = self.cols as u32;
-        let mut sample = std::mem::take(&mut self.sample);
-        sample.clear();
-        sample.extend(
+        self.sample.clear();
+        self.sample.extend(
             self.events
                 .range(first..)
                 .step_by(stride)
                 .map(|e| (e.x as f32, (t_ref - e.t_us) as f32, e.yb as u32 * cols)),
         );
-        self.sample = sample;
         let global_due = self.last_global_us.is_none_or(|g| t_ref - g >= self.global_every_us);
         match tracked {
             Some(l) if !global_due => self.local_search(t_ref, l).or_else(|| self.global_search(t_ref)),
