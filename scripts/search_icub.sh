@@ -10,6 +10,9 @@
 # became the defaults (2026-11-25). `--three-seeds` runs the later searches instead: raw1350 with
 # three seeds per trial (dense, two shards; models/search/raw1350-3seeds) and th10 with the
 # defaults as they are now (sparse trainer, three seeds per trial; models/search/th10-3seeds).
+# `--defaults` runs raw1350 with the defaults as they are now, a 100-step learning-rate warm-up
+# included (models/search/raw1350-warmup); models/search/raw1350-sparse was the same command
+# before the warm-up (commit 1dacb4a's defaults).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -26,6 +29,11 @@ if [[ "${1:-}" == "--three-seeds" ]]; then
     --out models/search/raw1350-3seeds.safetensors --quiet --force
   $b train --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
     --out models/search/th10-3seeds.safetensors --search-dir docs/results/search/th10-3seeds --quiet --force
+  exit 0
+fi
+if [[ "${1:-}" == "--defaults" ]]; then
+  $b train --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \
+    --out models/search/raw1350-warmup.safetensors --search-dir docs/results/search/raw1350-warmup --quiet --force
   exit 0
 fi
 $b train --trainer dense --trial-seeds 1 --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \

@@ -15,23 +15,33 @@
 # against 99.45/99.34/97.18% with `--stretch 0.15` (mean 98.90 against 98.66%; docs/protocol.md).
 # Earlier, on RAB scans of seed 2000003 (the test board, other scans), 10 scans per row and 16
 # epochs (95.8-99.6%) and 512 hidden neurons (97.8% at 1.5 mm) did worse.
-# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
-# became the default (2026-11-25; docs/results/trainers.md compares the two).
+# REALISM=clean|nominal|harsh picks the simulator's preset (default clean: the shipped models and
+# tables); beyond clean, models go to models/$REALISM/ and results to docs/results/$REALISM/,
+# training uses the training sensor builds and the reports the test builds (docs/simulator.md).
+# TRAINER=dense|sparse trains the SNNs (default dense: the shipped `clean` models were trained with
+# burn's autodiff, before the sparse trainer became the default on 2026-11-25;
+# docs/results/trainers.md compares the two). The `nominal` models were trained with TRAINER=sparse.
+# TRIALS sets the words report's scans per row and condition (default 30, the paper's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+realism="${REALISM:-clean}"
+if [[ "$realism" == clean ]]; then models=models; out=docs/results; else models="models/$realism"; out="docs/results/$realism"; fi
 cargo build --release --quiet
-mkdir -p models docs
+mkdir -p "$models" "$out"
 b=target/release/braille
+r=(--realism "$realism")
+trainer="${TRAINER:-dense}"
 if [[ "${1:-}" != "--report-only" ]]; then
-  $b train --trainer dense --arch snn --recipe words --out models/snn-words.safetensors \
-    --history docs/results/snn_words_history.json --force --quiet
+  $b train --trainer "$trainer" --arch snn --recipe words "${r[@]}" --out "$models/snn-words.safetensors" \
+    --history "$out/snn_words_history.json" --force --quiet
   $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
-    --epochs 15 --lr 1e-3 --seed 1 --out models/resnet-lite-normaug-words.safetensors \
-    --history docs/results/resnet_lite_normaug_words_history.json --force --quiet
-  $b train --trainer dense --arch snn --recipe segment --out models/snn-segment.safetensors --history docs/results/snn_segment_history.json --force --quiet
+    --epochs 15 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-lite-normaug-words.safetensors" \
+    --history "$out/resnet_lite_normaug_words_history.json" --force --quiet
+  $b train --trainer "$trainer" --arch snn --recipe segment "${r[@]}" --out "$models/snn-segment.safetensors" \
+    --history "$out/snn_segment_history.json" --force --quiet
   $b train --arch resnet --task segment --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
-    --epochs 8 --lr 1e-3 --seed 1 --out models/resnet-tiny-segment.safetensors \
-    --history docs/results/resnet_tiny_segment_history.json --force --quiet
+    --epochs 8 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-tiny-segment.safetensors" \
+    --history "$out/resnet_tiny_segment_history.json" --force --quiet
 fi
-$b words-report --trials 30 --out docs/results
-$b chars-report --models models --out docs/results --trials 30
+$b words-report --trials "${TRIALS:-30}" "${r[@]}" --models "$models" --out "$out"
+$b chars-report --trials 30 "${r[@]}" --models "$models" --out "$out"

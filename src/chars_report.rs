@@ -11,9 +11,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// Folder holding `resnet-lite-{raw,norm,aug,normaug}.safetensors` and `snn-chars.safetensors`
     /// (`scripts/table1.sh`), and the `+ words` models (`scripts/words.sh`); missing models are
-    /// left out.
-    #[arg(long, default_value = "models")]
-    models: PathBuf,
+    /// left out [default: those trained at `--realism`: `models/` at `clean`, `models/REALISM/`
+    /// beyond].
+    #[arg(long)]
+    models: Option<PathBuf>,
     /// Where to write `chars.md`, `chars.json`, `chars_depth.png` and the confusion PNGs.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
@@ -32,8 +33,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let models = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
     let report =
-        chars_report(&args.models, &args.depths, args.trials, args.seed, &args.realism.test_world(), &Bar::default())?;
+        chars_report(&models, &args.depths, args.trials, args.seed, &args.realism.test_world(), &Bar::default())?;
     let md = crate::charts::write_chars_report(&report, &args.out)?;
     print!("{md}");
     Ok(())

@@ -114,4 +114,13 @@ impl RealismArg {
     pub fn test_world(self) -> experiments::datasets::World {
         experiments::datasets::World::test(self.realism)
     }
+
+    /// The models trained at this preset: `models/` at `clean` (the shipped ones), `models/REALISM/`
+    /// beyond (`REALISM=nominal bash scripts/table1.sh`, `scripts/words.sh`).
+    pub fn models_dir(self) -> PathBuf {
+        match self.realism {
+            sim::Realism::Clean => repo_path("models"),
+            r => repo_path(&format!("models/{r}")),
+        }
+    }
 }

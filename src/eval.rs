@@ -106,8 +106,9 @@ pub fn run(args: Args) -> Result<()> {
 pub struct CharsArgs {
     #[arg(long, value_enum, default_value = "resnet")]
     arch: Arch,
-    /// The model file [default: the architecture's shipped model, models/resnet-lite-normaug.safetensors
-    /// or models/snn-chars.safetensors].
+    /// The model file [default: the architecture's model trained at `--realism`,
+    /// resnet-lite-normaug.safetensors or snn-chars.safetensors in models/ at `clean`, in
+    /// models/REALISM/ beyond].
     #[arg(long)]
     model: Option<PathBuf>,
     #[arg(long, default_value = "RAB")]
@@ -129,7 +130,13 @@ pub struct CharsArgs {
 }
 
 fn chars(args: CharsArgs) -> Result<()> {
-    let path = args.model.clone().unwrap_or_else(|| experiments::chars::default_path(args.arch));
+    let path = match &args.model {
+        Some(p) => p.clone(),
+        None => {
+            let shipped = experiments::chars::default_path(args.arch);
+            args.realism.models_dir().join(shipped.file_name().unwrap_or_default())
+        }
+    };
     let spec = CharSetSpec {
         boards: vec![args.board.clone()],
         speed_mm_s: args.speed,
@@ -199,7 +206,7 @@ pub struct WordsArgs {
 }
 
 fn words(args: WordsArgs) -> Result<()> {
-    let (s, c) = experiments::words::default_models(args.arch, &crate::common::repo_path("models"));
+    let (s, c) = experiments::words::default_models(args.arch, &args.realism.models_dir());
     let readers = ReaderModels::load(&s, &c, args.snn_runner)?;
     let spec = WordsSpec {
         board: args.board.clone(),

@@ -21,6 +21,7 @@ mod report;
 mod robustness;
 mod run;
 mod sim_check;
+mod sim_dataset;
 mod simulate;
 mod train;
 mod words_report;
@@ -48,6 +49,9 @@ enum Command {
     Convert(convert::Args),
     /// Simulate scans of Braille boards with the virtual Evetac: event files and ground truth.
     Simulate(simulate::Args),
+    /// Simulate a tactile dataset of another layout (a grid of event taxels under each Braille
+    /// character) as a folder in the iCub layout, for `train --data` and `baselines --data`.
+    SimDataset(sim_dataset::Args),
     /// Measure the simulator's physics checks (depth, speed, polarity, geometry, noise, readout).
     SimCheck(sim_check::Args),
     /// Measure the paper's labeling pipeline against the simulator's ground truth.
@@ -107,6 +111,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => demo::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::SimCheck(a) => sim_check::run(a),
+        Command::SimDataset(a) => sim_dataset::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::LabelCheck(a) => label_check::run(a),

@@ -134,6 +134,9 @@ pub struct Args {
     /// Clip the gradient norm to this (0: off).
     #[arg(long)]
     clip_norm: Option<f64>,
+    /// Ramp the learning rate up linearly over the first this many optimiser steps (0: off).
+    #[arg(long)]
+    warmup_steps: Option<usize>,
     /// Recurrent connections in the hidden layers.
     #[arg(long)]
     recurrent: bool,
@@ -224,7 +227,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     set!(task <- a.task, jitter_ms <- a.jitter_ms, realism <- a.realism, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
         center <- a.center, period_us <- a.period_us, sigma_delta <- a.sigma_delta, dt_us <- a.dt_us,
         hidden <- a.hidden, neuron <- a.neuron, tau_mem_us <- a.tau_mem_us, tau_syn_us <- a.tau_syn_us,
-        tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, readout <- a.readout,
+        tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
         readout_gradient <- a.readout_gradient, surrogate <- a.surrogate, surrogate_scale <- a.surrogate_scale,
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
         event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, average_epochs <- a.average_epochs,

@@ -12,6 +12,11 @@ pub struct Args {
     /// Where to write `words.md`, `words.json` and `words_speed.png`.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
+    /// The folder of the reading models (`snn-segment`, `snn-words`, `resnet-tiny-segment`,
+    /// `resnet-lite-normaug-words`) [default: those trained at `--realism`: `models/` at `clean`,
+    /// `models/nominal/` at `nominal` (`REALISM=nominal bash scripts/words.sh`)].
+    #[arg(long)]
+    models: Option<PathBuf>,
     /// EV scans per row and speed (the paper: 30).
     #[arg(long, default_value_t = 30)]
     trials: u64,
@@ -42,7 +47,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let models = crate::common::repo_path("models");
+    let models = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
     let world = args.realism.test_world();
     let spec = WordsReportSpec {
         speeds_mm_s: args.speeds,

@@ -1,8 +1,9 @@
 //! The experiments, callable from Rust: simulated datasets ([`datasets`]: character windows from
 //! scans), the evaluation protocols and their scoring ([`scoring`], [`tactile`], [`chars`],
-//! [`words`], [`labeling`]), SNN recipes and training ([`recipe`], [`train`]), the engine's
-//! benchmark ([`mod@bench`]) and each report part as data ([`reports`]). The `braille` binary maps
-//! its arguments to these functions, prints what they return and draws it.
+//! [`words`], [`labeling`]), a simulated taxel dataset ([`taxels`]), SNN recipes and training
+//! ([`recipe`], [`train`]), the engine's benchmark ([`mod@bench`]) and each report part as data
+//! ([`reports`]). The `braille` binary maps its arguments to these functions, prints what they
+//! return and draws it.
 //!
 //! Everything here that runs on simulated scans is SIMULATED data and says so in what it returns.
 
@@ -20,6 +21,7 @@ pub mod scans;
 pub mod scoring;
 pub mod search;
 pub mod tactile;
+pub mod taxels;
 pub mod train;
 pub mod words;
 

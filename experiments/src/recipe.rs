@@ -138,6 +138,8 @@ pub struct SnnRecipe {
     pub epochs: usize,
     pub batch_size: usize,
     pub lr: f64,
+    /// Linear learning-rate warm-up over the first this many optimiser steps (0: off).
+    pub warmup_steps: usize,
     /// Clip the gradient norm to this (0: off).
     pub clip_norm: f64,
     /// Probability of dropping each input event in training.
@@ -199,6 +201,7 @@ impl Default for SnnRecipe {
             epochs: 60,
             batch_size: 32,
             lr: 2e-3,
+            warmup_steps: 0,
             clip_norm: 0.0,
             drop_events: 0.0,
             stretch: 0.0,
@@ -339,6 +342,7 @@ impl SnnRecipe {
                 event_jitter_us: self.event_jitter_us,
             },
             clip_norm: self.clip_norm,
+            warmup_steps: self.warmup_steps,
             weight_decay: self.weight_decay,
             average_epochs: self.average_epochs,
             dropout: self.dropout,

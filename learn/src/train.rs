@@ -23,6 +23,10 @@ pub struct TrainConfig {
     pub batch_size: usize,
     /// Adam's learning rate at the start; it follows a cosine down to `lr * lr_final_fraction`.
     pub lr: f64,
+    /// The first this many optimiser steps ramp the learning rate up linearly (step k of them at
+    /// `k / warmup_steps` of the schedule's rate; 0: no warm-up). The SNN trainers only.
+    #[serde(default)]
+    pub warmup_steps: usize,
     pub lr_final_fraction: f64,
     pub seed: u64,
     /// Stop when validation accuracy has not improved for this many epochs (0: never).
@@ -93,12 +97,21 @@ impl TrainConfig {
     }
 }
 
+impl TrainConfig {
+    /// The learning rate of optimiser step `step` (from 1) where the schedule gives `lr`: ramped
+    /// up linearly over the first `warmup_steps` steps.
+    pub fn warmed_up(&self, lr: f64, step: usize) -> f64 {
+        if step < self.warmup_steps { lr * step as f64 / self.warmup_steps as f64 } else { lr }
+    }
+}
+
 impl Default for TrainConfig {
     fn default() -> Self {
         Self {
             epochs: 60,
             batch_size: 32,
             lr: 2e-3,
+            warmup_steps: 0,
             lr_final_fraction: 0.05,
             seed: 1,
             patience: 0,
@@ -423,6 +436,7 @@ fn fit(
     let mut history = Vec::new();
     let mut order: Vec<usize> = (0..train.len()).collect();
     let mut sum: Option<(Vec<LayerWeights>, usize)> = None;
+    let mut steps = 0usize;
     for epoch in 1..=cfg.epochs {
         let start = Instant::now();
         let lr = cfg.lr_at(epoch);
@@ -431,7 +445,8 @@ fn fit(
         observer.epoch_begin(epoch, batches.len());
         let (mut loss_sum, mut hits) = (0.0, 0usize);
         for idx in batches {
-            let (l, h) = fitter.step(train, idx, lr, &mut rng)?;
+            steps += 1;
+            let (l, h) = fitter.step(train, idx, cfg.warmed_up(lr, steps), &mut rng)?;
             loss_sum += l * idx.len() as f64;
             hits += h;
             observer.batch(l, h as f64 / idx.len() as f64);
@@ -522,6 +537,16 @@ fn scale_weights(w: &mut [LayerWeights], k: f32) {
 mod tests {
     use super::*;
     use encoders::spike_train::SpikeTrain;
+
+    #[test]
+    fn the_warm_up_ramps_the_first_steps_and_then_leaves_the_schedule() {
+        let cfg = TrainConfig { lr: 1e-3, warmup_steps: 4, ..TrainConfig::default() };
+        let ramp: Vec<f64> = (1..=6).map(|k| cfg.warmed_up(cfg.lr_at(1), k)).collect();
+        let want = [0.25e-3, 0.5e-3, 0.75e-3, 1e-3, 1e-3, 1e-3];
+        assert!(ramp.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12), "{ramp:?}");
+        let off = TrainConfig { warmup_steps: 0, ..cfg.clone() };
+        assert_eq!(off.warmed_up(0.5, 1), 0.5, "no warm-up");
+    }
 
     #[test]
     fn event_jitter_moves_each_event_within_its_bound_and_keeps_them_all() {
