@@ -9,10 +9,11 @@
 # burn's autodiff and one seed per trial, before the sparse trainer and three seeds per trial
 # became the defaults (2026-11-25). `--three-seeds` runs the later searches instead: raw1350 with
 # three seeds per trial (dense, two shards; models/search/raw1350-3seeds) and th10 with the
-# defaults as they are now (sparse trainer, three seeds per trial; models/search/th10-3seeds).
+# defaults before the warm-up (sparse trainer, three seeds per trial, `--warmup-steps 0`;
+# models/search/th10-3seeds).
 # `--defaults` runs raw1350 with the defaults as they are now, a 100-step learning-rate warm-up
 # included (models/search/raw1350-warmup); models/search/raw1350-sparse was the same command
-# before the warm-up (commit 1dacb4a's defaults).
+# with `--warmup-steps 0` and a 40-minute budget.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -27,7 +28,7 @@ if [[ "${1:-}" == "--three-seeds" ]]; then
   wait
   $b train --trainer dense --data $r --collect $l --trial-seeds 3 --seeds 3 --eval-test \
     --out models/search/raw1350-3seeds.safetensors --quiet --force
-  $b train --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
+  $b train --data data/icub_braille/th10 --warmup-steps 0 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
     --out models/search/th10-3seeds.safetensors --search-dir docs/results/search/th10-3seeds --quiet --force
   exit 0
 fi
