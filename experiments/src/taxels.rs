@@ -146,6 +146,8 @@ pub fn taxel_samples(spec: &TaxelSetSpec, progress: &dyn Progress) -> Result<Vec
         return Err(Error::Invalid(format!("speed range {lo}-{hi} mm/s: need 0 < low <= high")));
     }
     let resolution = Resolution::DVXPLORER;
+    // Each split's world, sensor builds and boards once; a job names them by index.
+    let mut splits = Vec::new();
     let mut jobs = Vec::new();
     for (test, boards, trials) in
         [(false, &spec.train_boards, spec.train_trials), (true, &spec.test_boards, spec.test_trials)]
@@ -153,25 +155,26 @@ pub fn taxel_samples(spec: &TaxelSetSpec, progress: &dyn Progress) -> Result<Vec
         let world = if test { World::test(spec.realism) } else { World::train(spec.realism) };
         let setup = world.setup();
         let sensors = world.sensors_at(&setup, resolution)?;
-        for kind in boards {
-            let board = world.board(&setup, kind)?;
+        let boards = boards.iter().map(|kind| world.board(&setup, kind)).collect::<Result<Vec<_>>>()?;
+        for (b, board) in boards.iter().enumerate() {
             for row in 0..board.rows.len() {
-                for trial in 0..trials {
-                    jobs.push((test, world.clone(), setup.clone(), sensors.clone(), board.clone(), row, trial));
-                }
+                jobs.extend((0..trials).map(|trial| (splits.len(), b, row, trial)));
             }
         }
+        splits.push((test, world, setup, sensors, boards));
     }
     progress.start("simulating taxel scans", jobs.len() as u64);
     let per_scan: Vec<Vec<TaxelSample>> = jobs
         .par_iter()
-        .map(|(test, world, setup, sensors, board, row, trial)| -> Result<_> {
+        .map(|&(split, b, row, trial)| -> Result<_> {
+            let (test, world, setup, sensors, boards) = &splits[split];
+            let board = &boards[b];
             let key = format!("taxels/{}/{}/{row}/{trial}/{test}", spec.seed, board.kind.name());
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(sim::board::stable_hash(&key));
             let speed = if hi > lo { rng.random_range(lo..hi) } else { lo };
-            let seed = world.scan_seed(spec.seed, &board.kind, *row, *trial, speed, spec.depth_mm);
-            let scan = setup.scan(speed, spec.depth_mm, *row, seed);
-            let sensor = &sensors[(*trial % sensors.len() as u64) as usize];
+            let seed = world.scan_seed(spec.seed, &board.kind, row, trial, speed, spec.depth_mm);
+            let scan = setup.scan(speed, spec.depth_mm, row, seed);
+            let sensor = &sensors[(trial % sensors.len() as u64) as usize];
             let s = sim::simulate(board, sensor, &scan)?;
             progress.inc();
             Ok(scan_samples(spec, &s, resolution, *test))
