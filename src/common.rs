@@ -115,6 +115,14 @@ impl RealismArg {
         experiments::datasets::World::test(self.realism)
     }
 
+    /// The world of these sensor builds at this preset.
+    pub fn world(self, builds: SensorBuilds) -> experiments::datasets::World {
+        match builds {
+            SensorBuilds::Test => experiments::datasets::World::test(self.realism),
+            SensorBuilds::Training => experiments::datasets::World::train(self.realism),
+        }
+    }
+
     /// The models trained at this preset: `models/` at `clean` (the shipped ones), `models/REALISM/`
     /// beyond (`REALISM=nominal bash scripts/table1.sh`, `scripts/words.sh`).
     pub fn models_dir(self) -> PathBuf {
@@ -123,4 +131,15 @@ impl RealismArg {
             r => repo_path(&format!("models/{r}")),
         }
     }
+}
+
+/// Which sensor builds scan an evaluation's boards (beyond `clean`, which has one build).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SensorBuilds {
+    /// The test builds, never trained on: every reported figure.
+    #[default]
+    Test,
+    /// The training builds: with a validation board (VAL, VAL-WORDS), for choices made on
+    /// validation data.
+    Training,
 }

@@ -111,8 +111,12 @@ pub struct CharsArgs {
     /// models/REALISM/ beyond].
     #[arg(long)]
     model: Option<PathBuf>,
-    #[arg(long, default_value = "RAB")]
+    #[arg(long, default_value = "RAB", value_parser = experiments::datasets::parse_board)]
     board: BoardKind,
+    /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
+    /// validation board, for choices).
+    #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
+    sensor_builds: crate::common::SensorBuilds,
     #[arg(long, default_value_t = 8.0)]
     speed: f64,
     #[arg(long, default_value_t = 1.5)]
@@ -145,7 +149,8 @@ fn chars(args: CharsArgs) -> Result<()> {
         seed: args.seed,
         task: Task::Chars,
         jitter_ms: 0.0,
-        world: args.realism.test_world(),
+        world: args.realism.world(args.sensor_builds),
+        blank_cells: false,
     };
     let r = experiments::chars::eval(&path, &spec, &Bar::default())?;
     if args.json {
@@ -173,9 +178,23 @@ fn chars(args: CharsArgs) -> Result<()> {
 pub struct WordsArgs {
     #[arg(long, value_enum, default_value = "snn")]
     arch: Arch,
-    /// Board: SAB, UN, RAB, VAL (validation), EV, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
-    #[arg(long, default_value = "EV")]
+    /// The segmentation network [default: the architecture's, `snn-segment` or
+    /// `resnet-tiny-segment`, in the realism's models folder]. Either architecture's, to read
+    /// with one architecture's segmentation and the other's classifier.
+    #[arg(long)]
+    segmenter: Option<PathBuf>,
+    /// The character classifier [default: the architecture's, `snn-words` or
+    /// `resnet-lite-normaug-words`, in the realism's models folder].
+    #[arg(long)]
+    classifier: Option<PathBuf>,
+    /// Board: SAB, UN, RAB, VAL (validation), VAL-WORDS (validation words), EV, or text:"ANY WORDS"
+    /// (`/` starts a new row; long rows wrap).
+    #[arg(long, default_value = "EV", value_parser = experiments::datasets::parse_board)]
     board: BoardKind,
+    /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
+    /// validation board, for choices).
+    #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
+    sensor_builds: crate::common::SensorBuilds,
     /// The scans' mean speed, mm/s.
     #[arg(long, default_value_t = 16.0)]
     speed: f64,
@@ -207,6 +226,8 @@ pub struct WordsArgs {
 
 fn words(args: WordsArgs) -> Result<()> {
     let (s, c) = experiments::words::default_models(args.arch, &args.realism.models_dir());
+    let s = args.segmenter.clone().unwrap_or(s);
+    let c = args.classifier.clone().unwrap_or(c);
     let readers = ReaderModels::load(&s, &c, args.snn_runner)?;
     let spec = WordsSpec {
         board: args.board.clone(),
@@ -215,7 +236,7 @@ fn words(args: WordsArgs) -> Result<()> {
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
-        world: args.realism.test_world(),
+        world: args.realism.world(args.sensor_builds),
     };
     let r = experiments::words::eval_words(&spec, &readers, args.timing, args.spell, &Bar::default())?;
     let s = &r.score;

@@ -75,6 +75,10 @@ pub struct Args {
     /// (at 8 mm/s), as a streaming reader meets them (0: the paper's aligned windows only).
     #[arg(long)]
     jitter_ms: Option<f64>,
+    /// Without --data, segmentation: every blank cell (word spaces, a pitch or two past the
+    /// row's ends) is background as well [recipe: `segment` since 2026-11-26].
+    #[arg(long)]
+    blank_cells: Option<bool>,
     /// Without --data: the simulator's nuisances (training sensor builds beyond `clean`)
     /// [recipe: clean].
     #[arg(long, value_enum)]
@@ -224,7 +228,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     macro_rules! set {
         ($($field:ident <- $flag:expr),* $(,)?) => { $( if let Some(v) = $flag.clone() { r.$field = v; } )* };
     }
-    set!(task <- a.task, jitter_ms <- a.jitter_ms, realism <- a.realism, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
+    set!(task <- a.task, jitter_ms <- a.jitter_ms, blank_cells <- a.blank_cells, realism <- a.realism, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
         center <- a.center, period_us <- a.period_us, sigma_delta <- a.sigma_delta, dt_us <- a.dt_us,
         hidden <- a.hidden, neuron <- a.neuron, tau_mem_us <- a.tau_mem_us, tau_syn_us <- a.tau_syn_us,
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
@@ -288,6 +292,7 @@ pub fn run(args: Args) -> Result<()> {
                 preprocess: args.aug,
                 task: r.task,
                 jitter_ms: r.jitter_ms,
+                blank_cells: r.blank_cells,
                 pool: args.pool.unwrap_or(1),
                 trials: r.trials,
                 word_rows: r.word_rows,

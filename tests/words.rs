@@ -139,6 +139,43 @@ fn eval_words_prints_the_papers_metrics() {
 }
 
 #[test]
+fn eval_words_reads_the_validation_words_with_either_architectures_networks() {
+    // the validation words on the training sensor builds, the ResNet's segmentation with the SNN's
+    // classifier (the models trained at `nominal`)
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/nominal");
+    let (seg, cls) = (models.join("resnet-tiny-segment.safetensors"), models.join("snn-words.safetensors"));
+    let (seg, cls) = (seg.to_str().unwrap(), cls.to_str().unwrap());
+    let common = ["eval", "words", "--board", "val-words", "--sensor-builds", "training", "--realism", "nominal"];
+    let mut args = common.to_vec();
+    args.extend([
+        "--seed",
+        "2000003",
+        "--speed",
+        "64",
+        "--trials",
+        "1",
+        "--json",
+        "--segmenter",
+        seg,
+        "--classifier",
+        cls,
+    ]);
+    let o = braille(&args);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["lines"], 4, "{out}");
+    assert!(v["board"].as_str().unwrap().starts_with("text:"), "{}", v["board"]);
+    assert!(v["word_accuracy"].as_f64().unwrap() > 0.5, "{}", v["word_accuracy"]);
+    // a classifier handed over as the segmentation network is named
+    let mut args = common.to_vec();
+    args.extend(["--trials", "1", "--segmenter", cls, "--classifier", cls]);
+    let o = braille(&args);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("snn-words") && err.contains("segmentation"), "{err}");
+}
+
+#[test]
 fn words_report_writes_the_speed_table() {
     let dir = tempfile::tempdir().unwrap();
     let out_dir = dir.path().join("docs");

@@ -201,6 +201,8 @@ pub struct ResnetTraining {
     pub preprocess: Preprocess,
     pub task: Task,
     pub jitter_ms: f64,
+    /// Segmentation: blank cells as background too ([`crate::datasets::blank_cell_starts`]).
+    pub blank_cells: bool,
     pub pool: usize,
     pub trials: u64,
     pub word_rows: usize,
@@ -235,7 +237,17 @@ pub fn train_resnet(
     let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool)? };
     let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment: AugmentConfig::default() };
     let world = crate::datasets::World::train(t.realism);
-    let tw = training_windows(t.trials, t.train.seed, t.word_rows, &input, t.task, t.jitter_ms, &world, progress)?;
+    let tw = training_windows(
+        t.trials,
+        t.train.seed,
+        t.word_rows,
+        &input,
+        t.task,
+        t.jitter_ms,
+        t.blank_cells,
+        &world,
+        progress,
+    )?;
     // the windows move into the two sets (no copy: the training set is most of the memory)
     let mut all = tw.all;
     let mut pick = |idx: &[usize], prepared: bool| ImageSet {
@@ -267,6 +279,7 @@ pub fn train_resnet(
         "sensor_builds": world.sensors,
         "task": t.task,
         "jitter_ms": t.jitter_ms,
+        "blank_cells": t.blank_cells,
         "word_rows": t.word_rows,
         "scans": tw.scans,
         "train_windows": train_set.len(),

@@ -180,6 +180,10 @@ pub struct CharSetSpec {
     /// The simulated world of the scans.
     #[serde(default)]
     pub world: World,
+    /// Segmentation sets: every blank cell (word spaces, a pitch or two past the row's ends) is
+    /// background as well ([`blank_cell_starts`]); false before 2026-11-26.
+    #[serde(default)]
+    pub blank_cells: bool,
 }
 
 /// The letter index of the 26 classes (`A` = 0).
@@ -202,10 +206,13 @@ pub fn scan_windows(
     jitter_ms: f64,
 ) -> Result<Option<Vec<CharSample>>> {
     let scan = ScanConfig { speed_mm_s, depth_mm, row, seed: scan_seed, ..ScanConfig::default() };
-    scan_windows_with(board, sensor, &scan, trial, cfg, task, jitter_ms)
+    scan_windows_with(board, sensor, &scan, trial, cfg, task, jitter_ms, false)
 }
 
-/// [`scan_windows`] of a scan configured in full (a realism preset's kinematics).
+/// [`scan_windows`] of a scan configured in full (a realism preset's kinematics). With
+/// `blank_cells`, a segmentation set also takes every blank cell (a word space, and a cell's
+/// pitch past either end of the row) as background ([`blank_cell_starts`]).
+#[allow(clippy::too_many_arguments)]
 pub fn scan_windows_with(
     board: &Board,
     sensor: &Sensor,
@@ -214,6 +221,7 @@ pub fn scan_windows_with(
     cfg: &LabelerConfig,
     task: Task,
     jitter_ms: f64,
+    blank_cells: bool,
 ) -> Result<Option<Vec<CharSample>>> {
     let (row, speed_mm_s) = (scan.row, scan.speed_mm_s);
     let s = sim::simulate(board, sensor, scan)?;
@@ -276,6 +284,13 @@ pub fn scan_windows_with(
                 windows.push((0, CharWindow { t_start_us: t, t_end_us: t + span, ..w.clone() }));
                 k += stride;
             }
+            if blank_cells {
+                for t in blank_cell_starts(&s.truth.characters, &l.windows) {
+                    if t >= t0 && t + span <= t1 {
+                        windows.push((0, CharWindow { t_start_us: t, t_end_us: t + span, ..w.clone() }));
+                    }
+                }
+            }
         }
         for (class, w) in windows {
             let map = window_heatmap(&s.events, sensor.camera.resolution, speed_mm_s, &w, cfg)?;
@@ -283,6 +298,39 @@ pub fn scan_windows_with(
         }
     }
     Ok(Some(out))
+}
+
+/// Where a character's window would start over each blank cell of a scan: every word space, and
+/// one and two cell pitches past the row's last character and before its first (the flat board a
+/// reader meets there). Each is placed from the nearest labelled character's window by the
+/// difference of the two cells' passing times in the scan's truth, so the windows sit as the
+/// labeler aligns a character's. `windows` are the labeler's, one per lettered cell, in order.
+pub fn blank_cell_starts(cells: &[sim::scan::CharacterTruth], windows: &[CharWindow]) -> Vec<i64> {
+    let lettered: Vec<(f64, i64)> = cells
+        .iter()
+        .filter(|c| !c.columns.is_empty())
+        .zip(windows)
+        .filter_map(|(c, w)| c.t_cell_center_s.map(|t| (t, w.t_start_us)))
+        .collect();
+    let mut centres: Vec<f64> =
+        cells.iter().filter(|c| c.columns.is_empty()).filter_map(|c| c.t_cell_center_s).collect();
+    // the cell pitch in time at either end, from the two outermost neighbouring cells
+    let times: Vec<f64> = cells.iter().filter_map(|c| c.t_cell_center_s).collect();
+    if times.len() >= 2 {
+        let (first, second) = (times[0], times[1]);
+        let (last, before) = (times[times.len() - 1], times[times.len() - 2]);
+        for k in [1.0, 2.0] {
+            centres.push(first - k * (second - first));
+            centres.push(last + k * (last - before));
+        }
+    }
+    centres
+        .into_iter()
+        .filter_map(|t| {
+            let &(tc, start) = lettered.iter().min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))?;
+            Some(start + ((t - tc) * 1e6).round() as i64)
+        })
+        .collect()
 }
 
 /// A stable seed per scan.
@@ -358,6 +406,31 @@ pub fn unseen_word_rows(seed: u64, rows: usize, max_chars: usize) -> String {
     rows_of(&word_pool(TRAINING_WORDS, TRAINING_WORDS, &EV_WORDS), seed, rows, max_chars)
 }
 
+/// Rows of words for validation, none a training row or a test board can hold: drawn from the
+/// [`TRAINING_WORDS`] of TextBlob's list after the unseen test words. Word-level choices (the
+/// reader's settings, a recipe for word rows) are made on them, never on EV or the unseen words.
+pub fn validation_word_rows(seed: u64, rows: usize, max_chars: usize) -> String {
+    rows_of(&word_pool(2 * TRAINING_WORDS, TRAINING_WORDS, &EV_WORDS), seed, rows, max_chars)
+}
+
+/// The validation seed: the VAL board's print and the validation scans (docs/protocol.md).
+pub const VALIDATION_SEED: u64 = 2_000_003;
+
+/// The board of validation words, `VAL-WORDS` on the command line: four rows of at most 25
+/// characters of [`validation_word_rows`] at [`VALIDATION_SEED`].
+pub fn validation_words_board() -> BoardKind {
+    BoardKind::Text(validation_word_rows(VALIDATION_SEED, 4, 25))
+}
+
+/// A board named as the command line names it: the simulator's boards
+/// ([`BoardKind`]'s `FromStr`), and `VAL-WORDS` ([`validation_words_board`]).
+pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
+    if s.eq_ignore_ascii_case("VAL-WORDS") {
+        return Ok(validation_words_board());
+    }
+    s.parse::<BoardKind>().map_err(|e| format!("{e}, or VAL-WORDS"))
+}
+
 /// Windows cropped for one or more model inputs, with where each came from.
 #[derive(Debug, Clone, Default)]
 pub struct Windows {
@@ -425,7 +498,16 @@ pub fn build_many_in(
             let seed = w.scan_seed(spec.seed, &board.kind, *row, *trial, spec.speed_mm_s, spec.depth_mm);
             let sensor = &sensors[(*trial % sensors.len() as u64) as usize];
             let scan = setup.scan(spec.speed_mm_s, spec.depth_mm, *row, seed);
-            let r = scan_windows_with(board, sensor, &scan, *trial, &first.labeler, spec.task, spec.jitter_ms)?;
+            let r = scan_windows_with(
+                board,
+                sensor,
+                &scan,
+                *trial,
+                &first.labeler,
+                spec.task,
+                spec.jitter_ms,
+                spec.blank_cells,
+            )?;
             progress.inc();
             let Some(samples) = r else { return Ok(None) };
             let mut kept = Vec::with_capacity(samples.len());
@@ -478,6 +560,7 @@ pub fn training_windows(
     input: &CharInput,
     task: Task,
     jitter_ms: f64,
+    blank_cells: bool,
     world: &World,
     progress: &dyn Progress,
 ) -> Result<TrainingWindows> {
@@ -486,8 +569,17 @@ pub fn training_windows(
         let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
         boards.push(BoardKind::Text(text));
     }
-    let spec =
-        CharSetSpec { boards, speed_mm_s: 8.0, depth_mm: 1.5, trials, seed, task, jitter_ms, world: world.clone() };
+    let spec = CharSetSpec {
+        boards,
+        speed_mm_s: 8.0,
+        depth_mm: 1.5,
+        trials,
+        seed,
+        task,
+        jitter_ms,
+        world: world.clone(),
+        blank_cells,
+    };
     let (all, w) = build(&spec, input, progress)?;
     let (val, train): (Vec<usize>, Vec<usize>) =
         (0..all.len()).partition(|&i| trials >= 5 && w.origin[i].trial % 5 == 4);
@@ -546,6 +638,55 @@ mod tests {
             assert!(!r.is_empty() && r.len() <= 22, "{r}");
             assert!(r.split(' ').all(|w| w != "THE" && w != "OF" && w.len() >= 2), "{r}");
         }
+    }
+
+    #[test]
+    fn blank_cells_sit_where_a_character_window_would() {
+        use sim::scan::{CharacterTruth, ColumnTruth};
+        // "AB C" at 0.75 s a cell: the labeler's windows start 0.1 s before each lettered cell's centre
+        let cell = |letter: char, index: usize, t: f64| CharacterTruth {
+            letter,
+            row: 0,
+            word: None,
+            index,
+            x_mm: 6.0 * index as f64,
+            y_mm: 0.0,
+            dots: Vec::new(),
+            t_cell_center_s: Some(t),
+            columns: if letter == ' ' {
+                Vec::new()
+            } else {
+                vec![ColumnTruth { column: 0, x_mm: 0.0, t_center_s: None, t_enter_s: None, t_exit_s: None }]
+            },
+        };
+        let cells = [cell('A', 0, 1.0), cell('B', 1, 1.75), cell(' ', 2, 2.5), cell('C', 3, 3.25)];
+        let windows: Vec<CharWindow> = [0.9, 1.65, 3.15]
+            .map(|t| {
+                let t = (t * 1e6) as i64;
+                CharWindow { t_max_us: t, peaks: 2, t_start_us: t, t_end_us: t + 350_000 }
+            })
+            .to_vec();
+        let mut got = blank_cell_starts(&cells, &windows);
+        got.sort();
+        assert_eq!(got, vec![-600_000, 150_000, 2_400_000, 3_900_000, 4_650_000]);
+        // no lettered cell, nothing to place a blank by
+        assert!(blank_cell_starts(&cells[2..3], &[]).is_empty());
+    }
+
+    #[test]
+    fn validation_words_are_neither_training_nor_test_words() {
+        let training: std::collections::HashSet<String> = word_pool(0, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let unseen: std::collections::HashSet<String> =
+            word_pool(TRAINING_WORDS, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let BoardKind::Text(rows) = validation_words_board() else { panic!("a text board") };
+        let words: Vec<&str> = rows.split(['/', ' ']).collect();
+        assert!(words.len() >= 12 && rows.split('/').count() == 4, "{rows}");
+        for w in words {
+            assert!(!training.contains(w) && !unseen.contains(w) && !EV_WORDS.contains(&w), "{w}");
+        }
+        assert_eq!(parse_board("val-words"), Ok(validation_words_board()));
+        assert_eq!(parse_board("RAB"), Ok(BoardKind::Rab));
+        assert!(parse_board("XYZ").unwrap_err().contains("VAL-WORDS"));
     }
 
     #[test]

@@ -95,6 +95,9 @@ pub struct SnnRecipe {
     pub task: Task,
     /// Also each window shifted by this many ms either way (at 8 mm/s).
     pub jitter_ms: f64,
+    /// Segmentation: every blank cell (word spaces, a pitch or two past the row's ends) as
+    /// background too ([`crate::datasets::blank_cell_starts`]).
+    pub blank_cells: bool,
     /// Simulated scans per board row (SAB and UN, 8 mm/s, 1.5 mm).
     pub trials: u64,
     /// Rows of random words added to the training boards.
@@ -175,6 +178,7 @@ impl Default for SnnRecipe {
             channel_pool: 1,
             task: Task::Chars,
             jitter_ms: 0.0,
+            blank_cells: false,
             realism: sim::Realism::Clean,
             trials: 10,
             word_rows: 0,
@@ -260,9 +264,12 @@ impl SnnRecipe {
             // models/snn-words.safetensors: also word rows and shifted windows; no time stretch
             // (chosen on the VAL board, docs/training.md)
             "words" => SnnRecipe { word_rows: 80, trials: 5, jitter_ms: 40.0, epochs: 12, ..windows },
-            // models/snn-segment.safetensors: character present against background
+            // models/snn-segment.safetensors: character present against background; blank cells
+            // as background too since 2026-11-26 (chosen on VAL-WORDS, docs/reading.md; the
+            // shipped `clean` model was trained before, `--blank-cells false`)
             "segment" => SnnRecipe {
                 task: Task::Segment,
+                blank_cells: true,
                 word_rows: 30,
                 trials: 10,
                 epochs: 12,

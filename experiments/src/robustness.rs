@@ -142,6 +142,7 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
                 task: Task::Chars,
                 jitter_ms: 0.0,
                 world: World::test(spec.base),
+                blank_cells: false,
             };
             nuisance.apply(&mut setup, &mut set_spec, level);
             let windows = build_many_in(&set_spec, &setup, &inputs, progress)?;

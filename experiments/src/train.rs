@@ -277,7 +277,8 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         augment: pipeline::augment::AugmentConfig::default(),
     };
     let world = crate::datasets::World::train(r.realism);
-    let tw = training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, &world, progress)?;
+    let tw =
+        training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, r.blank_cells, &world, progress)?;
     let train = snn_set(&input, &tw.all, &tw.train, r.dt_us, r.task);
     let val = snn_set(&input, &tw.all, &tw.val, r.dt_us, r.task);
     let summary = DataSummary {
@@ -311,6 +312,7 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
                 "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
                 "task": r.task,
                 "jitter_ms": r.jitter_ms,
+                "blank_cells": r.blank_cells,
                 "word_rows": r.word_rows,
                 "scans": tw.scans,
                 "train_windows": train.len(),

@@ -124,6 +124,7 @@ pub fn chars_report(
             task: Task::Chars,
             jitter_ms: 0.0,
             world: world.clone(),
+            blank_cells: false,
         };
         let (scores, w) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter_mut().zip(scores) {
@@ -157,6 +158,7 @@ pub fn chars_report(
             task: Task::Chars,
             jitter_ms: 0.0,
             world: world.clone(),
+            blank_cells: false,
         };
         let (row, w) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter_mut().zip(&row) {

@@ -96,6 +96,7 @@ fn chars_spec(trials: u64) -> CharSetSpec {
         task: Task::Chars,
         jitter_ms: 0.0,
         world: World::test(sim::Realism::Clean),
+        blank_cells: false,
     }
 }
 
