@@ -11,9 +11,10 @@
 # three seeds per trial (dense, two shards; models/search/raw1350-3seeds) and th10 with the
 # defaults before the warm-up (sparse trainer, three seeds per trial, `--warmup-steps 0`;
 # models/search/th10-3seeds).
-# `--defaults` runs raw1350 with the defaults as they are now, a 100-step learning-rate warm-up
-# included (models/search/raw1350-warmup); models/search/raw1350-sparse was the same command
-# with `--warmup-steps 0` and a 40-minute budget.
+# `--defaults` runs both sets with the defaults as they are now, a 100-step learning-rate warm-up
+# included (models/search/raw1350-warmup, 2026-11-25; models/search/th10-warmup, 2026-11-26);
+# models/search/raw1350-sparse was the raw1350 command with `--warmup-steps 0` and a 40-minute
+# budget.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -35,6 +36,8 @@ fi
 if [[ "${1:-}" == "--defaults" ]]; then
   $b train --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \
     --out models/search/raw1350-warmup.safetensors --search-dir docs/results/search/raw1350-warmup --quiet --force
+  $b train --data data/icub_braille/th10 --search --search-trials 16 --budget-min 45 --seeds 3 --eval-test \
+    --out models/search/th10-warmup.safetensors --search-dir docs/results/search/th10-warmup --quiet --force
   exit 0
 fi
 $b train --trainer dense --trial-seeds 1 --data data/icub_braille/raw1350 --search --search-trials 16 --budget-min 30 --seeds 3 --eval-test \

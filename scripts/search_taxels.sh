@@ -5,17 +5,19 @@
 # builds, for test; speeds 10-30 mm/s, so samples last 0.29-0.84 s; 26 classes; about 280 events
 # per sample), then its floors and `braille train --data DIR --search` with the defaults and no
 # flag naming a setting. The dataset is regenerated (about 2 minutes), not committed. About 40
-# minutes on two cores. --warmup-steps 0: the committed search ran before the learning-rate
-# warm-up joined the derived recipe (2026-11-25); without the flag it runs with today's defaults.
+# minutes on two cores. --warmup-steps 0: the search of docs/results/search/sim-taxels ran before
+# the learning-rate warm-up joined the derived recipe (2026-11-25); `--defaults` runs it with
+# today's defaults, warm-up included (docs/results/search/sim-taxels-warmup, 2026-11-26).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 d=target/sim-taxels
-l=docs/results/search/sim-taxels
+if [[ "${1:-}" == "--defaults" ]]; then name=sim-taxels-warmup warmup=(); else name=sim-taxels warmup=(--warmup-steps 0); fi
+l=docs/results/search/$name
 mkdir -p "$l" models/search
 $b sim-dataset --out $d --force
 cp $d/dataset.json $l/dataset.json
 $b baselines --data $d --eval-test > $l/baselines.md
-$b train --data $d --warmup-steps 0 --search --search-trials 16 --budget-min 40 --seeds 3 --eval-test \
-  --out models/search/sim-taxels.safetensors --search-dir $l --quiet --force
+$b train --data $d "${warmup[@]}" --search --search-trials 16 --budget-min 40 --seeds 3 --eval-test \
+  --out models/search/$name.safetensors --search-dir $l --quiet --force
