@@ -226,9 +226,9 @@ pub struct WordsArgs {
 
 fn words(args: WordsArgs) -> Result<()> {
     let (s, c) = experiments::words::default_models(args.arch, &args.realism.models_dir());
-    let s = args.segmenter.clone().unwrap_or(s);
-    let c = args.classifier.clone().unwrap_or(c);
-    let readers = ReaderModels::load(&s, &c, args.snn_runner)?;
+    let s_path = args.segmenter.clone().unwrap_or(s);
+    let c_path = args.classifier.clone().unwrap_or(c);
+    let readers = ReaderModels::load(&s_path, &c_path, args.snn_runner)?;
     let spec = WordsSpec {
         board: args.board.clone(),
         speed_mm_s: args.speed,
@@ -241,8 +241,15 @@ fn words(args: WordsArgs) -> Result<()> {
     let r = experiments::words::eval_words(&spec, &readers, args.timing, args.spell, &Bar::default())?;
     let s = &r.score;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        // which networks read, and which sensor builds scanned: a mixed pair or a validation run
+        // names itself
+        let mut v = serde_json::to_value(&r)?;
+        v["segmenter"] = serde_json::json!(s_path.display().to_string());
+        v["classifier"] = serde_json::json!(c_path.display().to_string());
+        v["sensor_builds"] = serde_json::json!(format!("{:?}", args.sensor_builds).to_lowercase());
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
+        println!("models: {} + {}", s_path.display(), c_path.display());
         println!(
             "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
             r.board,

@@ -167,6 +167,9 @@ fn eval_words_reads_the_validation_words_with_either_architectures_networks() {
     assert_eq!(v["lines"], 4, "{out}");
     assert!(v["board"].as_str().unwrap().starts_with("text:"), "{}", v["board"]);
     assert!(v["word_accuracy"].as_f64().unwrap() > 0.5, "{}", v["word_accuracy"]);
+    assert_eq!(v["segmenter"], seg);
+    assert_eq!(v["classifier"], cls);
+    assert_eq!(v["sensor_builds"], "training");
     // a classifier handed over as the segmentation network is named
     let mut args = common.to_vec();
     args.extend(["--trials", "1", "--segmenter", cls, "--classifier", cls]);
