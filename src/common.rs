@@ -112,7 +112,7 @@ pub struct RealismArg {
 
 impl RealismArg {
     pub fn test_world(self) -> experiments::datasets::World {
-        experiments::datasets::World::test(self.realism)
+        self.world(SensorBuilds::Test)
     }
 
     /// The world of these sensor builds at this preset.

@@ -246,7 +246,9 @@ fn words(args: WordsArgs) -> Result<()> {
         let mut v = serde_json::to_value(&r)?;
         v["segmenter"] = serde_json::json!(s_path.display().to_string());
         v["classifier"] = serde_json::json!(c_path.display().to_string());
-        v["sensor_builds"] = serde_json::json!(format!("{:?}", args.sensor_builds).to_lowercase());
+        v["sensor_builds"] = serde_json::json!(
+            clap::ValueEnum::to_possible_value(&args.sensor_builds).map(|v| v.get_name().to_string())
+        );
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("models: {} + {}", s_path.display(), c_path.display());

@@ -95,9 +95,7 @@ impl TrainConfig {
             * (self.lr_final_fraction
                 + (1.0 - self.lr_final_fraction) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()))
     }
-}
 
-impl TrainConfig {
     /// The learning rate of optimiser step `step` (from 1) where the schedule gives `lr`: ramped
     /// up linearly over the first `warmup_steps` steps.
     pub fn warmed_up(&self, lr: f64, step: usize) -> f64 {
