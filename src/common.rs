@@ -101,13 +101,20 @@ impl Observer for Epochs {
 pub use experiments::scans::{truth_path, write_events};
 
 /// `--realism` of the commands that score the shipped models on simulated scans. Its default is
-/// `clean`, the world they were trained in, until they are retrained on `nominal`
-/// (docs/simulator.md); test scans use the preset's test builds of the sensor.
+/// `nominal`, the world of every published table; `clean` is the simulator before its nuisances,
+/// kept for regression (docs/simulator.md). Test scans use the preset's test builds of the sensor,
+/// and the default models are those trained at the preset ([`RealismArg::models_dir`]).
 #[derive(clap::Args, Clone, Copy)]
 pub struct RealismArg {
     /// The simulator's nuisances: clean, nominal or harsh (docs/simulator.md).
-    #[arg(long, value_enum, default_value_t = sim::Realism::Clean)]
+    #[arg(long, value_enum, default_value_t = sim::Realism::Nominal)]
     pub realism: sim::Realism,
+}
+
+/// The models a command reads with when none is named: those trained at the default preset,
+/// `nominal` (`models/nominal/`).
+pub fn default_models_dir() -> PathBuf {
+    RealismArg { realism: sim::Realism::Nominal }.models_dir()
 }
 
 impl RealismArg {
@@ -123,8 +130,8 @@ impl RealismArg {
         }
     }
 
-    /// The models trained at this preset: `models/` at `clean` (the shipped ones), `models/REALISM/`
-    /// beyond (`REALISM=nominal bash scripts/table1.sh`, `scripts/words.sh`).
+    /// The models trained at this preset: `models/` at `clean` (kept for regression),
+    /// `models/REALISM/` beyond (`REALISM=nominal bash scripts/table1.sh`, `scripts/words.sh`).
     pub fn models_dir(self) -> PathBuf {
         match self.realism {
             sim::Realism::Clean => repo_path("models"),

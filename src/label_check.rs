@@ -9,9 +9,13 @@ pub struct Args {
     #[arg(long, default_value_t = 30)]
     trials: u64,
     /// Scan seed (the test sets': with it and the test trials these are the very scans Table I
-    /// scores).
-    #[arg(long, default_value_t = 1_000_003)]
-    seed: u64,
+    /// scores). With `--boards validation`, the validation seed unless given.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// The boards scanned: the test boards (RAB, EV), or the validation boards in their place (VAL,
+    /// VAL-WORDS) with the training sensor builds, where the labeler's settings are chosen.
+    #[arg(long, value_enum, default_value_t = experiments::labeling::CheckBoards::Test)]
+    boards: experiments::labeling::CheckBoards,
     #[command(flatten)]
     realism: crate::common::RealismArg,
     /// Print JSON.
@@ -20,7 +24,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let rows = experiments::labeling::label_check(args.trials, args.seed, &args.realism.test_world())?;
+    use experiments::labeling::CheckBoards;
+    let (seed, builds) = match args.boards {
+        CheckBoards::Test => (1_000_003, crate::common::SensorBuilds::Test),
+        CheckBoards::Validation => (experiments::datasets::VALIDATION_SEED, crate::common::SensorBuilds::Training),
+    };
+    let world = args.realism.world(builds);
+    let rows = experiments::labeling::label_check(args.trials, args.seed.unwrap_or(seed), &world, args.boards)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());

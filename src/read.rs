@@ -47,7 +47,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let timing = Timing::from_mode(args.timing, args.speed)?;
-    let (ds, dc) = experiments::words::default_models(args.arch, &crate::common::repo_path("models"));
+    let (ds, dc) = experiments::words::default_models(args.arch, &crate::common::default_models_dir());
     let readers = ReaderModels::load(
         args.segmenter.as_deref().unwrap_or(&ds),
         args.model.as_deref().unwrap_or(&dc),

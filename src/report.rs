@@ -50,7 +50,8 @@ pub fn run(args: Args) -> Result<()> {
     let out = &args.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let q = args.quick;
-    let models = repo_path("models");
+    // the simulated tables read with the models trained at the preset; the iCub SNNs are in models/
+    let models = args.realism.models_dir();
     let bar = Bar::default();
     let started = Instant::now();
     let mut times = Vec::new();
@@ -71,32 +72,35 @@ pub fn run(args: Args) -> Result<()> {
         },
     )?;
     let labels = step(&mut times, "labeling pipeline", "[label_check.md](label_check.md)", || {
-        let rows = experiments::labeling::label_check(if q { 1 } else { 30 }, 1_000_003, &args.realism.test_world())?;
+        let rows = experiments::labeling::label_check(
+            if q { 1 } else { 30 },
+            1_000_003,
+            &args.realism.test_world(),
+            experiments::labeling::CheckBoards::Test,
+        )?;
         let md = experiments::labeling::label_check_markdown(&rows);
         write("label_check.md", &md)?;
         Ok(md)
     })?;
-    // the scan `braille simulate --board EV --row 0 --speed 16 --seed 1` writes
+    // the scan `braille simulate --board EV --row 0 --speed 16 --seed 1 --realism R` writes
     let scan_path = out.join("ev_row0_16mm_s.aedat4");
     step(
         &mut times,
         "a simulated scan, as a heat map and an event raster",
         "[scan_ev_row0.png](scan_ev_row0.png)",
         || {
-            let board = sim::Board::new(
+            let scanner = experiments::scans::Scanner::new(
                 sim::BoardKind::Ev,
-                sim::BoardGeometry::default(),
-                sim::Board::default_seed(&sim::BoardKind::Ev),
+                None,
+                1,
+                args.realism.realism,
+                encoders::Resolution::DVXPLORER,
+                16.0,
+                1.5,
+                sim::Direction::Forward,
+                1,
             )?;
-            let sensor = experiments::datasets::sensor(encoders::Resolution::DVXPLORER, 1)?;
-            let scan = sim::ScanConfig {
-                speed_mm_s: 16.0,
-                depth_mm: 1.5,
-                row: 0,
-                seed: experiments::datasets::trial_seed(1, 0, 0),
-                ..sim::ScanConfig::default()
-            };
-            let s = sim::simulate(&board, &sensor, &scan)?;
+            let (s, sensor) = (scanner.scan(0, 0)?, &scanner.sensor);
             crate::common::write_events(&scan_path, &s.events, sensor.camera.resolution, true)?;
             let window = crate::charts::ScanWindow { pool: 4, start_s: None, length_s: 0.35 };
             crate::charts::scan_figure(
@@ -149,7 +153,7 @@ pub fn run(args: Args) -> Result<()> {
             .collect::<Result<Vec<_>>>()
     })?;
     step(&mut times, "the real iCub results", "[icub.md](icub.md), icub.png", || {
-        crate::charts::write_icub_report(&repo_path("data/icub_braille"), &models, out)
+        crate::charts::write_icub_report(&repo_path("data/icub_braille"), &repo_path("models"), out)
     })?;
     let bench = step(&mut times, "the engine on the peer benchmark", "bench.json", || {
         let r = experiments::bench::engine(64, 7)?;

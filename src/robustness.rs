@@ -14,9 +14,8 @@ pub struct Args {
     /// Nuisances to sweep [default: all].
     #[arg(long, value_enum, value_delimiter = ',')]
     nuisances: Vec<Nuisance>,
-    /// The preset the other nuisances stay at: `clean`, the world the shipped models were trained
-    /// in, until they are retrained on `nominal`.
-    #[arg(long, value_enum, default_value_t = Realism::Clean)]
+    /// The preset the other nuisances stay at.
+    #[arg(long, value_enum, default_value_t = Realism::Nominal)]
     realism: Realism,
     /// Board scanned (the paper's test board).
     #[arg(long, default_value = "RAB")]
@@ -31,13 +30,23 @@ pub struct Args {
     /// Scan seed (training used others).
     #[arg(long, default_value_t = 2_000_003)]
     seed: u64,
-    /// Where to write `robustness.md`, `robustness.json` and `robustness_*.png`.
-    #[arg(long, default_value = "docs/results")]
-    out: PathBuf,
+    /// The folder of the character classifiers swept (`resnet-lite-normaug`, `snn-chars`)
+    /// [default: those trained at `--realism`: `models/` at `clean`, `models/REALISM/` beyond].
+    #[arg(long)]
+    models: Option<PathBuf>,
+    /// Where to write `robustness.md`, `robustness.json` and `robustness_*.png` [default:
+    /// `docs/results/` at `clean`, `docs/results/REALISM/` beyond].
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let models_dir = crate::common::repo_path("models");
+    let preset = crate::common::RealismArg { realism: args.realism };
+    let models_dir = args.models.clone().unwrap_or_else(|| preset.models_dir());
+    let out = args.out.clone().unwrap_or_else(|| match args.realism {
+        Realism::Clean => PathBuf::from("docs/results"),
+        r => PathBuf::from(format!("docs/results/{r}")),
+    });
     let mut models = Vec::new();
     for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
         let path = models_dir.join(experiments::chars::default_path(arch).file_name().unwrap_or_default());
@@ -51,14 +60,15 @@ pub fn run(args: Args) -> Result<()> {
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
+        models_dir: models_dir.display().to_string(),
     };
     let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
     let report = sweep(&spec, &refs, &Bar::default())?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let md = markdown(&report);
-    std::fs::write(args.out.join("robustness.md"), &md)?;
-    std::fs::write(args.out.join("robustness.json"), serde_json::to_string_pretty(&report)? + "\n")?;
-    crate::charts::robustness_figures(&report, &args.out)?;
+    std::fs::write(out.join("robustness.md"), &md)?;
+    std::fs::write(out.join("robustness.json"), serde_json::to_string_pretty(&report)? + "\n")?;
+    crate::charts::robustness_figures(&report, &out)?;
     print!("{md}");
     Ok(())
 }

@@ -34,9 +34,9 @@ pub struct Args {
     /// LED and noise rates.
     #[arg(long, default_value_t = 1)]
     pub sensor_seed: u64,
-    /// The simulator's nuisances (docs/simulator.md). `clean` until the shipped models are
-    /// retrained on `nominal`.
-    #[arg(long, value_enum, default_value_t = Realism::Clean)]
+    /// The simulator's nuisances (docs/simulator.md); `clean` is the simulator before them, kept
+    /// for regression.
+    #[arg(long, value_enum, default_value_t = Realism::Nominal)]
     pub realism: Realism,
     #[arg(long, value_enum, default_value_t = Direction::Forward)]
     pub direction: Direction,

@@ -65,20 +65,43 @@ pub struct LabelCheckRow {
     pub count_matched: usize,
 }
 
+/// The boards a label check scans.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum CheckBoards {
+    /// The test boards: RAB over depth and speed, EV over speed (the scans the tests score).
+    #[default]
+    Test,
+    /// The validation boards in their place: VAL over depth and speed, VAL-WORDS over speed.
+    /// Where the labeler's settings are chosen (with the training sensor builds and the
+    /// validation seed).
+    Validation,
+}
+
 /// The labeling pipeline against the ground truth, `trials` scans per row: the paper's training
-/// boards at its training condition, the test board over depth, and every board kind over speed.
-/// The scans are `world`'s, seeded as its test sets are (with the tests' seed and trials, the
-/// very scans Table I and the depth curve score).
-pub fn label_check(trials: u64, seed: u64, world: &crate::datasets::World) -> crate::Result<Vec<LabelCheckRow>> {
+/// boards at its training condition, the alphabet board of `boards` over depth and speed, and its
+/// word board over speed. The scans are `world`'s, seeded as its test sets are (with the tests'
+/// seed and trials, the very scans Table I and the depth curve score).
+pub fn label_check(
+    trials: u64,
+    seed: u64,
+    world: &crate::datasets::World,
+    boards: CheckBoards,
+) -> crate::Result<Vec<LabelCheckRow>> {
     use rayon::prelude::*;
     use sim::BoardKind;
     let setup = world.setup();
     let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let cfg = LabelerConfig::default();
+    let (alphabet, words) = match boards {
+        CheckBoards::Test => (BoardKind::Rab, BoardKind::Ev),
+        CheckBoards::Validation => (BoardKind::Val, crate::datasets::validation_words_board()),
+    };
     let mut conditions: Vec<(BoardKind, f64, f64)> = vec![(BoardKind::Sab, 8.0, 1.5), (BoardKind::Un, 8.0, 1.5)];
-    conditions.extend([0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5].map(|d| (BoardKind::Rab, 8.0, d)));
-    conditions.extend([16.0, 24.0, 32.0].map(|v| (BoardKind::Rab, v, 1.5)));
-    conditions.extend([8.0, 16.0, 24.0, 32.0].map(|v| (BoardKind::Ev, v, 1.5)));
+    conditions.extend([0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.5].map(|d| (alphabet.clone(), 8.0, d)));
+    conditions.extend([16.0, 24.0, 32.0].map(|v| (alphabet.clone(), v, 1.5)));
+    conditions.extend([8.0, 16.0, 24.0, 32.0].map(|v| (words.clone(), v, 1.5)));
     conditions
         .par_iter()
         .map(|(kind, speed, depth)| {
@@ -101,7 +124,11 @@ pub fn label_check(trials: u64, seed: u64, world: &crate::datasets::World) -> cr
                 }
             }
             Ok(LabelCheckRow {
-                board: kind.name(),
+                board: if boards == CheckBoards::Validation && *kind == words {
+                    "VAL-WORDS".into()
+                } else {
+                    kind.name()
+                },
                 speed_mm_s: *speed,
                 depth_mm: *depth,
                 scans,

@@ -84,6 +84,8 @@ pub struct SweepSpec {
     pub depth_mm: f64,
     pub trials: u64,
     pub seed: u64,
+    /// Where the swept classifiers were loaded from (named in the report).
+    pub models_dir: String,
 }
 
 /// One nuisance's curve: accuracy per model per level.
@@ -183,13 +185,16 @@ pub fn markdown(r: &Report) -> String {
     let s = &r.spec;
     let _ = writeln!(
         m,
-        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's shipped classifier as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), test sensor builds unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). Regenerate: `braille robustness` (see docs/simulator.md).\n",
+        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's character classifier (from `{}`) as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), test sensor builds unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). Regenerate: `braille robustness --realism {} --models {}` (see docs/simulator.md).\n",
+        s.models_dir,
         s.base,
         s.board.name(),
         s.speed_mm_s,
         s.depth_mm,
         s.trials,
-        s.seed
+        s.seed,
+        s.base,
+        s.models_dir
     );
     for c in &r.curves {
         let _ = writeln!(m, "## {}\n", c.label);

@@ -13,7 +13,9 @@
 //! `8 mm/s / speed`, so that it spans the same distance on the board (the geometry is what they
 //! encode: 350 ms at 8 mm/s is 2.8 mm of travel). Our reading of what the paper leaves open: the
 //! start window sits at pooled columns 100..110, just before the active region in the direction
-//! the image moves (a forward scan moves it towards column 0); a local maximum counts as a peak
+//! the image moves (a forward scan moves it towards column 0), and spans pooled rows 10..110 (the
+//! image's height but its outer 40 pixels: see [`LabelerConfig::start_window_rows`]); a local
+//! maximum counts as a peak
 //! when it reaches `min_peak_fraction` of the profile's largest value; the network input is the
 //! 20 frames of 10 ms (scaled) centred in the window.
 
@@ -31,6 +33,13 @@ pub struct LabelerConfig {
     pub pool: u16,
     /// Pooled columns summed into the activity profile.
     pub start_window_cols: Range<u16>,
+    /// Pooled rows summed into the activity profile: 10..110 of a 480-pixel-high image, the
+    /// middle 11.6 mm of its 14 mm. The row's own cells span 6 mm about the centre, and the 2.8 mm
+    /// either side take misalignment and yaw; the next rows' nearest dots (7.5 mm from the centre
+    /// at 10 mm line spacing) press the gel at the image's edge, and summed in they add a peak for
+    /// each of their dot columns. Files written before this field existed read the default.
+    #[serde(default = "LabelerConfig::default_start_window_rows")]
+    pub start_window_rows: Range<u16>,
     /// Pooled columns kept in the windows; the rest is masked.
     pub active_cols: Range<u16>,
     pub smoothing_bins: usize,
@@ -51,6 +60,7 @@ impl Default for LabelerConfig {
             bin_ms: 10.0,
             pool: 4,
             start_window_cols: 100..110,
+            start_window_rows: Self::default_start_window_rows(),
             active_cols: 20..100,
             smoothing_bins: 7,
             min_peak_fraction: 0.2,
@@ -91,6 +101,11 @@ pub struct Labeling {
 }
 
 impl LabelerConfig {
+    /// The default of [`Self::start_window_rows`].
+    pub fn default_start_window_rows() -> Range<u16> {
+        10..110
+    }
+
     /// Durations scaled to `speed_mm_s`, in microseconds.
     fn scaled_us(&self, ms: f64, speed_mm_s: f64) -> i64 {
         (ms * 1e3 * self.reference_speed_mm_s / speed_mm_s).round() as i64
@@ -104,6 +119,7 @@ impl LabelerConfig {
             && self.merge_step_ms > 0.0
             && self.frames >= 1
             && self.start_window_cols.start < self.start_window_cols.end
+            && self.start_window_rows.start < self.start_window_rows.end
             && self.active_cols.start < self.active_cols.end;
         if ok {
             Ok(())
@@ -186,7 +202,10 @@ pub fn label(
     let mut raw = vec![0f32; bins];
     for e in events {
         let col = e.x / cfg.pool;
-        if cfg.start_window_cols.contains(&col) && e.y < resolution.height {
+        if cfg.start_window_cols.contains(&col)
+            && cfg.start_window_rows.contains(&(e.y / cfg.pool))
+            && e.y < resolution.height
+        {
             raw[((e.t_us - t0) / bin_us) as usize] += 1.0;
         }
     }

@@ -12,11 +12,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 /// The shipped models, found at `BRAILLE_MODELS` or else in the repository the package was
-/// built from.
+/// built from: those trained at the `nominal` preset, as `braille read`'s.
 fn shipped_models(given: Option<PathBuf>) -> PathBuf {
     given
         .or_else(|| std::env::var_os("BRAILLE_MODELS").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../models")))
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/nominal")))
 }
 
 /// What a stream borrows: the loaded models and the speller, shared.
@@ -113,7 +113,7 @@ impl Reader {
     /// "estimated" (the speed from the events alone; `speed_mm_s` a hint), "paper" (the paper's
     /// fixed 10 ms bins, 70 ms and 1 s) or "given" (reads at `speed_mm_s`). `runner`: how the SNN
     /// reads a frame's window, "sliding" or "engine" (the same output). `models_dir`: where the
-    /// shipped models are [default: $BRAILLE_MODELS, else the repository's models/].
+    /// shipped models are [default: $BRAILLE_MODELS, else the repository's models/nominal/].
     #[new]
     #[pyo3(signature = (arch="snn", spell="lexicon", timing="estimated", speed_mm_s=None, segmenter=None, classifier=None, runner="sliding", models_dir=None))]
     #[allow(clippy::too_many_arguments)]

@@ -44,9 +44,10 @@ impl Scan {
 /// below first contact, as `braille simulate` does. The same arguments give the same scan:
 /// `seed` and `trial` draw the scan's misalignment, speed ripple and noise, `board_seed` the
 /// printed board's tolerances [default: derived from the board's name], `sensor_seed` the sensor
-/// build. `realism`: "clean" or "nominal" (docs/simulator.md). The result is SIMULATED data.
+/// build. `realism`: "nominal" (the default, as `braille simulate`'s), "clean" or "harsh"
+/// (docs/simulator.md). The result is SIMULATED data.
 #[pyfunction]
-#[pyo3(signature = (board="EV", row=0, speed_mm_s=8.0, depth_mm=1.5, seed=0, trial=0, board_seed=None, sensor_seed=1, realism="clean", direction="forward", resolution=None))]
+#[pyo3(signature = (board="EV", row=0, speed_mm_s=8.0, depth_mm=1.5, seed=0, trial=0, board_seed=None, sensor_seed=1, realism="nominal", direction="forward", resolution=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,

@@ -196,7 +196,9 @@ pub fn markdown(r: &CharsReport) -> Result<String> {
     writeln!(md, "# Character recognition on SIMULATED scans (virtual Evetac)\n")?;
     writeln!(
         md,
-        "Regenerate: `bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`); the `+ words` models come from `bash scripts/words.sh`. Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows, with shifted windows). Test: {} scans per row of the RAB board at 8 mm/s, seed {} ({} characters printed per depth); every model sees the same windows. All data simulated.\n",
+        "Regenerate: `REALISM={} bash scripts/table1.sh` (trains the four ResNet configurations and the SNN, then runs `braille chars-report`); the `+ words` models come from `REALISM={} bash scripts/words.sh`. Training: SAB and UN boards, 8 mm/s, 1.5 mm (the paper's protocol; the `+ words` models also on word rows, with shifted windows). Test: {} scans per row of the RAB board at 8 mm/s, seed {} ({} characters printed per depth); every model sees the same windows. All data simulated.\n",
+        r.world.realism,
+        r.world.realism,
         r.trials,
         r.seed,
         r.printed.get(at).copied().unwrap_or(0)
