@@ -16,7 +16,7 @@ b=target/release/braille
 mkdir -p models/chip docs/results/chip
 $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
   --history docs/results/chip/xylo_braille7_history.json --force --quiet
-$b train --trainer dense --arch snn --recipe speck --out models/chip/speck-chars.safetensors \
+$b train --trainer dense --arch snn --recipe speck --realism clean --out models/chip/speck-chars.safetensors \
   --history docs/results/chip/speck_chars_history.json --force --quiet
 if [[ "${1:-}" != "--no-report" ]]; then
   $b chip-report --out docs/results

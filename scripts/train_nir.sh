@@ -17,6 +17,6 @@ for set in raw1350 th10; do
     --out "models/nir/snn-$set.safetensors" --history "docs/results/nir/snn_${set}_history.json" --force --quiet
 done
 for recipe in chars words segment; do
-  $b train --trainer dense --arch snn --recipe "$recipe" --reset zero \
+  $b train --trainer dense --arch snn --recipe "$recipe" --realism clean --reset zero \
     --out "models/nir/snn-$recipe.safetensors" --history "docs/results/nir/snn_${recipe}_history.json" --force --quiet
 done

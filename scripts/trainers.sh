@@ -22,9 +22,9 @@ for ds in ${DATA:-raw1350 th10 chars}; do
     for seed in 1 2 3; do
       log="$out/$ds-$trainer-s$seed.log"
       if [[ "$ds" == chars ]]; then
-        "$b" train --recipe chars --seed "$seed" --trainer "$trainer" \
+        "$b" train --recipe chars --realism clean --seed "$seed" --trainer "$trainer" \
           --out "$tmp/$ds-$trainer-$seed/snn-chars.safetensors" --force --quiet 2> "$log"
-        "$b" chars-report --models "$tmp/$ds-$trainer-$seed" --out "$tmp/$ds-$trainer-$seed" --depths 1.5 --trials 30 > /dev/null
+        "$b" chars-report --models "$tmp/$ds-$trainer-$seed" --out "$tmp/$ds-$trainer-$seed" --depths 1.5 --trials 30 --realism clean > /dev/null
         python3 - "$tmp/$ds-$trainer-$seed/chars.json" >> "$log" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))

@@ -80,7 +80,7 @@ pub struct Args {
     #[arg(long)]
     blank_cells: Option<bool>,
     /// Without --data: the simulator's nuisances (training sensor builds beyond `clean`)
-    /// [recipe: clean].
+    /// [recipe: nominal].
     #[arg(long, value_enum)]
     realism: Option<sim::Realism>,
     /// ResNet: the network's size.

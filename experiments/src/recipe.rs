@@ -179,7 +179,7 @@ impl Default for SnnRecipe {
             task: Task::Chars,
             jitter_ms: 0.0,
             blank_cells: false,
-            realism: sim::Realism::Clean,
+            realism: sim::Realism::Nominal,
             trials: 10,
             word_rows: 0,
             pool: 2,
