@@ -12,7 +12,7 @@
 # defaults before the warm-up (sparse trainer, three seeds per trial, `--warmup-steps 0`;
 # models/search/th10-3seeds).
 # `--defaults` runs both sets with the defaults as they are now, a 100-step learning-rate warm-up
-# included (models/search/raw1350-warmup, 2026-11-25; models/search/th10-warmup, 2026-11-26);
+# included (models/search/raw1350-warmup, 2026-11-25; models/search/th10-warmup, 2026-11-25);
 # models/search/raw1350-sparse was the raw1350 command with `--warmup-steps 0` and a 40-minute
 # budget.
 set -euo pipefail

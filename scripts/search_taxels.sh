@@ -7,7 +7,7 @@
 # flag naming a setting. The dataset is regenerated (about 2 minutes), not committed. About 40
 # minutes on two cores. --warmup-steps 0: the search of docs/results/search/sim-taxels ran before
 # the learning-rate warm-up joined the derived recipe (2026-11-25); `--defaults` runs it with
-# today's defaults, warm-up included (docs/results/search/sim-taxels-warmup, 2026-11-26).
+# today's defaults, warm-up included (docs/results/search/sim-taxels-warmup, 2026-11-25).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet

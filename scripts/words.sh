@@ -7,8 +7,8 @@
 # (the paper's binary 'character present' network, as an SNN and as a small ResNet) learn from the
 # same scans' windows with the paper's negatives and background from the rest of the scan. Then
 # the paper's speed table for both architectures (docs/results/words.{md,json}, docs/results/words_speed.png) and
-# Table I's report (docs/results/chars.*, which also tests these classifiers). About 60 minutes on two
-# cores; `--report-only` runs the two reports alone (about 15 minutes).
+# Table I's report (docs/results/chars.*, which also tests these classifiers). About 80 minutes on two
+# cores at nominal; `--report-only` runs the two reports alone (about 40 minutes at nominal).
 #
 # The SNN's recipe is chosen on the validation board VAL (seed 2000003, 30 scans per row), never
 # on the test boards RAB and EV: without time stretch it scored 99.17/99.20/98.33% at 1.5/1.0/0.2 mm
@@ -32,7 +32,7 @@ mkdir -p "$models" "$out"
 b=target/release/braille
 r=(--realism "$realism")
 # Blank cells (word spaces, the row's ends) as segmentation background: chosen on the validation
-# words (VAL-WORDS, training sensor builds) on 2026-11-26 at `nominal`, where the segmentation SNN
+# words (VAL-WORDS, training sensor builds) on 2026-11-25 at `nominal`, where the segmentation SNN
 # read word spaces as characters (docs/reading.md). The shipped `clean` models were trained before.
 if [[ "$realism" == clean ]]; then blank=false; else blank=true; fi
 if [[ "$realism" == clean ]]; then trainer="${TRAINER:-dense}"; else trainer="${TRAINER:-sparse}"; fi

@@ -76,7 +76,7 @@ pub struct Args {
     #[arg(long)]
     jitter_ms: Option<f64>,
     /// Without --data, segmentation: every blank cell (word spaces, a pitch or two past the
-    /// row's ends) is background as well [recipe: `segment` since 2026-11-26].
+    /// row's ends) is background as well [recipe: `segment` since 2026-11-25].
     #[arg(long)]
     blank_cells: Option<bool>,
     /// Without --data: the simulator's nuisances (training sensor builds beyond `clean`)

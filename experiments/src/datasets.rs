@@ -181,7 +181,7 @@ pub struct CharSetSpec {
     #[serde(default)]
     pub world: World,
     /// Segmentation sets: every blank cell (word spaces, a pitch or two past the row's ends) is
-    /// background as well ([`blank_cell_starts`]); false before 2026-11-26.
+    /// background as well ([`blank_cell_starts`]); false before 2026-11-25.
     #[serde(default)]
     pub blank_cells: bool,
 }

@@ -265,7 +265,7 @@ impl SnnRecipe {
             // (chosen on the VAL board, docs/training.md)
             "words" => SnnRecipe { word_rows: 80, trials: 5, jitter_ms: 40.0, epochs: 12, ..windows },
             // models/snn-segment.safetensors: character present against background; blank cells
-            // as background too since 2026-11-26 (chosen on VAL-WORDS, docs/reading.md; the
+            // as background too since 2026-11-25 (chosen on VAL-WORDS, docs/reading.md; the
             // shipped `clean` model was trained before, `--blank-cells false`)
             "segment" => SnnRecipe {
                 task: Task::Segment,

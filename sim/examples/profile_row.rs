@@ -1,5 +1,5 @@
 //! Simulates one SAB row repeatedly (for a profiler): `cargo run --release -p sim --example
-//! profile_row -- [clean|nominal|harsh] [speed_mm_s] [repeats]`; prints each run's time and a
+//! profile_row -- [clean|nominal|harsh] [speed_mm_s] [repeats] [row]`; prints each run's time and a
 //! hash of its events.
 use sim::{Board, BoardKind, Realism, simulate};
 
@@ -9,10 +9,11 @@ fn main() {
     let realism = *Realism::ALL.iter().find(|r| r.to_string() == name).expect("clean|nominal|harsh");
     let speed: f64 = args.get(2).map_or(Ok(32.0), |s| s.parse()).expect("a speed in mm/s");
     let repeats: usize = args.get(3).map_or(Ok(5), |s| s.parse()).expect("a count");
+    let row: usize = args.get(4).map_or(Ok(0), |s| s.parse()).expect("a row of the SAB board");
     let setup = realism.setup();
     let board = Board::new(BoardKind::Sab, setup.geometry.clone(), Board::default_seed(&BoardKind::Sab)).unwrap();
     let sensor = setup.sensor(encoders::Resolution::DVXPLORER, 1).unwrap();
-    let scan = setup.scan(speed, 1.5, 0, 0);
+    let scan = setup.scan(speed, 1.5, row, 0);
     for _ in 0..repeats {
         let t = std::time::Instant::now();
         let s = simulate(&board, &sensor, &scan).unwrap();

@@ -432,8 +432,14 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
         // The depth when the dot is under the sensor's centre.
         let penetration = depth.at(dir * (x_mm - x_start)) + (d.height_mm - g.dot_height_mm);
         let key = (q(penetration), q(d.height_mm), q(d.radius_mm));
+        let (pen, hd, rd) = (key.0 as f64 * 0.01, key.1 as f64 * 0.01, key.2 as f64 * 0.01);
+        // A dot of another board row whose stamp reaches no pixel row of the image (its own
+        // rows are further than `half` from it: `build_spans` skips it there) needs no stamp.
+        let half = Stamp::half_rows(&sensor.gel, rd.max(hd), hd, pen.max(0.0), pitch, optics_scale);
+        if (y_mm - row_y).abs() / pitch >= half as f64 + h as f64 / 2.0 + 1.0 {
+            continue;
+        }
         stamps.entry(key).or_insert_with(|| {
-            let (pen, hd, rd) = (key.0 as f64 * 0.01, key.1 as f64 * 0.01, key.2 as f64 * 0.01);
             Stamp::new(&sensor.gel, rd.max(hd), hd, pen.max(0.0), pitch, optics_scale, stamp_motion)
         });
         placed.push(PlacedDot { x_mm, y_mm, key });
@@ -1079,35 +1085,49 @@ fn sort_by_time(events: Vec<Event>, grid: i64) -> Vec<Event> {
         events.sort_unstable_by_key(|e| (e.t_us, e.y, e.x, e.polarity));
         return events;
     }
-    let slot = |e: &Event| ((e.t_us - min) / grid) as usize;
+    let slot = |t_us: i64| ((t_us - min) / grid) as usize;
     let mut start = vec![0usize; slots + 1];
     for e in &events {
-        start[slot(e) + 1] += 1;
+        start[slot(e.t_us) + 1] += 1;
     }
     for i in 0..slots {
         start[i + 1] += start[i];
     }
     let mut next = start.clone();
-    let mut out = vec![Event { t_us: 0, x: 0, y: 0, polarity: Polarity::Off }; events.len()];
-    for e in events {
-        let k = slot(&e);
-        out[next[k]] = e;
-        next[k] += 1;
-    }
-    // The key (t_us, y, x, polarity) packed into one integer where the times fit: the same order
-    // (equal keys are equal events), compared in one instruction.
-    if max - min < 1 << 30 {
-        let key =
-            |e: &Event| ((e.t_us - min) as u64) << 33 | u64::from(e.y) << 17 | u64::from(e.x) << 1 | e.polarity as u64;
-        for i in 0..slots {
-            out[start[i]..start[i + 1]].sort_unstable_by_key(key);
+    if max - min >= 1 << 30 {
+        let mut out = vec![Event { t_us: 0, x: 0, y: 0, polarity: Polarity::Off }; events.len()];
+        for e in events {
+            let k = slot(e.t_us);
+            out[next[k]] = e;
+            next[k] += 1;
         }
-    } else {
         for i in 0..slots {
             out[start[i]..start[i + 1]].sort_unstable_by_key(|e| (e.t_us, e.y, e.x, e.polarity));
         }
+        return out;
     }
-    out
+    // The key (t_us, y, x, polarity) packed into one integer where the times fit: the same order
+    // (equal keys are equal events), sorted as plain integers and unpacked. A slot holds the
+    // signal's events in generation order, (y, x), then the noise's: two runs that the stable
+    // sort merges rather than sorting anew.
+    let mut keys = vec![0u64; events.len()];
+    for e in &events {
+        let k = slot(e.t_us);
+        keys[next[k]] = ((e.t_us - min) as u64) << 33 | u64::from(e.y) << 17 | u64::from(e.x) << 1 | e.polarity as u64;
+        next[k] += 1;
+    }
+    drop(events);
+    for i in 0..slots {
+        keys[start[i]..start[i + 1]].sort();
+    }
+    keys.into_iter()
+        .map(|k| Event {
+            t_us: (k >> 33) as i64 + min,
+            y: (k >> 17) as u16,
+            x: (k >> 1) as u16,
+            polarity: if k & 1 == 1 { Polarity::On } else { Polarity::Off },
+        })
+        .collect()
 }
 
 /// Drops any event closer than the refractory period to the previous event of its pixel (noise
@@ -1217,5 +1237,26 @@ mod tests {
         assert!(x.iter().zip(&y).all(|(a, b)| (a - b).abs() < 1e-2));
         let runs = monotone_runs(&[0.0, 1.0, 2.0, 1.0, 0.0, 0.0, 1.0]);
         assert_eq!(runs, vec![(0, 2), (2, 5), (5, 6)]);
+    }
+
+    #[test]
+    fn the_time_sort_orders_as_a_plain_sort_on_each_path() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        // Packed keys; a span too long to pack; slots too many for the counting sort.
+        for (span_us, grid) in [(50_000i64, 1_000i64), (1 << 31, 1 << 20), (1 << 31, 1_000)] {
+            // Grid times, signal-like runs in (y, x) order and noise after them, duplicates too.
+            let mut events: Vec<Event> = (0..5_000)
+                .map(|k| Event {
+                    t_us: grid + rng.random_range(0..span_us / grid) * grid,
+                    x: (k % 640) as u16,
+                    y: (k / 640) as u16,
+                    polarity: if rng.random_bool(0.5) { Polarity::On } else { Polarity::Off },
+                })
+                .collect();
+            events.extend(events[..500].to_vec());
+            let mut reference = events.clone();
+            reference.sort_unstable_by_key(|e| (e.t_us, e.y, e.x, e.polarity));
+            assert_eq!(sort_by_time(events, grid), reference);
+        }
     }
 }

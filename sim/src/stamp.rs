@@ -266,7 +266,7 @@ impl Stamp {
         let amplitude = indentation_mm(gel, r, h, d);
         let dynamics = &gel.dynamics;
         let optics_px = gel.optics_blur_px * optics_px_scale;
-        let margin = 3.5 * gel.gel_blur_mm + 3.5 * optics_px * pitch_mm + 2.0 * pitch_mm;
+        let margin = Self::margin_mm(gel, pitch_mm, optics_px_scale);
         let drag_mm =
             if motion.speed_mm_s > 0.0 { dynamics.drag_mm(dynamics.hertz_force_n(r, d.min(h)), a) } else { 0.0 };
         // The trailing smear: each relaxing term's share recovers over speed x tau behind the dot,
@@ -278,7 +278,7 @@ impl Stamp {
         } else {
             0.0
         };
-        let half = ((a + margin) / pitch_mm).ceil() as usize + 1;
+        let half = Self::half_rows(gel, r, h, d, pitch_mm, optics_px_scale);
         let reach = ((a + margin + 2.0 * drag_mm) / pitch_mm).ceil() as usize + 1;
         let tail = (smear_mm / pitch_mm).ceil() as usize;
         // The smear trails on the side the sensor moves towards (where the dot has been, in the
@@ -330,6 +330,19 @@ impl Stamp {
             })
             .collect();
         Stamp { half, x_lo, x_hi, values, contact_radius_mm: a, drag_mm }
+    }
+
+    /// The blurs' reach beyond the contact, in mm.
+    fn margin_mm(gel: &GelConfig, pitch_mm: f64, optics_px_scale: f64) -> f64 {
+        let optics_px = gel.optics_blur_px * optics_px_scale;
+        3.5 * gel.gel_blur_mm + 3.5 * optics_px * pitch_mm + 2.0 * pitch_mm
+    }
+
+    /// The `half` of the stamp [`Stamp::new`] makes with these arguments, without making it: a
+    /// dot changes no pixel row `half` rows or more from its centre.
+    pub fn half_rows(gel: &GelConfig, r: f64, h: f64, d: f64, pitch_mm: f64, optics_px_scale: f64) -> usize {
+        let a = contact_radius_mm(gel, r, h, d);
+        ((a + Self::margin_mm(gel, pitch_mm, optics_px_scale)) / pitch_mm).ceil() as usize + 1
     }
 
     /// Bilinear value at an offset from the dot's centre, in pixels (x along the row).
