@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long, default_value_t = 30)]
     trials: u64,
     /// Scan seed of the test scans (training used others).
-    #[arg(long, default_value_t = 1_000_003)]
+    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
     seed: u64,
     /// Depths to test, in mm [default: the paper's 0.2-1.5 mm].
     #[arg(long, value_delimiter = ',')]

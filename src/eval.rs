@@ -125,7 +125,7 @@ pub struct CharsArgs {
     #[arg(long, default_value_t = 4)]
     trials: u64,
     /// Scan seed (training used seeds from its own; the default keeps test scans apart).
-    #[arg(long, default_value_t = 1_000_003)]
+    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
     seed: u64,
     #[arg(long)]
     json: bool,
@@ -214,7 +214,7 @@ pub struct WordsArgs {
     #[arg(long, value_enum, default_value = "lexicon")]
     spell: Spell,
     /// Scan seed (training used others).
-    #[arg(long, default_value_t = 1_000_003)]
+    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
     seed: u64,
     #[arg(long, value_enum, default_value = "sliding")]
     snn_runner: SnnRunner,

@@ -26,7 +26,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     use experiments::labeling::CheckBoards;
     let (seed, builds) = match args.boards {
-        CheckBoards::Test => (1_000_003, crate::common::SensorBuilds::Test),
+        CheckBoards::Test => (experiments::datasets::TEST_SEED, crate::common::SensorBuilds::Test),
         CheckBoards::Validation => (experiments::datasets::VALIDATION_SEED, crate::common::SensorBuilds::Training),
     };
     let world = args.realism.world(builds);

@@ -74,7 +74,7 @@ pub fn run(args: Args) -> Result<()> {
     let labels = step(&mut times, "labeling pipeline", "[label_check.md](label_check.md)", || {
         let rows = experiments::labeling::label_check(
             if q { 1 } else { 30 },
-            1_000_003,
+            experiments::datasets::TEST_SEED,
             &args.realism.test_world(),
             experiments::labeling::CheckBoards::Test,
         )?;
@@ -122,7 +122,7 @@ pub fn run(args: Args) -> Result<()> {
                 &models,
                 depths,
                 if q { 1 } else { 30 },
-                1_000_003,
+                experiments::datasets::TEST_SEED,
                 &args.realism.test_world(),
                 &bar,
             )?;
@@ -138,7 +138,7 @@ pub fn run(args: Args) -> Result<()> {
             timings: vec![TimingMode::Estimated, TimingMode::Paper, TimingMode::Given],
             depth_mm: 1.5,
             trials: if q { 1 } else { 30 },
-            seed: 1_000_003,
+            seed: experiments::datasets::TEST_SEED,
             world: args.realism.test_world(),
             unseen_rows: if q { 1 } else { 4 },
             unseen_trials: if q { 1 } else { 10 },

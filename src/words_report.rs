@@ -40,7 +40,7 @@ pub struct Args {
     unseen_trials: u64,
     #[arg(long, default_value_t = 1.5)]
     depth: f64,
-    #[arg(long, default_value_t = 1_000_003)]
+    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
     seed: u64,
     #[command(flatten)]
     realism: crate::common::RealismArg,

@@ -416,6 +416,9 @@ pub fn validation_word_rows(seed: u64, rows: usize, max_chars: usize) -> String 
 /// The validation seed: the VAL board's print and the validation scans (docs/protocol.md).
 pub const VALIDATION_SEED: u64 = 2_000_003;
 
+/// The scans of the simulated tests (the seed Table I, the depth curve and the words table test on).
+pub const TEST_SEED: u64 = 1_000_003;
+
 /// The board of validation words, `VAL-WORDS` on the command line: four rows of at most 25
 /// characters of [`validation_word_rows`] at [`VALIDATION_SEED`].
 pub fn validation_words_board() -> BoardKind {

@@ -19,8 +19,7 @@ use snn::nir::{self, ExportOptions, Target};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// The scans of the simulated tests (the seed Table I and the words table test on).
-pub const TEST_SEED: u64 = 1_000_003;
+pub use crate::datasets::TEST_SEED;
 
 /// One shipped SNN against its reset-to-zero twin on the same test.
 #[derive(Debug, Clone, Serialize)]
