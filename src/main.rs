@@ -57,7 +57,7 @@ enum Command {
     /// Measure the paper's labeling pipeline against the simulator's ground truth.
     LabelCheck(label_check::Args),
     /// Each architecture's character classifier against one simulator nuisance at a time (noise,
-    /// misalignment, depth drift, speed, sensor build): Markdown, JSON, PNG.
+    /// misalignment, depth drift, speed, sensor build, mount compliance with stick-slip): Markdown, JSON, PNG.
     Robustness(robustness::Args),
     /// Plot an event file as a heat map and an event raster (PNG).
     Plot(plot::Args),

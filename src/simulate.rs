@@ -40,6 +40,11 @@ pub struct Args {
     pub realism: Realism,
     #[arg(long, value_enum, default_value_t = Direction::Forward)]
     pub direction: Direction,
+    /// Stick-slip of the gel on the board's face, seen through a mount of this compliance (um per
+    /// N; 33 is `harsh`'s mount, 0 a rigid one), the rest of the mount as `sim::StickSlip::LIGHT_MOUNT`
+    /// [default: the preset's: none at `clean` and `nominal`].
+    #[arg(long)]
+    pub mount_compliance_um_per_n: Option<f64>,
     /// Sensor resolution; the field of view stays 18.6 mm wide.
     #[arg(long, default_value = "640x480")]
     pub resolution: Resolution,
@@ -66,6 +71,9 @@ pub fn run(args: Args) -> Result<()> {
         sensor_seed: args.sensor_seed,
         realism: args.realism,
         direction: args.direction,
+        stick_slip: args
+            .mount_compliance_um_per_n
+            .map(|c| sim::StickSlip { mount_stiffness_n_per_m: 1e6 / c.max(1e-3), ..sim::StickSlip::LIGHT_MOUNT }),
         resolution: args.resolution,
         out: args.out,
         force: args.force,

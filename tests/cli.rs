@@ -208,6 +208,33 @@ fn simulate_runs_trials_into_a_folder_and_names_bad_boards() {
 }
 
 #[test]
+fn simulate_adds_stick_slip_through_a_mount_and_reports_it_in_the_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("slip.csv");
+    let o = braille(&[
+        "simulate",
+        "--board",
+        "text:HI",
+        "--speed",
+        "8",
+        "--depth",
+        "1.5",
+        "--resolution",
+        "160x120",
+        "--mount-compliance-um-per-n",
+        "33",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("slip.truth.json")).unwrap()).unwrap();
+    let ss = &truth["stick_slip"];
+    assert!(ss["slips"].as_u64().unwrap() > 10, "{ss}");
+    assert_eq!(truth["scan"]["stick_slip"]["mount_stiffness_n_per_m"].as_f64().unwrap().round(), 30303.0);
+}
+
+#[test]
 fn sim_check_reports_the_physics() {
     let o = braille(&["sim-check", "--json", "--trials", "1"]);
     let (out, err) = text(&o);

@@ -29,11 +29,20 @@ pub enum Nuisance {
     /// Which build of the sensor scans (1-4: the training builds beyond `clean`; 101-102: the
     /// test builds; `clean` trained on build 1 alone).
     SensorBuild,
+    /// Compliance of the sensor's mount, um per N, with stick-slip of the gel on the board's face
+    /// (`sim::StickSlip::LIGHT_MOUNT` but for the stiffness; 0: no stick-slip, a rigid mount).
+    MountCompliance,
 }
 
 impl Nuisance {
-    pub const ALL: [Nuisance; 5] =
-        [Nuisance::NoiseRate, Nuisance::Misalignment, Nuisance::DepthDrift, Nuisance::Speed, Nuisance::SensorBuild];
+    pub const ALL: [Nuisance; 6] = [
+        Nuisance::NoiseRate,
+        Nuisance::Misalignment,
+        Nuisance::DepthDrift,
+        Nuisance::Speed,
+        Nuisance::SensorBuild,
+        Nuisance::MountCompliance,
+    ];
 
     pub fn label(self) -> &'static str {
         match self {
@@ -42,6 +51,7 @@ impl Nuisance {
             Nuisance::DepthDrift => "depth drift sigma (mm)",
             Nuisance::Speed => "speed (mm/s)",
             Nuisance::SensorBuild => "sensor build (seed)",
+            Nuisance::MountCompliance => "mount compliance with stick-slip (um/N)",
         }
     }
 
@@ -53,6 +63,8 @@ impl Nuisance {
             Nuisance::DepthDrift => vec![0.0, 0.03, 0.06, 0.12, 0.25],
             Nuisance::Speed => vec![8.0, 16.0, 24.0, 32.0, 48.0],
             Nuisance::SensorBuild => vec![1.0, 2.0, 3.0, 4.0, 101.0, 102.0],
+            // Rigid, then 1 MN/m down to 20 kN/m (33: `harsh`'s mount).
+            Nuisance::MountCompliance => vec![0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 33.0, 50.0],
         }
     }
 
@@ -70,6 +82,10 @@ impl Nuisance {
             }
             Nuisance::Speed => spec.speed_mm_s = level,
             Nuisance::SensorBuild => spec.world.sensors = vec![level as u64],
+            Nuisance::MountCompliance => {
+                setup.scan.stick_slip = (level > 0.0)
+                    .then(|| sim::StickSlip { mount_stiffness_n_per_m: 1e6 / level, ..sim::StickSlip::LIGHT_MOUNT })
+            }
         }
     }
 }

@@ -28,6 +28,8 @@ pub struct ScanSpec {
     /// The simulator's nuisances.
     pub realism: sim::Realism,
     pub direction: Direction,
+    /// Stick-slip through the mount's compliance, beyond the preset's (None: the preset's).
+    pub stick_slip: Option<sim::StickSlip>,
     pub resolution: Resolution,
     /// An event file for one scan, or a folder for several.
     pub out: PathBuf,
@@ -96,7 +98,7 @@ impl Scanner {
 
     /// The scanner of `spec`.
     pub fn of(spec: &ScanSpec) -> Result<Scanner> {
-        Scanner::new(
+        let mut scanner = Scanner::new(
             spec.board.clone(),
             spec.board_seed,
             spec.sensor_seed,
@@ -106,7 +108,11 @@ impl Scanner {
             spec.depth,
             spec.direction,
             spec.seed,
-        )
+        )?;
+        if spec.stick_slip.is_some() {
+            scanner.setup.scan.stick_slip = spec.stick_slip;
+        }
+        Ok(scanner)
     }
 
     /// Trial `trial` of row `row`: its events and ground truth. The same arguments give the same

@@ -11,6 +11,7 @@
 use crate::board::{Board, BoardGeometry, BoardKind};
 use crate::braille::{Cell, cell_of};
 use crate::error::Result;
+use crate::mount::{Contact, StickSlip};
 use crate::realism::{Realism, Setup};
 use crate::scan::{Direction, Scan, ScanConfig, simulate};
 use crate::sensor::{GelConfig, GelDynamics, Sensor};
@@ -80,6 +81,52 @@ pub struct CheckReport {
     /// Events per pass of one dot (noise off) over [`SENSOR_BUILDS`] builds of the sensor.
     pub events_per_pass_by_sensor: Vec<f64>,
     pub sensor_spread_cv: f64,
+    /// Stick-slip of this preset's gel on the board's face through `harsh`'s light mount
+    /// ([`StickSlip::LIGHT_MOUNT`]), mechanics only, per depth and speed.
+    pub stick_slip: Vec<StickSlipRow>,
+}
+
+/// The camera's motion against the arm's over 100 mm of a slide with stick-slip.
+#[derive(Debug, Clone, Serialize)]
+pub struct StickSlipRow {
+    pub depth_mm: f64,
+    pub speed_mm_s: f64,
+    /// Normal force of the board's face (0 where it does not touch the gel).
+    pub face_force_n: f64,
+    pub slips_per_100mm: f64,
+    pub largest_jump_mm: f64,
+    /// The camera's lag behind the arm at mid-slide, and the kinetic friction over the mount's
+    /// stiffness (what steady sliding gives).
+    pub lag_mm: f64,
+    pub steady_lag_mm: f64,
+}
+
+/// Depths and speeds of the stick-slip check.
+pub const STICK_SLIP_DEPTHS_MM: [f64; 3] = [0.3, 1.0, 1.5];
+pub const STICK_SLIP_SPEEDS_MM_S: [f64; 4] = [8.0, 16.0, 32.0, 64.0];
+
+/// The stick-slip check's rows for `sensor`'s gel on boards of `geometry`.
+pub fn stick_slip(geometry: &BoardGeometry, sensor: &Sensor) -> Result<Vec<StickSlipRow>> {
+    let contact = Contact::of(sensor);
+    let p = StickSlip::LIGHT_MOUNT;
+    let mut rows = Vec::new();
+    for depth_mm in STICK_SLIP_DEPTHS_MM {
+        let face = depth_mm - geometry.dot_height_mm;
+        for v in STICK_SLIP_SPEEDS_MM_S {
+            let (_, out) = crate::mount::trace(&p, &contact, 100.0, v, |t| (v * t, v), |_| face)?;
+            let face_force_n = if contact.friction > 0.0 { contact.face_force_n(face) } else { 0.0 };
+            rows.push(StickSlipRow {
+                depth_mm,
+                speed_mm_s: v,
+                face_force_n,
+                slips_per_100mm: out.slips as f64,
+                largest_jump_mm: out.largest_jump_mm,
+                lag_mm: out.lag_mid_mm,
+                steady_lag_mm: contact.friction * face_force_n / p.mount_stiffness_n_per_m * 1e3,
+            });
+        }
+    }
+    Ok(rows)
 }
 
 /// Events of one pass of a dot binned by the pixel's position behind the dot, in mm (positive:
@@ -450,6 +497,31 @@ impl CheckReport {
         } else if !dynamic {
             need(loss.abs() < 1e-9, format!("10. a gel without relaxation must not lose energy: {loss}"));
         }
+        for d in STICK_SLIP_DEPTHS_MM {
+            let rows: Vec<&StickSlipRow> = r.stick_slip.iter().filter(|s| s.depth_mm == d).collect();
+            let (Some(slow), Some(fast)) = (rows.first(), rows.last()) else { continue };
+            if slow.face_force_n == 0.0 {
+                need(
+                    rows.iter().all(|s| s.slips_per_100mm == 0.0 && s.lag_mm.abs() < 1e-3),
+                    format!("12. no face contact at {d} mm: no stick-slip and no lag"),
+                );
+            } else {
+                need(
+                    fast.slips_per_100mm <= slow.slips_per_100mm,
+                    format!(
+                        "12. stick-slip at {d} mm must fade with speed: {} slips per 100 mm at {} mm/s, {} at {}",
+                        fast.slips_per_100mm, fast.speed_mm_s, slow.slips_per_100mm, slow.speed_mm_s
+                    ),
+                );
+                need(
+                    fast.slips_per_100mm > 1.0 || (fast.lag_mm / fast.steady_lag_mm - 1.0).abs() < 0.05,
+                    format!(
+                        "12. steady sliding at {d} mm, {} mm/s must lag by the kinetic friction: {:.3} mm, {:.3} expected",
+                        fast.speed_mm_s, fast.lag_mm, fast.steady_lag_mm
+                    ),
+                );
+            }
+        }
         f
     }
 
@@ -538,6 +610,19 @@ impl CheckReport {
             SENSOR_SPREAD_RANGE.0 * 100.0,
             SENSOR_SPREAD_RANGE.1 * 100.0
         );
+        for s in &r.stick_slip {
+            let _ = writeln!(
+                m,
+                "| 12. stick-slip, light mount, {} mm at {} mm/s: face force / slips per 100 mm / largest jump / lag | {:.1} N / {} / {:.3} mm / {:.3} mm | none without face contact; fades with speed; steady lag {:.3} mm |",
+                s.depth_mm,
+                s.speed_mm_s,
+                s.face_force_n,
+                s.slips_per_100mm,
+                s.largest_jump_mm,
+                s.lag_mm,
+                s.steady_lag_mm
+            );
+        }
         let failures = r.failures();
         if failures.is_empty() {
             let _ = writeln!(m, "\nAll checks are within their bounds.");
@@ -706,6 +791,7 @@ pub fn run(realism: Realism, trials: u64) -> Result<CheckReport> {
         press_release,
         events_per_pass_by_sensor,
         sensor_spread_cv: sd / mean,
+        stick_slip: stick_slip(geometry, &quiet)?,
     })
 }
 

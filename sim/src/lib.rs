@@ -23,6 +23,7 @@ pub mod board;
 pub mod braille;
 pub mod checks;
 pub mod error;
+pub mod mount;
 pub mod realism;
 pub mod scan;
 pub mod sensor;
@@ -30,6 +31,7 @@ pub mod stamp;
 
 pub use board::{Board, BoardGeometry, BoardKind};
 pub use error::{Error, Result};
+pub use mount::{StickSlip, StickSlipTruth};
 pub use realism::{Realism, Setup};
 pub use scan::{Direction, Scan, ScanConfig, ScanTruth, simulate};
 pub use sensor::{CameraConfig, GelConfig, GelDynamics, PronyTerm, Sensor, SensorVariation};

@@ -8,6 +8,7 @@
 
 use crate::board::BoardGeometry;
 use crate::error::Result;
+use crate::mount::StickSlip;
 use crate::scan::ScanConfig;
 use crate::sensor::{CameraConfig, GelConfig, GelDynamics, PronyTerm, Sensor, SensorVariation};
 use encoders::Resolution;
@@ -114,6 +115,12 @@ impl Realism {
             yaw_sigma_deg: pick(0.5, 1.5),
             depth_tilt_sigma_mm_per_100mm: pick(0.05, 0.15),
             depth_wander_sigma_mm: pick(0.03, 0.06),
+            // Stick-slip shows only through the mount's compliance, which no source gives for the
+            // paper's arm: from a stiff, damped mount (one slip before the text and a constant lag,
+            // invisible to a reader) to a light one (slips every few mm). `nominal` leaves it out;
+            // `harsh` takes a light, lightly damped mount (assumed; docs/simulator.md), and
+            // `braille robustness` sweeps the compliance.
+            stick_slip: edge.then_some(StickSlip::LIGHT_MOUNT),
             ..ScanConfig::default()
         };
         let variation = SensorVariation {

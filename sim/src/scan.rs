@@ -14,6 +14,7 @@
 
 use crate::board::Board;
 use crate::error::{Error, Result, check};
+use crate::mount::{self, Contact, StickSlip, StickSlipTruth, Trace};
 use crate::sensor::Sensor;
 use crate::stamp::{Stamp, StampMotion};
 use encoders::{Event, Polarity, Resolution};
@@ -82,6 +83,10 @@ pub struct ScanConfig {
     /// Standard deviation of the row's yaw against the sensor's x axis, per trial (assumed).
     #[serde(default)]
     pub yaw_sigma_deg: f64,
+    /// Stick-slip of the gel on the board's face through the mount's compliance
+    /// ([`crate::mount`]); `None`: the gel slides steadily and the camera follows the command.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stick_slip: Option<StickSlip>,
 }
 
 fn default_wander_wavelength() -> f64 {
@@ -108,6 +113,7 @@ impl Default for ScanConfig {
             depth_wander_sigma_mm: 0.0,
             depth_wander_wavelength_mm: default_wander_wavelength(),
             yaw_sigma_deg: 0.0,
+            stick_slip: None,
         }
     }
 }
@@ -178,6 +184,10 @@ pub struct ScanTruth {
     /// start ([`ScanTruth::speed_at_mm_s`]). Empty in truth files written before 2026-11-25.
     #[serde(default)]
     pub speed_swings: Vec<(f64, f64, f64)>,
+    /// What the gel's stick-slip did, when the scan has it ([`ScanConfig::stick_slip`]); the
+    /// swings above are the arm's command, the camera follows it through the mount.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stick_slip: Option<StickSlipTruth>,
     pub timeline: Timeline,
     pub resolution: Resolution,
     pub pitch_mm: f64,
@@ -212,6 +222,8 @@ pub struct Scan {
 struct Motion {
     v: f64,
     terms: Vec<(f64, f64, f64)>,
+    /// The camera's displacement when the mount lets it differ from the command (stick-slip).
+    trace: Option<Trace>,
 }
 
 impl Motion {
@@ -225,8 +237,12 @@ impl Motion {
         self.terms.iter().fold(self.v, |v, &(a, w, phase)| v + self.v * a * (w * t + phase).sin())
     }
 
-    /// The time at which the displacement reaches `s` (Newton's method; the motion is monotone).
+    /// The time at which the camera's displacement reaches `s` (Newton's method on the command,
+    /// which is monotone; the stick-slip trace where there is one).
     fn time_of(&self, s: f64) -> f64 {
+        if let Some(trace) = &self.trace {
+            return trace.time_of(s);
+        }
         let mut t = s / self.v;
         for _ in 0..8 {
             t -= (self.displacement(t) - s) / self.speed(t);
@@ -312,6 +328,9 @@ fn validate(scan: &ScanConfig, board: &Board) -> Result<f64> {
     check("depth_wander_sigma_mm", scan.depth_wander_sigma_mm, 0.0..5.0, "zero or more")?;
     check("depth_wander_wavelength_mm", scan.depth_wander_wavelength_mm, 1.0..1e5, "at least 1 mm")?;
     check("yaw_sigma_deg", scan.yaw_sigma_deg, 0.0..10.0, "in [0, 10) degrees")?;
+    if let Some(p) = &scan.stick_slip {
+        p.validate()?;
+    }
     if scan.speed_ripple + scan.speed_variation >= 0.95 {
         return Err(Error::Inconsistent(format!(
             "speed_ripple {} + speed_variation {} must stay below 0.95: the sensor would stop or reverse",
@@ -389,13 +408,28 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
     let mut nuisances = Nuisances::draw(scan)?;
     let mut terms = vec![(scan.speed_ripple, std::f64::consts::TAU * scan.ripple_hz, phase)];
     terms.extend(nuisances.hand.iter().copied());
-    let motion = Motion { v: scan.speed_mm_s, terms };
+    let mut motion = Motion { v: scan.speed_mm_s, terms, trace: None };
     let depth = DepthProfile {
         depth_mm: scan.depth_mm,
         slide_mm: slide,
         tilt_per_mm: nuisances.tilt_per_mm,
         wander: nuisances.wander.clone(),
     };
+    let mut stick_slip = None;
+    if let Some(params) = &scan.stick_slip {
+        let contact = Contact::of(sensor);
+        let height = board.geometry.dot_height_mm;
+        let (trace, out) = mount::trace(
+            params,
+            &contact,
+            slide,
+            scan.speed_mm_s,
+            |t| (motion.displacement(t), motion.speed(t)),
+            |s| depth.at(s) - height,
+        )?;
+        motion.trace = Some(trace);
+        stick_slip = Some(out);
+    }
     let start_depth = depth.at(0.0);
     let lower_s = start_depth / scan.approach_speed_mm_s;
     let slide_s = motion.time_of(slide);
@@ -543,6 +577,7 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
 
     let mut truth = truth(board, sensor, scan, misalignment, phase, timeline, &motion, x_start, slide);
     truth.yaw_deg = nuisances.yaw_rad.to_degrees();
+    truth.stick_slip = stick_slip;
     truth.depth_tilt_mm_per_100mm = nuisances.tilt_per_mm * 100.0;
     if !depth.is_flat() {
         truth.depth_profile_mm = vec![depth.at(0.0), depth.at(slide / 2.0), depth.at(slide)];
@@ -1210,6 +1245,7 @@ fn truth(
         depth_tilt_mm_per_100mm: 0.0,
         depth_profile_mm: Vec::new(),
         speed_swings: motion.terms.clone(),
+        stick_slip: None,
         timeline,
         resolution: sensor.camera.resolution,
         pitch_mm: sensor.camera.pitch_mm(),
@@ -1224,7 +1260,7 @@ mod tests {
 
     #[test]
     fn motion_inverts() {
-        let m = Motion { v: 8.0, terms: vec![(0.03, 12.0, 1.0), (0.3, 7.0, 0.2)] };
+        let m = Motion { v: 8.0, terms: vec![(0.03, 12.0, 1.0), (0.3, 7.0, 0.2)], trace: None };
         for s in [0.0, 1.0, 50.0, 195.0] {
             assert!((m.displacement(m.time_of(s)) - s).abs() < 1e-9);
         }

@@ -186,3 +186,26 @@ fn the_print_texture_shows_only_where_the_board_face_presses_the_gel() {
     .unwrap();
     assert!(simulate(&smooth, &sensor, &steady(1.5)).unwrap().events.is_empty());
 }
+
+#[test]
+fn stick_slip_delays_the_camera_by_the_mounts_lag_and_repeats_by_seed() {
+    // The nominal gel (friction 0.8) pressed 1.5 mm, its face in contact; the light mount.
+    let setup = Realism::Nominal.setup();
+    let sensor = setup.sensor(encoders::Resolution::new(160, 120), 3).unwrap().without_noise();
+    let board = Board::new(BoardKind::Text("AB".into()), setup.geometry.clone(), 1).unwrap();
+    let rigid = ScanConfig { speed_ripple: 0.0, ..steady(1.5, 8.0) };
+    let slipping = ScanConfig { stick_slip: Some(sim::StickSlip::LIGHT_MOUNT), ..rigid.clone() };
+    let (a, b) = (simulate(&board, &sensor, &rigid).unwrap(), simulate(&board, &sensor, &slipping).unwrap());
+    assert!(a.truth.stick_slip.is_none());
+    let ss = b.truth.stick_slip.as_ref().unwrap();
+    assert!(ss.slips > 10, "slips at 8 mm/s, 1.5 mm: {ss:?}");
+    assert!(ss.largest_jump_mm > 0.1, "{ss:?}");
+    // The camera reaches each column later, by about its lag behind the arm over the speed.
+    let late =
+        b.truth.characters[1].columns[0].t_center_s.unwrap() - a.truth.characters[1].columns[0].t_center_s.unwrap();
+    assert!(late > 0.5 * ss.lag_mid_mm / 8.0 && late < 2.0 * ss.lag_mid_mm / 8.0, "{late} s, lag {ss:?}");
+    assert_ne!(a.events, b.events);
+    let again = simulate(&board, &sensor, &slipping).unwrap();
+    assert_eq!(again.events, b.events);
+    assert_eq!(again.truth, b.truth);
+}
