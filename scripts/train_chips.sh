@@ -6,18 +6,25 @@
 # - speck-chars: a convolutional IF character classifier with sum pooling on SIMULATED windows
 #   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
 # Then the chip table and the cost of the faithful export: `braille chip-report`
-# (docs/results/chips.md). About 40 minutes on two cores.
+# (docs/results/chips.md). About 40 minutes on two cores (the SIMULATED model alone about 15).
 # --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
 # became the default (2026-11-25; docs/results/trainers.md compares the two).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
-mkdir -p models/chip docs/results/chip
-$b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
-  --history docs/results/chip/xylo_braille7_history.json --force --quiet
-$b train --trainer dense --arch snn --recipe speck --realism clean --out models/chip/speck-chars.safetensors \
-  --history docs/results/chip/speck_chars_history.json --force --quiet
-if [[ "${1:-}" != "--no-report" ]]; then
-  $b chip-report --out docs/results
+# REALISM=clean|nominal|harsh (default nominal): the preset of the SIMULATED model's scans, which
+# goes to models/chip/$REALISM/ (models/chip/ at clean); `--simulated-only` leaves the Xylo model
+# (real recordings) as it is.
+realism="${REALISM:-nominal}"
+if [[ "$realism" == clean ]]; then sim=models/chip; hist=docs/results/chip; else sim="models/chip/$realism"; hist="docs/results/chip/$realism"; fi
+mkdir -p models/chip docs/results/chip "$sim" "$hist"
+if [[ "${1:-}" != "--simulated-only" ]]; then
+  $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
+    --history docs/results/chip/xylo_braille7_history.json --force --quiet
+fi
+$b train --trainer dense --arch snn --recipe speck --realism "$realism" --out "$sim/speck-chars.safetensors" \
+  --history "$hist/speck_chars_history.json" --force --quiet
+if [[ "${1:-}" != "--no-report" && "${2:-}" != "--no-report" ]]; then
+  $b chip-report --realism "$realism" --out docs/results
 fi

@@ -1,22 +1,36 @@
 #!/usr/bin/env bash
 # The shipped SNNs retrained to export to NIR as trained: every recipe exactly as shipped
 # (scripts/train_icub.sh, table1.sh, words.sh) with one change, hidden neurons that reset to zero
-# (NIR's reset to v_reset) instead of by subtraction, which NIR cannot write. Models go to
-# models/nir/ under the shipped names; their histories to docs/results/nir/. The comparison with
-# the subtracting models on the same tests: docs/results/nir/faithful.md (scripts/nir_report.sh).
-# About 40 minutes on two cores.
-# --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
-# became the default (2026-11-25; docs/results/trainers.md compares the two).
+# (NIR's reset to v_reset) instead of by subtraction, which NIR cannot write. The iCub models go
+# to models/nir/, those trained on simulated scans to models/nir/$REALISM/ (models/nir/ at clean)
+# under the shipped names; their histories to docs/results/nir/ likewise. The comparison with the
+# subtracting models on the same tests: `braille chip-report` (docs/results/chips.md).
+# REALISM=clean|nominal|harsh (default nominal, the published tables) picks the simulator's preset
+# and the trainer as table1.sh and words.sh use it there: dense for the characters; for words
+# and segmentation dense at clean, sparse beyond (with blank cells as segmentation background).
+# `--simulated-only` leaves the iCub models as they are. About 40 minutes on two cores (the
+# simulated recipes alone about 15 at nominal).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
-mkdir -p models/nir docs/results/nir
-for set in raw1350 th10; do
-  $b train --trainer dense --data "data/icub_braille/$set" --recipe "$set" --reset zero \
-    --out "models/nir/snn-$set.safetensors" --history "docs/results/nir/snn_${set}_history.json" --force --quiet
-done
-for recipe in chars words segment; do
-  $b train --trainer dense --arch snn --recipe "$recipe" --realism clean --reset zero \
-    --out "models/nir/snn-$recipe.safetensors" --history "docs/results/nir/snn_${recipe}_history.json" --force --quiet
-done
+realism="${REALISM:-nominal}"
+if [[ "$realism" == clean ]]; then
+  sim=models/nir; hist=docs/results/nir; trainer=dense; blank=false
+else
+  sim="models/nir/$realism"; hist="docs/results/nir/$realism"; trainer=sparse; blank=true
+fi
+mkdir -p models/nir docs/results/nir "$sim" "$hist"
+if [[ "${1:-}" != "--simulated-only" ]]; then
+  for set in raw1350 th10; do
+    $b train --trainer dense --data "data/icub_braille/$set" --recipe "$set" --reset zero \
+      --out "models/nir/snn-$set.safetensors" --history "docs/results/nir/snn_${set}_history.json" --force --quiet
+  done
+fi
+r=(--realism "$realism" --reset zero --force --quiet)
+$b train --trainer dense --arch snn --recipe chars "${r[@]}" \
+  --out "$sim/snn-chars.safetensors" --history "$hist/snn_chars_history.json"
+$b train --trainer "$trainer" --arch snn --recipe words "${r[@]}" \
+  --out "$sim/snn-words.safetensors" --history "$hist/snn_words_history.json"
+$b train --trainer "$trainer" --arch snn --recipe segment --blank-cells "$blank" "${r[@]}" \
+  --out "$sim/snn-segment.safetensors" --history "$hist/snn_segment_history.json"

@@ -8,7 +8,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The shipped (subtracting) models.
+    /// The shipped (subtracting) models; those trained on simulated scans in its `REALISM/` beyond
+    /// `clean`, as in the other two folders.
     #[arg(long, default_value = "models")]
     models: PathBuf,
     /// Their reset-to-zero twins (`bash scripts/train_nir.sh`).
@@ -23,6 +24,8 @@ pub struct Args {
     /// Simulated scans per board row.
     #[arg(long, default_value_t = 30)]
     trials: u64,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
     /// Where to write `chips.md` and `chips.json`.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
@@ -35,6 +38,7 @@ pub fn run(args: Args) -> Result<()> {
         chip_models: args.chip_models,
         icub: args.data,
         trials: args.trials,
+        realism: args.realism.realism,
     };
     let r = chips::run(&spec, &Bar::default())?;
     let md = chips::markdown(&r);

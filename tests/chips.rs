@@ -32,17 +32,25 @@ fn s(p: &Path) -> &str {
 fn every_shipped_snn_has_a_twin_that_exports_as_trained_and_chip_models_pass_their_chips() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.nir");
-    for name in ["snn-raw1350", "snn-th10", "snn-chars", "snn-words", "snn-segment"] {
-        let shipped = root(&format!("models/{name}.safetensors"));
+    // the iCub models, the `clean` ones, and those trained at `nominal` (the published tables)
+    let sims = ["snn-chars", "snn-words", "snn-segment"];
+    let pairs = ["snn-raw1350", "snn-th10"]
+        .iter()
+        .chain(&sims)
+        .map(|n| (format!("models/{n}"), format!("models/nir/{n}")))
+        .chain(sims.iter().map(|n| (format!("models/nominal/{n}"), format!("models/nir/nominal/{n}"))));
+    for (shipped, twin) in pairs {
+        let shipped = root(&format!("{shipped}.safetensors"));
         assert!(
             failed(&braille(&["export", "--model", s(&shipped), "--out", s(&out), "--force"])).contains("subtraction")
         );
-        let twin = root(&format!("models/nir/{name}.safetensors"));
+        let twin = root(&format!("{twin}.safetensors"));
         ok(&braille(&["export", "--model", s(&twin), "--out", s(&out), "--force"]));
     }
     for (model, target) in [
         ("models/chip/xylo-braille7.safetensors", "xylo"),
         ("models/chip/speck-chars.safetensors", "speck"),
+        ("models/chip/nominal/speck-chars.safetensors", "speck"),
         ("models/nir/snn-th10.safetensors", "loihi2"),
         ("models/nir/snn-raw1350.safetensors", "spinnaker2"),
     ] {

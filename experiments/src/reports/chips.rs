@@ -72,10 +72,14 @@ pub struct ChipReport {
     pub faithful: Vec<FaithfulRow>,
     pub chips: Vec<ChipRow>,
     pub trials: u64,
+    /// The simulator's preset of the simulated models and tests.
+    pub realism: sim::Realism,
 }
 
 /// What to put in the report: the shipped models' folder, the reset-to-zero twins' folder, the
-/// chip models' folder, the iCub data, and scans per simulated board row.
+/// chip models' folder, the iCub data, scans per simulated board row and the simulator's preset.
+/// Models trained on simulated scans sit in each folder's `REALISM/` beyond `clean`
+/// ([`ChipSpec::path`]); those trained on the iCub recordings in the folder itself.
 #[derive(Debug, Clone)]
 pub struct ChipSpec {
     pub models: PathBuf,
@@ -83,9 +87,29 @@ pub struct ChipSpec {
     pub chip_models: PathBuf,
     pub icub: PathBuf,
     pub trials: u64,
+    pub realism: sim::Realism,
 }
 
-fn chars_spec(trials: u64) -> CharSetSpec {
+/// The models trained on simulated scans.
+pub const SIMULATED: [&str; 4] = ["snn-chars", "snn-words", "snn-segment", "speck-chars"];
+
+impl ChipSpec {
+    /// The folder `dir` holds `name` in at this spec's preset.
+    pub fn folder(&self, dir: &Path, name: &str) -> PathBuf {
+        if SIMULATED.contains(&name) && self.realism != sim::Realism::Clean {
+            dir.join(self.realism.to_string())
+        } else {
+            dir.to_path_buf()
+        }
+    }
+
+    /// The file of model `name` in `dir` at this spec's preset.
+    pub fn path(&self, dir: &Path, name: &str) -> PathBuf {
+        self.folder(dir, name).join(format!("{name}.safetensors"))
+    }
+}
+
+fn chars_spec(trials: u64, realism: sim::Realism) -> CharSetSpec {
     CharSetSpec {
         boards: vec![BoardKind::Rab],
         speed_mm_s: 8.0,
@@ -94,7 +118,7 @@ fn chars_spec(trials: u64) -> CharSetSpec {
         seed: TEST_SEED,
         task: Task::Chars,
         jitter_ms: 0.0,
-        world: World::test(sim::Realism::Clean),
+        world: World::test(realism),
         blank_cells: false,
     }
 }
@@ -113,7 +137,8 @@ struct Scored {
 
 /// A model on its own test: a tactile model on its dataset's test split, a character classifier
 /// on RAB at 1.5 mm (over every printed character).
-fn score_model(path: &Path, icub: &Path, trials: u64, progress: &dyn Progress) -> Result<Scored> {
+fn score_model(path: &Path, spec: &ChipSpec, progress: &dyn Progress) -> Result<Scored> {
+    let (icub, trials) = (&spec.icub, spec.trials);
     let model = pipeline::models::load_snn(path)?;
     if let Ok(enc) = crate::tactile::encoding_of(&model, path) {
         // the dataset folder the model was trained on, as its provenance names it
@@ -133,7 +158,7 @@ fn score_model(path: &Path, icub: &Path, trials: u64, progress: &dyn Progress) -
             spikes: e.spikes_per_sample,
         });
     }
-    let e = crate::chars::eval(path, &chars_spec(trials), progress)?;
+    let e = crate::chars::eval(path, &chars_spec(trials, spec.realism), progress)?;
     Ok(Scored {
         reads: "RAB characters at 1.5 mm, of all printed".into(),
         data: "SIMULATED",
@@ -159,11 +184,11 @@ pub const CHIP_MODELS: [&str; 2] = ["speck-chars", "xylo-braille7"];
 
 /// Runs every comparison and check.
 pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
-    let file = |dir: &Path, name: &str| dir.join(format!("{name}.safetensors"));
+    let file = |dir: &Path, name: &str| spec.path(dir, name);
     let mut faithful = Vec::new();
     for name in SHIPPED {
-        let a = score_model(&file(&spec.models, name), &spec.icub, spec.trials, progress)?;
-        let b = score_model(&file(&spec.nir_models, name), &spec.icub, spec.trials, progress)?;
+        let a = score_model(&file(&spec.models, name), spec, progress)?;
+        let b = score_model(&file(&spec.nir_models, name), spec, progress)?;
         progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
         faithful.push(FaithfulRow {
             model: name.into(),
@@ -183,11 +208,11 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         depth_mm: 1.5,
         trials: spec.trials,
         seed: TEST_SEED,
-        world: World::test(sim::Realism::Clean),
+        world: World::test(spec.realism),
     };
     let readers = [&spec.models, &spec.nir_models]
         .map(|dir| {
-            let (s, c) = crate::words::default_models(Arch::Snn, dir);
+            let (s, c) = crate::words::default_models(Arch::Snn, &spec.folder(dir, "snn-words"));
             ReaderModels::load(&s, &c, SnnRunner::Sliding).map_err(crate::Error::from)
         })
         .into_iter()
@@ -217,7 +242,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         .collect();
     for path in candidates {
         let model = pipeline::models::load_snn(&path)?;
-        let s = score_model(&path, &spec.icub, spec.trials, progress)?;
+        let s = score_model(&path, spec, progress)?;
         let exports = nir::export(&model.network, &ExportOptions::new(model.config.dt_us as f64 * 1e-6)).is_ok();
         let targets = Target::CHIPS
             .iter()
@@ -249,7 +274,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
             targets,
         });
     }
-    Ok(ChipReport { faithful, chips, trials: spec.trials })
+    Ok(ChipReport { faithful, chips, trials: spec.trials, realism: spec.realism })
 }
 
 /// The report as Markdown.
@@ -258,13 +283,13 @@ pub fn markdown(r: &ChipReport) -> String {
     let _ = writeln!(s, "# Models for neuromorphic chips\n");
     let _ = writeln!(
         s,
-        "Regenerate: `braille chip-report --out docs/results` (models from `bash scripts/train_nir.sh` and `bash scripts/train_chips.sh`). Simulated tests: {} scans per board row, seed {TEST_SEED}, the clean world. REAL rows are the iCub recordings' fixed test splits.\n",
-        r.trials
+        "Regenerate: `braille chip-report --realism {} --out docs/results` (models from `bash scripts/train_nir.sh` and `bash scripts/train_chips.sh`, `REALISM={}` for the simulated ones). Simulated tests: {} scans per board row, seed {TEST_SEED}, the `{}` world (its test sensor builds beyond `clean`), with the models trained there. REAL rows are the iCub recordings' fixed test splits.\n",
+        r.realism, r.realism, r.trials, r.realism
     );
     let _ = writeln!(s, "## What the faithful export costs\n");
     let _ = writeln!(
         s,
-        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into `models/nir/`; nothing else was chosen. Accuracy on the same test:\n"
+        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into `models/nir/` (those trained on simulated scans beyond `clean` into `models/nir/REALISM/`); nothing else was chosen. Accuracy on the same test:\n"
     );
     let _ = writeln!(
         s,
