@@ -137,6 +137,8 @@ impl Trace {
 /// Integration step and the trace's sampling.
 const DT_S: f64 = 10e-6;
 const SAMPLE_EVERY: usize = 5;
+/// How far the camera advances before the face's force is looked up again, mm.
+const FORCE_STEP_MM: f64 = 1e-3;
 
 /// Integrates the body on its mount from the slide's start until the camera has covered
 /// `slide_mm`. `command(t)` gives the arm's displacement (mm) and speed (mm/s) at time `t` from
@@ -159,6 +161,7 @@ pub fn trace(
     }
     let (ka, m) = (params.mount_stiffness_n_per_m, params.mount_mass_kg);
     let c = 2.0 * params.mount_damping_ratio * (ka * m).sqrt();
+    let inv_m = 1.0 / m;
     let kg = contact.shear_stiffness_n_per_m();
     let (mu_k, mu_s) = (contact.friction, contact.friction + params.static_excess);
     // Long enough for the slide at a tenth of its mean speed; the command keeps its motion law.
@@ -175,12 +178,27 @@ pub fn trace(
     let mut open: Option<(f64, f64, f64, f64)> = None; // (onset t, x, u, peak)
     let mut jumps = Vec::new();
     let mut mid_done = false;
+    let (mut n, mut n_at_mm) = (0.0, f64::NEG_INFINITY);
+    let span = DT_S * SAMPLE_EVERY as f64;
+    let (mut seg_k, mut seg) = (0usize, (command(0.0), command(span)));
     for step in 1..=max_steps {
         let t = step as f64 * DT_S;
-        let (u_mm, ud_mm_s) = command(t);
+        // The command is smooth over a sample (its swings are below 20 Hz): evaluated at the
+        // samples, linear between.
+        let k = (step - 1) / SAMPLE_EVERY;
+        if k != seg_k {
+            seg_k = k;
+            seg = (seg.1, command((k + 1) as f64 * span));
+        }
+        let r = (t - k as f64 * span) / span;
+        let (u_mm, ud_mm_s) = (seg.0.0 + (seg.1.0 - seg.0.0) * r, seg.0.1 + (seg.1.1 - seg.0.1) * r);
         let (u, ud) = (u_mm * 1e-3, ud_mm_s * 1e-3);
-        // Without friction there is no static friction either.
-        let n = if mu_k > 0.0 { contact.face_force_n(face_depth_mm(furthest)) } else { 0.0 };
+        // Without friction there is no static friction either. The depth changes over millimetres
+        // of slide: the force is looked up again each micrometre the camera advances.
+        if mu_k > 0.0 && furthest - n_at_mm >= FORCE_STEP_MM {
+            n = contact.face_force_n(face_depth_mm(furthest));
+            n_at_mm = furthest;
+        }
         let force = if n <= 0.0 {
             // No face contact: the surface is free and carries no force.
             sliding = 0.0;
@@ -202,7 +220,7 @@ pub fn trace(
         } else {
             sliding * mu_k * n
         };
-        let a = (ka * (u - x) + c * (ud - v) - force) / m;
+        let a = (ka * (u - x) + c * (ud - v) - force) * inv_m;
         v += a * DT_S;
         x += v * DT_S;
         if sliding != 0.0 {

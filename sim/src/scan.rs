@@ -237,6 +237,18 @@ impl Motion {
         self.terms.iter().fold(self.v, |v, &(a, w, phase)| v + self.v * a * (w * t + phase).sin())
     }
 
+    /// Displacement and speed at once (one `sin_cos` per term).
+    fn displacement_and_speed(&self, t: f64) -> (f64, f64) {
+        self.terms.iter().fold((self.v * t, self.v), |(s, v), &(a, w, phase)| {
+            if a == 0.0 || w == 0.0 {
+                (s, v)
+            } else {
+                let (sin, cos) = (w * t + phase).sin_cos();
+                (s + a * self.v / w * (phase.cos() - cos), v + self.v * a * sin)
+            }
+        })
+    }
+
     /// The time at which the camera's displacement reaches `s` (Newton's method on the command,
     /// which is monotone; the stick-slip trace where there is one).
     fn time_of(&self, s: f64) -> f64 {
@@ -424,7 +436,7 @@ pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Sca
             &contact,
             slide,
             scan.speed_mm_s,
-            |t| (motion.displacement(t), motion.speed(t)),
+            |t| motion.displacement_and_speed(t),
             |s| depth.at(s) - height,
         )?;
         motion.trace = Some(trace);
