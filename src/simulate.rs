@@ -71,9 +71,7 @@ pub fn run(args: Args) -> Result<()> {
         sensor_seed: args.sensor_seed,
         realism: args.realism,
         direction: args.direction,
-        stick_slip: args
-            .mount_compliance_um_per_n
-            .map(|c| sim::StickSlip { mount_stiffness_n_per_m: 1e6 / c.max(1e-3), ..sim::StickSlip::LIGHT_MOUNT }),
+        stick_slip: args.mount_compliance_um_per_n.map(|c| sim::StickSlip::light_mount_with_compliance(c.max(1e-3))),
         resolution: args.resolution,
         out: args.out,
         force: args.force,

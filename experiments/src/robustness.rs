@@ -83,8 +83,7 @@ impl Nuisance {
             Nuisance::Speed => spec.speed_mm_s = level,
             Nuisance::SensorBuild => spec.world.sensors = vec![level as u64],
             Nuisance::MountCompliance => {
-                setup.scan.stick_slip = (level > 0.0)
-                    .then(|| sim::StickSlip { mount_stiffness_n_per_m: 1e6 / level, ..sim::StickSlip::LIGHT_MOUNT })
+                setup.scan.stick_slip = (level > 0.0).then(|| sim::StickSlip::light_mount_with_compliance(level))
             }
         }
     }

@@ -29,7 +29,7 @@ fn main() -> sim::Result<()> {
     );
     println!("| --- | --- | --- | --- | --- | --- |");
     for compliance in [1.0, 2.0, 5.0, 10.0, 20.0, 33.0, 50.0] {
-        let p = StickSlip { mount_stiffness_n_per_m: 1e6 / compliance, ..p };
+        let p = StickSlip::light_mount_with_compliance(compliance);
         for v in [8.0, 16.0, 32.0, 64.0] {
             let (_, out) = trace(&p, &contact, 100.0, v, |t| (v * t, v), |_| face)?;
             println!(

@@ -47,6 +47,12 @@ impl StickSlip {
     pub const LIGHT_MOUNT: StickSlip =
         StickSlip { static_excess: 0.2, mount_stiffness_n_per_m: 3e4, mount_mass_kg: 1.0, mount_damping_ratio: 0.1 };
 
+    /// [`StickSlip::LIGHT_MOUNT`] with the mount's compliance set instead, in um per N (the axis
+    /// `braille robustness` sweeps and `braille simulate --mount-compliance-um-per-n` takes).
+    pub fn light_mount_with_compliance(um_per_n: f64) -> StickSlip {
+        StickSlip { mount_stiffness_n_per_m: 1e6 / um_per_n, ..StickSlip::LIGHT_MOUNT }
+    }
+
     pub fn validate(&self) -> Result<()> {
         check("stick_slip.static_excess", self.static_excess, 0.0..=2.0, "in [0, 2]")?;
         check("stick_slip.mount_stiffness_n_per_m", self.mount_stiffness_n_per_m, 1e2..=1e9, "in [1e2, 1e9] N/m")?;

@@ -227,17 +227,8 @@ struct Motion {
 }
 
 impl Motion {
-    fn displacement(&self, t: f64) -> f64 {
-        self.terms.iter().fold(self.v * t, |s, &(a, w, phase)| {
-            if a == 0.0 || w == 0.0 { s } else { s + a * self.v / w * (phase.cos() - (w * t + phase).cos()) }
-        })
-    }
-
-    fn speed(&self, t: f64) -> f64 {
-        self.terms.iter().fold(self.v, |v, &(a, w, phase)| v + self.v * a * (w * t + phase).sin())
-    }
-
-    /// Displacement and speed at once (one `sin_cos` per term).
+    /// The arm's displacement and speed at `t` (one `sin_cos` per swing; a swing of zero
+    /// amplitude or frequency adds nothing).
     fn displacement_and_speed(&self, t: f64) -> (f64, f64) {
         self.terms.iter().fold((self.v * t, self.v), |(s, v), &(a, w, phase)| {
             if a == 0.0 || w == 0.0 {
@@ -257,7 +248,8 @@ impl Motion {
         }
         let mut t = s / self.v;
         for _ in 0..8 {
-            t -= (self.displacement(t) - s) / self.speed(t);
+            let (d, v) = self.displacement_and_speed(t);
+            t -= (d - s) / v;
         }
         t
     }
@@ -1274,7 +1266,7 @@ mod tests {
     fn motion_inverts() {
         let m = Motion { v: 8.0, terms: vec![(0.03, 12.0, 1.0), (0.3, 7.0, 0.2)], trace: None };
         for s in [0.0, 1.0, 50.0, 195.0] {
-            assert!((m.displacement(m.time_of(s)) - s).abs() < 1e-9);
+            assert!((m.displacement_and_speed(m.time_of(s)).0 - s).abs() < 1e-9);
         }
     }
 

@@ -184,11 +184,10 @@ pub const CHIP_MODELS: [&str; 2] = ["speck-chars", "xylo-braille7"];
 
 /// Runs every comparison and check.
 pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
-    let file = |dir: &Path, name: &str| spec.path(dir, name);
     let mut faithful = Vec::new();
     for name in SHIPPED {
-        let a = score_model(&file(&spec.models, name), spec, progress)?;
-        let b = score_model(&file(&spec.nir_models, name), spec, progress)?;
+        let a = score_model(&spec.path(&spec.models, name), spec, progress)?;
+        let b = score_model(&spec.path(&spec.nir_models, name), spec, progress)?;
         progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
         faithful.push(FaithfulRow {
             model: name.into(),
@@ -237,8 +236,8 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
     let mut chips = Vec::new();
     let candidates: Vec<PathBuf> = CHIP_MODELS
         .iter()
-        .map(|n| file(&spec.chip_models, n))
-        .chain(["snn-raw1350", "snn-th10", "snn-chars"].iter().map(|n| file(&spec.nir_models, n)))
+        .map(|n| spec.path(&spec.chip_models, n))
+        .chain(["snn-raw1350", "snn-th10", "snn-chars"].iter().map(|n| spec.path(&spec.nir_models, n)))
         .collect();
     for path in candidates {
         let model = pipeline::models::load_snn(&path)?;
