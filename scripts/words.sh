@@ -22,6 +22,8 @@
 # TRAINER=dense|sparse trains the SNNs (default sparse beyond clean, as the `nominal` models were
 # trained; dense at clean: the `clean` models were trained with burn's autodiff, before the sparse
 # trainer became the default on 2026-11-25; docs/results/trainers.md compares the two).
+# Beyond clean, `braille calibrate-reader --write` then sets each segmentation network's operating
+# point on the validation words (docs/reading.md).
 # TRIALS sets the words report's scans per row and condition (default 30, the paper's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -47,6 +49,15 @@ if [[ "${1:-}" != "--report-only" ]]; then
   $b train --arch resnet --task segment --blank-cells "$blank" --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
     --epochs 8 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-tiny-segment.safetensors" \
     --history "$out/resnet_tiny_segment_history.json" --force --quiet
+  # Each segmentation network's operating point (threshold, shortest segment), chosen with its
+  # classifier on the validation words (VAL-WORDS, training sensor builds, validation seed) and
+  # recorded in its model file (since 2026-11-26; docs/reading.md). Not at clean, whose models
+  # are kept as they were for regression.
+  if [[ "$realism" != clean ]]; then
+    for arch in snn resnet; do
+      $b calibrate-reader --arch "$arch" "${r[@]}" --models "$models" --out "$out" --write
+    done
+  fi
 fi
 $b words-report --trials "${TRIALS:-30}" "${r[@]}" --models "$models" --out "$out"
 $b chars-report --trials 30 "${r[@]}" --models "$models" --out "$out"

@@ -55,6 +55,8 @@ pub fn run(args: Args) -> Result<()> {
         preprocess: first.preprocess.clone(),
         classes: first.classes.clone(),
         provenance,
+        // a segmentation network's operating point was calibrated for one member, not the sum
+        operating_point: None,
     };
     experiments::train::save_model(&model, &args.out, args.force)?;
     eprintln!("wrote {} ({} members)", args.out.display(), members.len());

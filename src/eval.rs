@@ -246,12 +246,21 @@ fn words(args: WordsArgs) -> Result<()> {
         let mut v = serde_json::to_value(&r)?;
         v["segmenter"] = serde_json::json!(s_path.display().to_string());
         v["classifier"] = serde_json::json!(c_path.display().to_string());
+        v["operating_point"] = serde_json::to_value(readers.operating_point())?;
         v["sensor_builds"] = serde_json::json!(
             clap::ValueEnum::to_possible_value(&args.sensor_builds).map(|v| v.get_name().to_string())
         );
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("models: {} + {}", s_path.display(), c_path.display());
+        let p = readers.operating_point();
+        println!(
+            "models: {} + {} (segmentation read above {}, characters from {} frames{})",
+            s_path.display(),
+            c_path.display(),
+            p.present_threshold,
+            p.min_frames,
+            if p.calibration.is_null() { ", the paper's point" } else { ", calibrated" }
+        );
         println!(
             "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
             r.board,

@@ -3,6 +3,7 @@
 
 mod baselines;
 mod bench;
+mod calibrate_reader;
 mod chars_report;
 mod charts;
 mod chip_report;
@@ -82,6 +83,9 @@ enum Command {
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-32 mm/s, with and
     /// without spelling (Markdown, JSON, PNG).
     WordsReport(words_report::Args),
+    /// Choose a segmentation network's operating point (threshold, shortest segment) on the
+    /// SIMULATED validation words, never a test board; `--write` records it in the model file.
+    CalibrateReader(calibrate_reader::Args),
     /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
     /// PNG); `--quick` for a fast check that it all runs.
     Report(report::Args),
@@ -126,6 +130,7 @@ fn main() -> ExitCode {
         Command::Read(a) => read::run(a),
         Command::Report(a) => report::run(a),
         Command::WordsReport(a) => words_report::run(a),
+        Command::CalibrateReader(a) => calibrate_reader::run(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
         Command::Ensemble(a) => ensemble::run(a),

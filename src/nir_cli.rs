@@ -90,12 +90,13 @@ pub fn import(args: ImportArgs) -> Result<()> {
         nir::import(&args.file, &graph, &ImportOptions { dt_s: args.dt_us as f64 * 1e-6, reset: args.reset })?;
     let net = imported.network;
     let readout = Readout::implied_by(&net);
-    let (preprocess, classes) = match &args.like {
+    // `--like`: the model's input, classes and reader operating point (a twin reads as it does)
+    let (preprocess, classes, operating_point) = match &args.like {
         Some(p) => {
             let m = SnnModel::load(p)?;
-            (m.preprocess, m.classes)
+            (m.preprocess, m.classes, m.operating_point)
         }
-        None => (serde_json::Value::Null, (0..net.n_outputs()).map(|i| i.to_string()).collect()),
+        None => (serde_json::Value::Null, (0..net.n_outputs()).map(|i| i.to_string()).collect(), None),
     };
     let model = SnnModel {
         config: SnnConfig { network: net.spec(), dt_us: args.dt_us, readout },
@@ -103,6 +104,7 @@ pub fn import(args: ImportArgs) -> Result<()> {
         preprocess,
         classes,
         provenance: serde_json::json!({ "imported_from": args.file.display().to_string(), "nir_version": graph.version }),
+        operating_point,
     };
     model.save(&args.out, args.force)?;
     eprintln!(

@@ -272,3 +272,60 @@ fn report_quick_regenerates_every_table_and_figure() {
     // the scan the report read is not left behind
     assert!(!out.join("ev_row0_16mm_s.aedat4").exists());
 }
+
+#[test]
+fn calibrate_reader_chooses_on_the_validation_words_and_records_the_point() {
+    // the `clean` SNN pair, copied: a small grid on one scan per row of the validation words
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for f in ["snn-segment.safetensors", "snn-words.safetensors"] {
+        std::fs::copy(root.join("models").join(f), dir.path().join(f)).unwrap();
+    }
+    let d = dir.path().to_str().unwrap();
+    let args = ["calibrate-reader", "--realism", "clean", "--models", d, "--out", d, "--trials", "1", "--speeds", "32"];
+    let mut a = args.to_vec();
+    a.extend(["--thresholds", "0.5,0.9", "--min-frames", "4,6", "--write"]);
+    let o = braille(&a);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("chosen for") && out.contains("recorded in"), "{out}");
+    let md = std::fs::read_to_string(dir.path().join("operating_point_snn.md")).unwrap();
+    assert!(md.contains("VAL-WORDS") && md.contains("**chosen**"), "{md}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("operating_point_snn.json")).unwrap()).unwrap();
+    assert_eq!(v["rows"].as_array().unwrap().len(), 4);
+    assert_eq!(v["spec"]["seed"], 2_000_003, "validation seed");
+    let chosen = v["chosen"]["present_threshold"].as_f64().unwrap();
+    // the reader now reads there: eval words names the point
+    let seg = dir.path().join("snn-segment.safetensors");
+    let cls = dir.path().join("snn-words.safetensors");
+    let o = braille(&[
+        "eval",
+        "words",
+        "--realism",
+        "clean",
+        "--board",
+        "text:HELP",
+        "--trials",
+        "1",
+        "--speed",
+        "32",
+        "--json",
+        "--segmenter",
+        seg.to_str().unwrap(),
+        "--classifier",
+        cls.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let e: serde_json::Value = serde_json::from_str(&text(&o).0).unwrap();
+    assert_eq!(e["operating_point"]["present_threshold"].as_f64(), Some(chosen), "{e}");
+    assert_eq!(e["operating_point"]["min_frames"], v["chosen"]["min_frames"]);
+    // --apply writes an earlier run's choice without sweeping; a file without one is refused
+    let json = dir.path().join("operating_point_snn.json");
+    let o = braille(&["calibrate-reader", "--models", d, "--apply", json.to_str().unwrap()]);
+    assert!(o.status.success() && text(&o).0.contains(&format!("threshold {chosen}")), "{:?}", text(&o));
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"chosen\": {\"present_threshold\": 2.0, \"min_frames\": 4}}").unwrap();
+    let o = braille(&["calibrate-reader", "--models", d, "--apply", bad.to_str().unwrap()]);
+    assert!(!o.status.success() && text(&o).1.contains("bad.json"), "{}", text(&o).1);
+}

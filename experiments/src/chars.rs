@@ -290,7 +290,7 @@ pub fn train_resnet(
         "peak_rss_mb": crate::peak_rss_mb(),
     });
     Ok(TrainedResnet {
-        model: ResnetModel { config, input, model, classes, provenance },
+        model: ResnetModel { config, input, model, classes, provenance, operating_point: None },
         history,
         best_val_accuracy: best,
         train_windows: train_set.len(),

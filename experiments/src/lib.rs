@@ -9,6 +9,7 @@
 
 pub mod baselines;
 pub mod bench;
+pub mod calibrate;
 pub mod chars;
 pub mod datasets;
 pub mod error;

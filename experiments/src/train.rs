@@ -258,6 +258,7 @@ pub fn train_on(
         provenance: provenance(r, &fit, extra),
         config: fit.config.clone(),
         network: fit.network.clone(),
+        operating_point: None,
     };
     let n = scored.as_ref().map_or(0, |s| s.n);
     Ok(fit.into_trained(model, summary, scored.map(|s| s.accuracy), n))
@@ -321,6 +322,8 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         ),
         config: fit.config.clone(),
         network: fit.network.clone(),
+        // set by `braille calibrate-reader` on the validation words, for a segmentation network
+        operating_point: None,
     };
     Ok(fit.into_trained(model, summary, Some(scored.accuracy), scored.n))
 }

@@ -308,6 +308,9 @@ pub struct ReadSummary {
     pub arch: Arch,
     pub spell: Spell,
     pub timing: Timing,
+    /// Where the segmentation network was read (its model file's calibrated point, or the
+    /// paper's).
+    pub operating_point: pipeline::reader::OperatingPoint,
     /// The speed the reader was reading at when the stream ended (its estimate, with estimated
     /// timing).
     pub speed_mm_s: Option<f64>,
@@ -382,6 +385,7 @@ pub fn read_source(
         arch: readers.classifier.arch(),
         spell,
         timing,
+        operating_point: readers.operating_point().clone(),
         speed_mm_s: stats.speed_mm_s,
         text: text.into_iter().collect::<Vec<_>>().join(" "),
         stream_s: first.map_or(0.0, |f| (last - f) as f64 / 1e6),

@@ -51,6 +51,8 @@ enum Runner {
 pub struct WindowModel {
     runner: Runner,
     classes: Vec<String>,
+    /// A segmentation network's operating point, from its model file (`None`: never calibrated).
+    operating_point: Option<crate::reader::OperatingPoint>,
 }
 
 /// What one stream keeps of one model between windows: the engine's neuron state or the sliding
@@ -144,7 +146,7 @@ impl Histogram {
 impl WindowModel {
     /// A ResNet (in evaluation mode) whose input is made as `input` says.
     pub fn resnet(model: Resnet, input: CharInput, classes: Vec<String>) -> WindowModel {
-        WindowModel { runner: Runner::Resnet { model, input }, classes }
+        WindowModel { runner: Runner::Resnet { model, input }, classes, operating_point: None }
     }
 
     /// An SNN whose input spikes are made as `input` says.
@@ -164,17 +166,38 @@ impl WindowModel {
             }
             SnnRunner::Sliding => Runner::Sliding { net: Sliding::new(&model.network)?, model, input },
         };
-        Ok(WindowModel { runner, classes })
+        Ok(WindowModel { runner, classes, operating_point: None })
     }
 
     /// A loaded model that reads character windows (`path` names it in errors).
     pub fn from_model(model: Model, path: &Path, runner: SnnRunner) -> Result<WindowModel> {
         let input = model.char_input(path)?;
-        match model {
-            Model::Resnet(m) => Ok(WindowModel::resnet(m.model, m.input, m.classes)),
-            Model::Snn(m) => WindowModel::snn(m, input, runner)
-                .map_err(|e| Error::Model { path: path.to_path_buf(), what: e.to_string() }),
-        }
+        let bad = |what: String| Error::Model { path: path.to_path_buf(), what };
+        let operating_point = match model.operating_point() {
+            Some(v) => {
+                let p: crate::reader::OperatingPoint =
+                    serde_json::from_value(v.clone()).map_err(|e| bad(format!("header `operating_point`: {e}")))?;
+                p.validate().map_err(|e| bad(format!("header `operating_point`: {e}")))?;
+                Some(p)
+            }
+            None => None,
+        };
+        let m = match model {
+            Model::Resnet(m) => WindowModel::resnet(m.model, m.input, m.classes),
+            Model::Snn(m) => WindowModel::snn(m, input, runner).map_err(|e| bad(e.to_string()))?,
+        };
+        Ok(m.with_operating_point(operating_point))
+    }
+
+    /// The same model read at `point` (`None`: the paper's point).
+    pub fn with_operating_point(self, point: Option<crate::reader::OperatingPoint>) -> WindowModel {
+        WindowModel { operating_point: point, ..self }
+    }
+
+    /// The operating point its model file records for a reader (a calibrated segmentation
+    /// network), if any.
+    pub fn operating_point(&self) -> Option<&crate::reader::OperatingPoint> {
+        self.operating_point.as_ref()
     }
 
     /// A model file of either architecture trained on character windows.
@@ -378,12 +401,19 @@ impl ReaderModels {
         Ok(ReaderModels { segmenter: seg, classifier: cls })
     }
 
-    /// The reader's configuration with this timing and the models' windowing.
+    /// The reader's configuration with this timing, the models' windowing and the segmentation
+    /// network's operating point (the paper's if its file records none).
     pub fn config(&self, timing: crate::reader::Timing) -> crate::reader::ReaderConfig {
         crate::reader::ReaderConfig {
             labeler: self.classifier.input().labeler.clone(),
             ..crate::reader::ReaderConfig::new(timing)
         }
+        .with_operating_point(self.operating_point())
+    }
+
+    /// Where the reader reads the segmentation network.
+    pub fn operating_point(&self) -> &crate::reader::OperatingPoint {
+        self.segmenter.operating_point().unwrap_or(&crate::reader::OperatingPoint::PAPER)
     }
 
     /// Reads a whole stream of events in memory.

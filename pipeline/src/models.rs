@@ -14,6 +14,8 @@ pub struct ResnetModel {
     pub model: Resnet,
     pub classes: Vec<String>,
     pub provenance: serde_json::Value,
+    /// Where a reader reads a segmentation network's output (JSON owned by the reader).
+    pub operating_point: Option<serde_json::Value>,
 }
 
 fn bad(path: &Path, what: impl Into<String>) -> Error {
@@ -30,6 +32,7 @@ impl ResnetModel {
             preprocess: json(serde_json::to_value(&self.input))?,
             classes: self.classes.clone(),
             provenance: self.provenance.clone(),
+            operating_point: self.operating_point.clone(),
             tensors: learn::resnet::to_tensors(&self.model)?,
         }
         .write(path, force)?;
@@ -56,7 +59,14 @@ impl ResnetModel {
             ));
         }
         let model = learn::resnet::from_tensors(&config, &f.tensors).map_err(|e| bad(path, e.to_string()))?;
-        Ok(ResnetModel { config, input, model, classes: f.classes, provenance: f.provenance })
+        Ok(ResnetModel {
+            config,
+            input,
+            model,
+            classes: f.classes,
+            provenance: f.provenance,
+            operating_point: f.operating_point,
+        })
     }
 }
 
@@ -97,6 +107,30 @@ impl Model {
         match self {
             Model::Resnet(m) => &m.classes,
             Model::Snn(m) => &m.classes,
+        }
+    }
+
+    /// The reader's operating point its file records (a calibrated segmentation network).
+    pub fn operating_point(&self) -> Option<&serde_json::Value> {
+        match self {
+            Model::Resnet(m) => m.operating_point.as_ref(),
+            Model::Snn(m) => m.operating_point.as_ref(),
+        }
+    }
+
+    /// Sets the operating point (`braille calibrate-reader --write`).
+    pub fn set_operating_point(&mut self, point: Option<serde_json::Value>) {
+        match self {
+            Model::Resnet(m) => m.operating_point = point,
+            Model::Snn(m) => m.operating_point = point,
+        }
+    }
+
+    /// Writes the model file (atomically; an existing file is kept unless `force`).
+    pub fn save(&self, path: &Path, force: bool) -> Result<()> {
+        match self {
+            Model::Resnet(m) => m.save(path, force),
+            Model::Snn(m) => Ok(m.save(path, force)?),
         }
     }
 

@@ -169,6 +169,43 @@ pub enum ReadOutput {
     Word(ReadWord),
 }
 
+/// Where a reader reads a segmentation network: the probability of "character" above which a
+/// frame is a detection, and the fewest detections in a row (frames) that make a character. The
+/// paper's are 0.5 and 4 ([`OperatingPoint::PAPER`]). A segmentation network's own point is
+/// chosen on validation data (`braille calibrate-reader`) and kept in its model file, so every
+/// reader of that network reads it there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OperatingPoint {
+    pub present_threshold: f32,
+    pub min_frames: usize,
+    /// How the point was chosen (data, rule, scores): informative.
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub calibration: serde_json::Value,
+}
+
+impl OperatingPoint {
+    /// The paper's: a detection above 0.5, a character from 4 detections.
+    pub const PAPER: OperatingPoint =
+        OperatingPoint { present_threshold: 0.5, min_frames: 4, calibration: serde_json::Value::Null };
+
+    /// Checks the values: a threshold in [0, 1) and at least one frame.
+    pub fn validate(&self) -> Result<()> {
+        if !(0.0..1.0).contains(&self.present_threshold) || self.min_frames == 0 {
+            return Err(Error::Config(format!(
+                "an operating point needs a threshold in [0, 1) and at least one frame, got {} and {}",
+                self.present_threshold, self.min_frames
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl Default for OperatingPoint {
+    fn default() -> Self {
+        OperatingPoint::PAPER
+    }
+}
+
 /// Where the reader's bin length and filter durations come from. The labeler's durations are
 /// given at a reference speed (the paper's 10 ms bins, 70 ms segment gap and 1 s word gap at
 /// 8 mm/s) and scale by `reference / speed`.
@@ -287,8 +324,8 @@ impl ReaderConfig {
             estimator: SpeedEstimatorConfig::default(),
             hold_ms: default_hold_ms(),
             retune_fraction: default_retune_fraction(),
-            filter: TemporalFilterConfig::default(),
-            present_threshold: 0.5,
+            filter: TemporalFilterConfig { min_frames: OperatingPoint::PAPER.min_frames, ..Default::default() },
+            present_threshold: OperatingPoint::PAPER.present_threshold,
             max_word_chars: default_max_word_chars(),
         }
     }
@@ -296,6 +333,13 @@ impl ReaderConfig {
     /// A reader told the speed (the tests', and an oracle's).
     pub fn at_speed(speed_mm_s: f64) -> ReaderConfig {
         ReaderConfig::new(Timing::Given { speed_mm_s })
+    }
+
+    /// Reads the segmentation network at `point` (its threshold and shortest segment).
+    pub fn with_operating_point(mut self, point: &OperatingPoint) -> ReaderConfig {
+        self.present_threshold = point.present_threshold;
+        self.filter.min_frames = point.min_frames;
+        self
     }
 
     /// The filter's durations at `speed_mm_s`.

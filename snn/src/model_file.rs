@@ -10,6 +10,7 @@
 //! | `preprocess` | how input is encoded (JSON, owned by the trainer) |
 //! | `classes` | class names by label (JSON list) |
 //! | `provenance` | how the model was trained (JSON, informative) |
+//! | `operating_point` | optional: where a reader reads a segmentation network's output (JSON, owned by the reader, set by its calibration on validation data) |
 //!
 //! Loading checks all of them, every tensor's shape against the config, and that every value is
 //! finite; a failure names the file and the key or tensor.
@@ -66,6 +67,8 @@ pub struct ModelFile {
     pub preprocess: serde_json::Value,
     pub classes: Vec<String>,
     pub provenance: serde_json::Value,
+    /// Optional: how a reader reads the model's output (JSON owned by the reader).
+    pub operating_point: Option<serde_json::Value>,
     pub tensors: Vec<NamedTensor>,
 }
 
@@ -87,7 +90,7 @@ impl ModelFile {
     /// unless `force`.
     pub fn write(&self, path: &Path, force: bool) -> Result<()> {
         let json = |v: &serde_json::Value| v.to_string();
-        let meta = HashMap::from([
+        let mut meta = HashMap::from([
             ("format".to_string(), FORMAT.to_string()),
             ("format_version".to_string(), FORMAT_VERSION.to_string()),
             ("arch".to_string(), self.arch.name().to_string()),
@@ -96,6 +99,9 @@ impl ModelFile {
             ("classes".to_string(), serde_json::to_string(&self.classes).expect("strings serialise")),
             ("provenance".to_string(), json(&self.provenance)),
         ]);
+        if let Some(p) = &self.operating_point {
+            meta.insert("operating_point".to_string(), json(p));
+        }
         let bytes: Vec<(String, Vec<u8>, Vec<usize>)> = self
             .tensors
             .iter()
@@ -189,6 +195,10 @@ impl ModelFile {
             preprocess: json("preprocess")?,
             classes,
             provenance: meta.get("provenance").and_then(|p| serde_json::from_str(p).ok()).unwrap_or_default(),
+            operating_point: match meta.get("operating_point") {
+                Some(_) => Some(json("operating_point")?),
+                None => None,
+            },
             tensors,
         })
     }
@@ -258,6 +268,9 @@ pub struct SnnModel {
     pub preprocess: serde_json::Value,
     pub classes: Vec<String>,
     pub provenance: serde_json::Value,
+    /// Where a reader reads the output of a segmentation network (JSON owned by the reader);
+    /// `None` for other models, and for a segmentation network never calibrated.
+    pub operating_point: Option<serde_json::Value>,
 }
 
 impl SnnModel {
@@ -281,6 +294,7 @@ impl SnnModel {
             preprocess: self.preprocess.clone(),
             classes: self.classes.clone(),
             provenance: self.provenance.clone(),
+            operating_point: self.operating_point.clone(),
             tensors,
         }
         .write(path, force)
@@ -335,6 +349,7 @@ impl SnnModel {
             preprocess: file.preprocess,
             classes: file.classes,
             provenance: file.provenance,
+            operating_point: file.operating_point,
         })
     }
 }
@@ -370,6 +385,7 @@ mod tests {
             preprocess: serde_json::json!({"sigma_delta": 2}),
             classes: vec!["a".into(), "b".into()],
             provenance: serde_json::json!({"seed": 1}),
+            operating_point: Some(serde_json::json!({"present_threshold": 0.7})),
         }
     }
 

@@ -1,0 +1,113 @@
+//! `braille calibrate-reader`: a segmentation network's operating point (threshold, shortest
+//! segment) chosen on the validation words, written as Markdown and JSON, and with `--write`
+//! into the network's model file, where every reader of it reads it.
+
+use crate::common::Bar;
+use anyhow::{Context, Result};
+use experiments::calibrate::{CalibrationSpec, calibrate, markdown};
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::OperatingPoint;
+use snn::model_file::Arch;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The architecture whose shipped pair is calibrated (its segmentation network and the
+    /// classifier that reads words with it).
+    #[arg(long, value_enum, default_value_t = Arch::Snn)]
+    arch: Arch,
+    /// The folder of the architecture's pair [default: the models trained at `--realism`].
+    #[arg(long)]
+    models: Option<PathBuf>,
+    /// The segmentation network [default: the architecture's in the models folder].
+    #[arg(long)]
+    segmenter: Option<PathBuf>,
+    /// The character classifier read with it [default: the architecture's].
+    #[arg(long)]
+    classifier: Option<PathBuf>,
+    /// Scans per row of the validation words and speed.
+    #[arg(long, default_value_t = 12)]
+    trials: u64,
+    /// Speeds, mm/s.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64")]
+    speeds: Vec<f64>,
+    /// Thresholds of the segmentation network's "character" probability.
+    #[arg(long, value_delimiter = ',', default_value = "0.3,0.4,0.5,0.6,0.7,0.8,0.85,0.9,0.95")]
+    thresholds: Vec<f32>,
+    /// Shortest segments, in frames.
+    #[arg(long, value_delimiter = ',', default_value = "2,3,4,5,6,8,10,12")]
+    min_frames: Vec<usize>,
+    /// Write `operating_point_ARCH.md` and `.json` here [default: docs/results/REALISM/, or
+    /// docs/results/ at `clean`].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Record the chosen point in the segmentation network's model file (its weights unchanged).
+    #[arg(long)]
+    write: bool,
+    /// Sweep nothing: record the point chosen by an earlier run (its `operating_point_ARCH.json`)
+    /// in the segmentation network's model file.
+    #[arg(long, conflicts_with = "write")]
+    apply: Option<PathBuf>,
+    #[command(flatten)]
+    realism: crate::common::RealismArg,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let dir = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
+    let (s, c) = experiments::words::default_models(args.arch, &dir);
+    let s_path = args.segmenter.clone().unwrap_or(s);
+    let c_path = args.classifier.clone().unwrap_or(c);
+    if let Some(json) = &args.apply {
+        let text = std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
+        let r: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("parsing {}", json.display()))?;
+        let chosen: OperatingPoint = serde_json::from_value(r["chosen"].clone())
+            .with_context(|| format!("{}: `chosen` is not an operating point", json.display()))?;
+        chosen.validate().with_context(|| format!("{}: `chosen`", json.display()))?;
+        return record(&s_path, &chosen);
+    }
+    let models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
+    let spec = CalibrationSpec {
+        trials: args.trials,
+        speeds_mm_s: args.speeds.clone(),
+        thresholds: args.thresholds.clone(),
+        min_frames: args.min_frames.clone(),
+        ..CalibrationSpec::validation(args.realism.realism)
+    };
+    let name =
+        |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let r = calibrate(&models, &name(&s_path), &name(&c_path), &spec, &Bar::default())?;
+    let out = args.out.clone().unwrap_or_else(|| match args.realism.realism {
+        sim::Realism::Clean => crate::common::repo_path("docs/results"),
+        real => crate::common::repo_path(&format!("docs/results/{real}")),
+    });
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let stem = out.join(format!("operating_point_{}", args.arch));
+    let md = markdown(&r);
+    std::fs::write(stem.with_extension("md"), &md).with_context(|| format!("writing {}.md", stem.display()))?;
+    std::fs::write(stem.with_extension("json"), serde_json::to_string_pretty(&r)? + "\n")
+        .with_context(|| format!("writing {}.json", stem.display()))?;
+    println!(
+        "chosen for {}: threshold {}, {} frames (mean word accuracy {:.3} without spelling, {:.3} with the lexicon); {}.md",
+        s_path.display(),
+        r.chosen.present_threshold,
+        r.chosen.min_frames,
+        r.chosen.calibration["mean_word_accuracy_none"].as_f64().unwrap_or(f64::NAN),
+        r.chosen.calibration["mean_word_accuracy_lexicon"].as_f64().unwrap_or(f64::NAN),
+        stem.display()
+    );
+    if args.write {
+        record(&s_path, &r.chosen)?;
+    }
+    Ok(())
+}
+
+/// Writes `point` into the model file at `path` (header only; the weights are written back as
+/// they were read).
+fn record(path: &std::path::Path, point: &OperatingPoint) -> Result<()> {
+    let mut m = pipeline::models::load(path)?;
+    m.set_operating_point(Some(serde_json::to_value(point)?));
+    m.save(path, true)?;
+    println!("recorded in {}: threshold {}, {} frames", path.display(), point.present_threshold, point.min_frames);
+    Ok(())
+}
