@@ -8,6 +8,8 @@
 # minutes on two cores. --warmup-steps 0: the search of docs/results/search/sim-taxels ran before
 # the learning-rate warm-up joined the derived recipe (2026-11-25); `--defaults` runs it with
 # today's defaults, warm-up included (docs/results/search/sim-taxels-warmup, 2026-11-25).
+# Both ran with a 40-minute budget that did not bind; the trial count alone (16) reproduces them
+# on any machine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -19,5 +21,5 @@ mkdir -p "$l" models/search
 $b sim-dataset --out $d --force
 cp $d/dataset.json $l/dataset.json
 $b baselines --data $d --eval-test > $l/baselines.md
-$b train --data $d "${warmup[@]}" --search --search-trials 16 --budget-min 40 --seeds 3 --eval-test \
+$b train --data $d "${warmup[@]}" --search --search-trials 16 --seeds 3 --eval-test \
   --out models/search/$name.safetensors --search-dir $l --quiet --force

@@ -8,8 +8,8 @@ use experiments::chars::{ResnetPreset, ResnetTraining};
 use experiments::datasets::Task;
 use experiments::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice, TrainerChoice};
 use experiments::search::{
-    DataProfile, SearchObserver, SearchSpace, Shard, Trial, derived_recipe, final_models, final_recipe, read_logs,
-    report_markdown, run_combination, run_trials, trials_markdown, winner,
+    Budget, DataProfile, SearchObserver, SearchSpace, Shard, Trial, derived_recipe, final_models, final_recipe,
+    read_logs, report_markdown, run_combination, run_trials, trials_markdown, winner,
 };
 use experiments::train::{EvalTest, TactileData, train_on};
 use pipeline::augment::Preprocess;
@@ -34,7 +34,9 @@ pub struct Args {
     /// training split), then the winner retrained on the whole training split once per seed.
     #[arg(long)]
     search: bool,
-    /// --search: start no trial after this many minutes.
+    /// --search: the whole search's time budget, in minutes: a trial starts only if it, the
+    /// combination trial and the final models are expected to end within it (each trial taking
+    /// the mean time of those run so far). With --shard: the shard's trials only.
     #[arg(long)]
     budget_min: Option<f64>,
     /// --search / --collect: the final models' seeds, 1..=K (the first is written to --out, seed K
@@ -457,7 +459,10 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
     eprintln!("{profile}");
     let data = TactileData::encode(dataset, base)?;
     if args.search {
-        let budget = args.budget_min.map(|m| std::time::Duration::from_secs_f64(60.0 * m.max(0.0)));
+        let budget = args.budget_min.map(|m| {
+            let total = std::time::Duration::from_secs_f64(60.0 * m.max(0.0));
+            if finishing { Budget::finishing(total, &space, args.seeds) } else { Budget::shard(total) }
+        });
         let ran = run_trials(&data, profile, base, &space, shard, &dir, budget, &mut TrialLines { quiet: args.quiet })?;
         if !finishing {
             println!("{}", trials_markdown(&ran));

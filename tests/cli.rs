@@ -634,6 +634,11 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     // a rerun of a shard finds its trials logged and runs none again
     let o = search("3", "1/2", &logs, &[]);
     assert!(o.status.success() && !text(&o).1.contains("trial 1/3:"), "{}", text(&o).1);
+    // a budget spent before the first trial: that trial alone (of the shard's two)
+    let o = search("3", "0/2", &dir.path().join("logs3"), &["--budget-min", "0"]);
+    let (table, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(table.lines().filter(|l| l.starts_with("| ") && l.as_bytes()[2].is_ascii_digit()).count(), 1, "{table}");
     // trials of another dataset are refused
     let other = dir.path().join("other");
     tiny_event_dataset(&other, 4);

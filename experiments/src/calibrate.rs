@@ -17,7 +17,9 @@ use crate::Result;
 use crate::datasets::{VALIDATION_SEED, World, validation_words_board};
 use crate::scoring::WordMetrics;
 use pipeline::classify::{ReaderModels, WindowModel, WindowState};
-use pipeline::reader::{OperatingPoint, ReaderConfig, Spell, Speller, Timing, Window, WindowClassifier, read_all};
+use pipeline::reader::{
+    OperatingPoint, ReaderConfig, Spell, Speller, Timing, Window, WindowClassifier, f32_as_printed, read_all,
+};
 use rayon::prelude::*;
 use serde::Serialize;
 use sim::{BoardKind, Realism};
@@ -218,7 +220,7 @@ pub fn calibrate(
             "rule": RULE,
             "mean_word_accuracy_none": b.mean_none,
             "mean_word_accuracy_lexicon": b.mean_lexicon,
-            "grid": { "thresholds": spec.thresholds, "min_frames": spec.min_frames },
+            "grid": { "thresholds": spec.thresholds.iter().map(|&t| f32_as_printed(t)).collect::<Vec<_>>(), "min_frames": spec.min_frames },
         }),
     };
     Ok(Calibration {
@@ -253,6 +255,7 @@ pub fn choose(rows: &[CalibrationRow]) -> usize {
 /// The grid as Markdown.
 pub fn markdown(c: &Calibration) -> String {
     let s = &c.spec;
+    let best = choose(&c.rows);
     let speeds: Vec<String> = s.speeds_mm_s.iter().map(|v| format!("{v} mm/s")).collect();
     let mut md = format!(
         "# The reader's operating point: {} (SIMULATED)\n\nSegmentation network `{}`, character classifier `{}`. Scans: `VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board. Each cell: word accuracy over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
@@ -270,12 +273,11 @@ pub fn markdown(c: &Calibration) -> String {
         c.rule,
         c.chosen.present_threshold,
         c.chosen.min_frames,
-        c.rows[choose(&c.rows)].mean_none,
-        c.rows[choose(&c.rows)].mean_lexicon,
+        c.rows[best].mean_none,
+        c.rows[best].mean_lexicon,
     );
     md += &format!("| threshold | min frames | {} | mean, none | mean, lexicon |\n", speeds.join(" | "));
     md += &format!("|{}\n", " --- |".repeat(4 + speeds.len()));
-    let best = choose(&c.rows);
     for (k, r) in c.rows.iter().enumerate() {
         let cells: Vec<String> = r.none.iter().zip(&r.lexicon).map(|(a, b)| format!("{a:.3} / {b:.3}")).collect();
         let mark = if k == best {

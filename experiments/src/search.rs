@@ -486,8 +486,44 @@ impl Observer for EpochsTo<'_> {
     }
 }
 
+/// A search's time budget, counted from the start of this process's trials. A trial starts only
+/// if it and the work kept for after the trials (`reserve_trials`, in trials) are expected to end
+/// within `total`, every trial expected to take the mean time of the trials logged so far (the
+/// first trial always starts: without it there is no winner).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Budget {
+    pub total: std::time::Duration,
+    /// The time kept for after the trials, in trials.
+    pub reserve_trials: f64,
+}
+
+impl Budget {
+    /// For a search that ends in this process: the combination trial (one trial), then `seeds`
+    /// final models. A final model trains one seed, a trial `trial_seeds`, on the whole training
+    /// split, `1 / (1 - val_fraction)` times a trial's samples, for the winner's epochs (at most a
+    /// trial's).
+    pub fn finishing(total: std::time::Duration, space: &SearchSpace, seeds: u64) -> Budget {
+        let final_models = seeds.max(1) as f64 / space.trial_seeds.max(1) as f64 / (1.0 - space.val_fraction).max(0.1);
+        Budget { total, reserve_trials: 1.0 + final_models }
+    }
+
+    /// For one shard of a job array: its trials only (`--collect` runs the rest).
+    pub fn shard(total: std::time::Duration) -> Budget {
+        Budget { total, reserve_trials: 0.0 }
+    }
+
+    /// Whether a trial may start `elapsed` into the budget, trials having taken `mean` each.
+    pub fn allows(&self, elapsed: std::time::Duration, mean: Option<std::time::Duration>) -> bool {
+        match mean {
+            None => true,
+            Some(m) => elapsed + m.mul_f64(1.0 + self.reserve_trials) <= self.total,
+        }
+    }
+}
+
 /// Runs this shard's trials on `data` (encoded with `base`), logging each to `dir` as it ends.
-/// Trials already in the logs are not run again; no trial starts after `budget` has passed.
+/// Trials already in the logs are not run again; a trial starts only if the `budget` allows it
+/// ([`Budget::allows`]).
 #[allow(clippy::too_many_arguments)]
 pub fn run_trials(
     data: &TactileData,
@@ -496,7 +532,7 @@ pub fn run_trials(
     space: &SearchSpace,
     shard: Shard,
     dir: &Path,
-    budget: Option<std::time::Duration>,
+    budget: Option<Budget>,
     observer: &mut dyn SearchObserver,
 ) -> Result<Vec<Trial>> {
     space.check()?;
@@ -525,7 +561,16 @@ pub fn run_trials(
             ran.push(t.clone());
             continue;
         }
-        if budget.is_some_and(|b| started.elapsed() >= b) {
+        // every trial this search has timed: the logged ones and this process's
+        let timed: Vec<f64> = done
+            .iter()
+            .filter(|t| !ran.iter().any(|r: &Trial| r.trial == t.trial))
+            .chain(&ran)
+            .map(|t| t.seconds)
+            .collect();
+        let mean = (!timed.is_empty())
+            .then(|| std::time::Duration::from_secs_f64(timed.iter().sum::<f64>() / timed.len() as f64));
+        if budget.is_some_and(|b| !b.allows(started.elapsed(), mean)) {
             break;
         }
         ran.push(run_point(data, profile, k, points.len(), *p, base, space, shard, dir, observer)?);
@@ -796,6 +841,23 @@ pub fn report_markdown(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_budget_keeps_time_for_the_combination_and_the_final_models() {
+        use std::time::Duration;
+        let min = |m: f64| Duration::from_secs_f64(60.0 * m);
+        let space = SearchSpace::default(); // 3 seeds per trial, 20% held out
+        let b = Budget::finishing(min(60.0), &space, 3);
+        // the combination, then 3 one-seed final models on 1.25x the samples: 2.25 trials
+        assert!((b.reserve_trials - 2.25).abs() < 1e-9, "{}", b.reserve_trials);
+        assert!(b.allows(min(61.0), None), "the first trial always starts");
+        // 4-minute trials: one more fits until 60 - 4 x 3.25 = 47 minutes
+        assert!(b.allows(min(46.9), Some(min(4.0))));
+        assert!(!b.allows(min(47.1), Some(min(4.0))));
+        // a shard keeps nothing back
+        let s = Budget::shard(min(60.0));
+        assert!(s.allows(min(55.9), Some(min(4.0))) && !s.allows(min(56.1), Some(min(4.0))));
+    }
 
     #[test]
     fn nice_floor_takes_the_1_2_5_value_below() {

@@ -176,6 +176,7 @@ pub enum ReadOutput {
 /// reader of that network reads it there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OperatingPoint {
+    #[serde(serialize_with = "serialize_as_printed")]
     pub present_threshold: f32,
     pub min_frames: usize,
     /// How the point was chosen (data, rule, scores): informative.
@@ -198,6 +199,16 @@ impl OperatingPoint {
         }
         Ok(())
     }
+}
+
+/// An `f32` as the `f64` of its shortest decimal form (0.95 stays 0.95 where `as f64` gives
+/// 0.949999988079071): for JSON built through `serde_json::Value`, which holds only `f64`.
+pub fn f32_as_printed(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+fn serialize_as_printed<S: serde::Serializer>(x: &f32, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_f64(f32_as_printed(*x))
 }
 
 impl Default for OperatingPoint {
@@ -858,6 +869,16 @@ pub fn read_all<S: WindowClassifier, C: WindowClassifier>(
 mod tests {
     use super::*;
     use encoders::Polarity;
+
+    #[test]
+    fn an_operating_point_keeps_its_threshold_as_written_through_a_json_value() {
+        let p = OperatingPoint { present_threshold: 0.95, ..OperatingPoint::PAPER };
+        let v = serde_json::to_value(&p).unwrap();
+        assert_eq!(v["present_threshold"].as_f64(), Some(0.95));
+        let back: OperatingPoint = serde_json::from_value(v).unwrap();
+        assert_eq!(back, p);
+        assert_eq!(f32_as_printed(0.3), 0.3);
+    }
 
     /// A segmenter that sees a character when the window holds at least `min` events, and a
     /// classifier that reads the letter from the newest non-empty bin's first column (A + col % 26).
