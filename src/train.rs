@@ -459,8 +459,13 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
     eprintln!("{profile}");
     let data = TactileData::encode(dataset, base)?;
     if args.search {
+        if let Some(m) = args.budget_min
+            && !(m.is_finite() && m >= 0.0)
+        {
+            bail!("--budget-min: expected a number of minutes, 0 or more, got {m}");
+        }
         let budget = args.budget_min.map(|m| {
-            let total = std::time::Duration::from_secs_f64(60.0 * m.max(0.0));
+            let total = std::time::Duration::from_secs_f64(60.0 * m);
             if finishing { Budget::finishing(total, &space, args.seeds) } else { Budget::shard(total) }
         });
         let ran = run_trials(&data, profile, base, &space, shard, &dir, budget, &mut TrialLines { quiet: args.quiet })?;

@@ -639,6 +639,8 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let (table, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert_eq!(table.lines().filter(|l| l.starts_with("| ") && l.as_bytes()[2].is_ascii_digit()).count(), 1, "{table}");
+    let o = search("3", "0/2", &dir.path().join("logs4"), &["--budget-min", "inf"]);
+    assert!(!o.status.success() && text(&o).1.contains("--budget-min: expected"), "{}", text(&o).1);
     // trials of another dataset are refused
     let other = dir.path().join("other");
     tiny_event_dataset(&other, 4);
