@@ -12,7 +12,9 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::{Spell, Speller, Timing, read_all};
+use pipeline::shipped::{Preset, Shipped};
 use sim::{Board, BoardGeometry, BoardKind, ScanConfig};
+use snn::model_file::Arch;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -35,18 +37,13 @@ fn scan(realism: sim::Realism) -> sim::Scan {
     sim::simulate(&board, &sensor, &setup.scan(SPEED_MM_S, 1.5, 0, 7)).expect("simulated scan")
 }
 
-/// The shipped reader of an architecture at a preset (`models/` at `clean`, `models/REALISM/`
-/// beyond), loaded by the one model loader.
-fn models(arch: &str, realism: sim::Realism) -> ReaderModels {
-    let mut root = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    if realism != sim::Realism::Clean {
-        root = root.join(realism.to_string());
-    }
-    let (s, c) = match arch {
-        "snn" => ("snn-segment.safetensors", "snn-words.safetensors"),
-        _ => ("resnet-tiny-segment.safetensors", "resnet-lite-normaug-words.safetensors"),
-    };
-    ReaderModels::load(&root.join(s), &root.join(c), SnnRunner::Sliding).expect("shipped models")
+/// The shipped reader of an architecture at a preset (`pipeline::shipped`), loaded by the one
+/// model loader.
+fn models(arch: Arch, realism: sim::Realism) -> ReaderModels {
+    let shipped = Shipped::at(Path::new(env!("CARGO_MANIFEST_DIR")).join("models"));
+    let preset = Preset::of_name(&realism.to_string()).expect("a preset with shipped models");
+    let r = shipped.reader(preset, arch);
+    ReaderModels::load(&r.segmenter, &r.classifier, SnnRunner::Sliding).expect("shipped models")
 }
 
 fn reading(c: &mut Criterion) {
@@ -61,9 +58,9 @@ fn reading(c: &mut Criterion) {
         // `clean` keeps its old names (the history in docs/reading.md); `nominal` is prefixed.
         let prefix = if realism == sim::Realism::Clean { String::new() } else { format!("{realism}_") };
         for (arch, timing, suffix) in [
-            ("snn", Timing::ESTIMATED, ""),
-            ("resnet", Timing::ESTIMATED, ""),
-            ("snn", Timing::Given { speed_mm_s: SPEED_MM_S }, "_given"),
+            (Arch::Snn, Timing::ESTIMATED, ""),
+            (Arch::Resnet, Timing::ESTIMATED, ""),
+            (Arch::Snn, Timing::Given { speed_mm_s: SPEED_MM_S }, "_given"),
         ] {
             let m = models(arch, realism);
             let cfg = m.config(timing);

@@ -19,8 +19,8 @@ $b sim-check --json --plot docs/results/sim_check_dot_lag.png > docs/results/sim
 cargo run --release --quiet -p sim --example stick_slip > docs/results/stick_slip.md
 # The labeling pipeline against the simulator's ground truth: the test scans at both presets, and
 # the validation boards (where its settings are chosen).
-$b label-check --realism clean > docs/results/label_check.md
+$b label-check --realism clean > docs/results/clean/label_check.md
 $b label-check --realism nominal > docs/results/nominal/label_check.md
-$b label-check --realism clean --boards validation --trials 10 > docs/results/label_check_val.md
+$b label-check --realism clean --boards validation --trials 10 > docs/results/clean/label_check_val.md
 $b label-check --realism nominal --boards validation --trials 10 > docs/results/nominal/label_check_val.md
 echo "wrote docs/results/scan_ev_row0.png docs/results/sim_check.{md,json} docs/results/sim_check_dot_lag.png docs/results/stick_slip.md docs/results/{,nominal/}label_check{,_val}.md"

@@ -15,7 +15,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 realism="${REALISM:-nominal}"
-if [[ "$realism" == clean ]]; then models=models; out=docs/results; else models="models/$realism"; out="docs/results/$realism"; fi
+models="models/$realism"; out="docs/results/$realism"
 cargo build --release --quiet
 mkdir -p "$models" "$out"
 if [[ "${1:-}" != "--report-only" ]]; then

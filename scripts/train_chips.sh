@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The chip models (models/chip/), each within a chip's rules (`braille export --target`,
-# docs/nir.md), trained by a named recipe (experiments/src/recipe.rs):
+# The chip models (models/icub/chip/, models/$REALISM/chip/), each within a chip's rules (`braille export --target`,
+# docs/nir.md), trained by a named recipe (experiments/src/train/recipe.rs):
 # - xylo-braille7: the NIR paper's seven Braille letters on the real iCub recordings (raw1350),
 #   12 inputs, 256 CubaLIF, 7 leaky-integrator outputs (Xylo: 16 inputs, 1000 hidden, 8 outputs);
 # - speck-chars: a convolutional IF character classifier with sum pooling on SIMULATED windows
@@ -14,14 +14,15 @@ cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 # REALISM=clean|nominal|harsh (default nominal): the preset of the SIMULATED model's scans, which
-# goes to models/chip/$REALISM/ (models/chip/ at clean); `--simulated-only` leaves the Xylo model
+# goes to models/$REALISM/chip/; `--simulated-only` leaves the Xylo model
 # (real recordings) as it is.
 realism="${REALISM:-nominal}"
-if [[ "$realism" == clean ]]; then sim=models/chip; hist=docs/results/chip; else sim="models/chip/$realism"; hist="docs/results/chip/$realism"; fi
-mkdir -p models/chip docs/results/chip "$sim" "$hist"
+sim="models/$realism/chip"
+hist="docs/results/$realism/chip"
+mkdir -p models/icub/chip docs/results/icub/chip "$sim" "$hist"
 if [[ "${1:-}" != "--simulated-only" ]]; then
-  $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/chip/xylo-braille7.safetensors \
-    --history docs/results/chip/xylo_braille7_history.json --force --quiet
+  $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/icub/chip/xylo-braille7.safetensors \
+    --history docs/results/icub/chip/xylo_braille7_history.json --force --quiet
 fi
 $b train --trainer dense --arch snn --recipe speck --realism "$realism" --out "$sim/speck-chars.safetensors" \
   --history "$hist/speck_chars_history.json" --force --quiet

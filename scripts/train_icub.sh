@@ -14,7 +14,7 @@ mkdir -p models docs
 # (max membrane); Adam 2e-3 with cosine decay; the command's defaults. Seed 2 had the best
 # validation accuracy of the eight runs in the README (two configurations, seeds 1-4).
 $b train --trainer dense --data data/icub_braille/raw1350 --recipe raw1350 \
-  --out models/snn-raw1350.safetensors --history docs/results/icub_raw1350_history.json --force --quiet
+  --out models/icub/snn-raw1350.safetensors --history docs/results/icub/icub_raw1350_history.json --force --quiet
 # th10: the released events (sigma-delta threshold 10), the same network with faster neurons
 # (tau_mem 100 ms, tau_syn 50 ms), a recurrent hidden layer whose recurrent weights start at
 # zero (the network starts feed-forward; recurrent weights at the input's scale drown it in
@@ -26,5 +26,5 @@ $b train --trainer dense --data data/icub_braille/raw1350 --recipe raw1350 \
 # those 100 epochs, its weights averaged over the last 30 (stochastic weight averaging); seed 2,
 # fixed before the run.
 $b train --trainer dense --data data/icub_braille/th10 --recipe th10 \
-  --out models/snn-th10.safetensors --history docs/results/icub_th10_history.json --force --quiet
+  --out models/icub/snn-th10.safetensors --history docs/results/icub/icub_th10_history.json --force --quiet
 $b icub-report --out docs/results

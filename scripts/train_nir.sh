@@ -2,8 +2,8 @@
 # The shipped SNNs retrained to export to NIR as trained: every recipe exactly as shipped
 # (scripts/train_icub.sh, table1.sh, words.sh) with one change, hidden neurons that reset to zero
 # (NIR's reset to v_reset) instead of by subtraction, which NIR cannot write. The iCub models go
-# to models/nir/, those trained on simulated scans to models/nir/$REALISM/ (models/nir/ at clean)
-# under the shipped names; their histories to docs/results/nir/ likewise. The comparison with the
+# to models/icub/nir/, those trained on simulated scans to models/$REALISM/nir/ under the shipped
+# names; their histories to docs/results/icub/nir/ and docs/results/$REALISM/nir/. The comparison with the
 # subtracting models on the same tests: `braille chip-report` (docs/results/chips.md).
 # REALISM=clean|nominal|harsh (default nominal, the published tables) picks the simulator's preset
 # and the trainer as table1.sh and words.sh use it there: dense for the characters; for words
@@ -17,15 +17,17 @@ cargo build --release --quiet
 b=target/release/braille
 realism="${REALISM:-nominal}"
 if [[ "$realism" == clean ]]; then
-  sim=models/nir; hist=docs/results/nir; trainer=dense; blank=false
+  trainer=dense; blank=false
 else
-  sim="models/nir/$realism"; hist="docs/results/nir/$realism"; trainer=sparse; blank=true
+  trainer=sparse; blank=true
 fi
-mkdir -p models/nir docs/results/nir "$sim" "$hist"
+sim="models/$realism/nir"
+hist="docs/results/$realism/nir"
+mkdir -p models/icub/nir docs/results/icub/nir "$sim" "$hist"
 if [[ "${1:-}" != "--simulated-only" ]]; then
   for set in raw1350 th10; do
     $b train --trainer dense --data "data/icub_braille/$set" --recipe "$set" --reset zero \
-      --out "models/nir/snn-$set.safetensors" --history "docs/results/nir/snn_${set}_history.json" --force --quiet
+      --out "models/icub/nir/snn-$set.safetensors" --history "docs/results/icub/nir/snn_${set}_history.json" --force --quiet
   done
 fi
 r=(--realism "$realism" --reset zero --force --quiet)

@@ -6,8 +6,8 @@
 # plus 80 rows of words, 5 scans per row, 8 mm/s, 1.5 mm, seed 1. The segmentation networks
 # (the paper's binary 'character present' network, as an SNN and as a small ResNet) learn from the
 # same scans' windows with the paper's negatives and background from the rest of the scan. Then
-# the paper's speed table for both architectures (docs/results/words.{md,json}, docs/results/words_speed.png) and
-# Table I's report (docs/results/chars.*, which also tests these classifiers). About 80 minutes on two
+# the paper's speed table for both architectures (docs/results/$REALISM/words.{md,json}, words_speed.png) and
+# Table I's report (docs/results/$REALISM/chars.*, which also tests these classifiers). About 80 minutes on two
 # cores at nominal; `--report-only` runs the two reports alone (about 40 minutes at nominal).
 #
 # The SNN's recipe is chosen on the validation board VAL (seed 2000003, 30 scans per row), never
@@ -28,7 +28,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 realism="${REALISM:-nominal}"
-if [[ "$realism" == clean ]]; then models=models; out=docs/results; else models="models/$realism"; out="docs/results/$realism"; fi
+models="models/$realism"; out="docs/results/$realism"
 cargo build --release --quiet
 mkdir -p "$models" "$out"
 b=target/release/braille

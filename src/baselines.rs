@@ -1,10 +1,10 @@
 //! `braille baselines`: the non-spiking floors of a tactile dataset folder, on the SNN search's
-//! validation hold-out (`experiments::baselines`).
+//! validation hold-out (`experiments::train::baselines`).
 
 use anyhow::Result;
 use encoders::dataset::Dataset;
-use experiments::search::{DataProfile, derived_recipe};
-use experiments::train::{EvalTest, TactileData};
+use experiments::train::fit::{EvalTest, TactileData};
+use experiments::train::search::{DataProfile, derived_recipe};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -34,11 +34,11 @@ pub fn run(a: Args) -> Result<()> {
     // the events as the derived SNN recipe encodes them (its step and sigma-delta threshold)
     let data = TactileData::encode(&dataset, &derived_recipe(&profile))?;
     let eval_test = if a.eval_test { EvalTest::Yes } else { EvalTest::No };
-    let rows = experiments::baselines::baselines(&data, a.val_fraction, a.val_seed, eval_test)?;
+    let rows = experiments::train::baselines::baselines(&data, a.val_fraction, a.val_seed, eval_test)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&serde_json::json!({ "profile": profile, "baselines": rows }))?);
     } else {
-        println!("{}", experiments::baselines::markdown(&rows));
+        println!("{}", experiments::train::baselines::markdown(&rows));
     }
     Ok(())
 }

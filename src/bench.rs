@@ -1,10 +1,10 @@
 //! `braille bench`: the event-driven engine on the peer benchmark's network and input statistics
-//! (`experiments::bench`), or a BPTT training step of that network on burn; with `--model`, any
-//! model file or NIR graph on any events (`experiments::model_bench`).
+//! (`experiments::bench::engine`), or a BPTT training step of that network on burn; with `--model`, any
+//! model file or NIR graph on any events (`experiments::bench::models`).
 
 use anyhow::Result;
-use experiments::model_bench::{self, BenchInput, NirReading};
-use experiments::tactile::SplitChoice;
+use experiments::bench::models::{self as model_bench, BenchInput, NirReading};
+use experiments::eval::tactile::SplitChoice;
 use snn::engine::Mode;
 use snn::nir::ImportReset;
 use std::path::PathBuf;
@@ -93,52 +93,7 @@ fn model(args: &Args, path: &std::path::Path) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&r)?);
         return Ok(());
     }
-    println!(
-        "{} ({:?}, dt {} us, {:?} mode) on {}: {:.1} input events, {:.0} synops, {:.1} spikes per sample{}",
-        r.model,
-        r.source,
-        r.dt_us,
-        r.mode,
-        r.input,
-        r.input_events_per_sample,
-        r.synops_per_sample,
-        r.spikes_per_sample,
-        r.accuracy.map_or(String::new(), |a| format!("; accuracy {:.2}%", 100.0 * a))
-    );
-    let l = &r.latency;
-    println!(
-        "one stream: per event {:.0} ns (p50), {:.0} ns (p99), {:.0} ns (p99.9), {:.0} ns at most, clock {:.0} ns included; {:.2} M input events/s",
-        l.p50_ns,
-        l.p99_ns,
-        l.p999_ns,
-        l.max_ns,
-        r.clock_overhead_ns,
-        r.input_events_per_s / 1e6
-    );
-    println!("| streams | M input events/s | speedup | efficiency | p50 ns | p99 ns | p99.9 ns | max ns |");
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
-    for s in &r.scaling {
-        println!(
-            "| {} | {:.2} | {:.2}x | {:.0}% | {:.0} | {:.0} | {:.0} | {:.0} |",
-            s.streams,
-            s.input_events_per_s / 1e6,
-            s.speedup,
-            100.0 * s.efficiency,
-            s.latency.p50_ns,
-            s.latency.p99_ns,
-            s.latency.p999_ns,
-            s.latency.max_ns
-        );
-    }
-    if r.scaling.len() > r.cores {
-        println!("({} streams on {} cores: beyond that the streams share cores)", r.scaling.len(), r.cores);
-    }
-    for e in &r.energy {
-        println!(
-            "energy estimate, {}: {:.1} nJ per sample ({} pJ per synop)",
-            e.platform, e.nj_per_sample, e.pj_per_synop
-        );
-    }
+    print!("{r}");
     Ok(())
 }
 
@@ -147,61 +102,19 @@ pub fn run(args: Args) -> Result<()> {
         return model(&args, &path);
     }
     if args.train {
-        let r = experiments::bench::train_step(args.batch, args.repeats, args.gradient_cutoff)?;
+        let r = experiments::bench::engine::train_step(args.batch, args.repeats, args.gradient_cutoff)?;
         if args.json {
             println!("{}", serde_json::to_string_pretty(&r)?);
         } else {
-            println!(
-                "training step of the peer conv SNN (batch {}, {} steps, forward, BPTT, Adam; {:.0} spikes per sample by layer {:?}):",
-                r.batch,
-                r.steps,
-                r.spikes_per_sample.iter().sum::<f64>(),
-                r.spikes_per_sample.iter().map(|s| s.round()).collect::<Vec<_>>()
-            );
-            for t in [&r.sparse, &r.sparse_exact, &r.dense] {
-                println!(
-                    "  {:<28} {:>8.1} ms median, {:>8.1} ms best; peak RSS {:.0} MB",
-                    t.trainer,
-                    t.ms_per_train_step,
-                    t.ms_per_train_step_min,
-                    t.peak_rss_mb.unwrap_or(f64::NAN)
-                );
-            }
-            println!(
-                "  truncation at {} of the surrogate's peak: gradient cosine {:.4}, relative error {:.3}; {:.2}% of neuron-steps kept",
-                r.gradient_cutoff,
-                r.truncation_cosine,
-                r.truncation_relative_error,
-                100.0 * r.kept_fraction
-            );
-            println!(
-                "  peers (the shared benchmark's figures): PyTorch 59.6, snnTorch 97.1, Norse 78.1 ms; scripts/peers/compare.sh measures them beside ours"
-            );
+            print!("{r}");
         }
         return Ok(());
     }
-    let r = experiments::bench::engine(args.samples, args.repeats)?;
+    let r = experiments::bench::engine::engine(args.samples, args.repeats)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        println!(
-            "{:.3} ms per sample, {:.3} us per input event, {:.3} ns per synaptic event ({:.0} input events, {:.0} synops, {:.0} spikes per sample); {:.1}x PyTorch's 3.45 ms, {:.1}x snnTorch's 7.96 ms (their figures from the shared peer benchmark)",
-            r.ms_per_sample,
-            r.us_per_input_event,
-            r.ns_per_synop,
-            r.input_events_per_sample,
-            r.synops_per_sample,
-            r.spikes_per_sample,
-            r.speedup_vs_pytorch,
-            r.speedup_vs_snntorch
-        );
-        println!(
-            "async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99), {:.0} ns at most; {:.2} M input events/s",
-            r.async_event_latency_ns_p50.unwrap_or(f64::NAN),
-            r.async_event_latency_ns_p99.unwrap_or(f64::NAN),
-            r.async_event_latency_ns_max.unwrap_or(f64::NAN),
-            r.async_input_events_per_s / 1e6
-        );
+        print!("{r}");
     }
     Ok(())
 }

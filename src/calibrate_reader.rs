@@ -4,7 +4,7 @@
 
 use crate::common::Bar;
 use anyhow::{Context, Result};
-use experiments::calibrate::{CalibrationSpec, calibrate, markdown};
+use experiments::eval::calibrate::{CalibrationSpec, calibrate, markdown};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::OperatingPoint;
 use snn::model_file::Arch;
@@ -37,8 +37,7 @@ pub struct Args {
     /// Shortest segments, in frames.
     #[arg(long, value_delimiter = ',', default_value = "2,3,4,5,6,8,10,12")]
     min_frames: Vec<usize>,
-    /// Write `operating_point_ARCH.md` and `.json` here [default: docs/results/REALISM/, or
-    /// docs/results/ at `clean`].
+    /// Write `operating_point_ARCH.md` and `.json` here [default: docs/results/REALISM/].
     #[arg(long)]
     out: Option<PathBuf>,
     /// Record the chosen point in the segmentation network's model file (its weights unchanged).
@@ -54,17 +53,11 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let dir = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
-    let (s, c) = experiments::words::default_models(args.arch, &dir);
+    let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } = pipeline::shipped::reader_in(&dir, args.arch);
     let s_path = args.segmenter.clone().unwrap_or(s);
     let c_path = args.classifier.clone().unwrap_or(c);
     if let Some(json) = &args.apply {
-        let text = std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
-        let r: serde_json::Value =
-            serde_json::from_str(&text).with_context(|| format!("parsing {}", json.display()))?;
-        let chosen: OperatingPoint = serde_json::from_value(r["chosen"].clone())
-            .with_context(|| format!("{}: `chosen` is not an operating point", json.display()))?;
-        chosen.validate().with_context(|| format!("{}: `chosen`", json.display()))?;
-        return record(&s_path, &chosen);
+        return record(&s_path, &experiments::eval::calibrate::chosen_in(json)?);
     }
     let models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
     let spec = CalibrationSpec {
@@ -77,10 +70,7 @@ pub fn run(args: Args) -> Result<()> {
     let name =
         |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
     let r = calibrate(&models, &name(&s_path), &name(&c_path), &spec, &Bar::default())?;
-    let out = args.out.clone().unwrap_or_else(|| match args.realism.realism {
-        sim::Realism::Clean => crate::common::repo_path("docs/results"),
-        real => crate::common::repo_path(&format!("docs/results/{real}")),
-    });
+    let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir());
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = out.join(format!("operating_point_{}", args.arch));
     let md = markdown(&r);
@@ -92,8 +82,8 @@ pub fn run(args: Args) -> Result<()> {
         s_path.display(),
         r.chosen.present_threshold,
         r.chosen.min_frames,
-        r.chosen.calibration["mean_word_accuracy_none"].as_f64().unwrap_or(f64::NAN),
-        r.chosen.calibration["mean_word_accuracy_lexicon"].as_f64().unwrap_or(f64::NAN),
+        r.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_none),
+        r.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
         stem.display()
     );
     if args.write {
@@ -105,9 +95,7 @@ pub fn run(args: Args) -> Result<()> {
 /// Writes `point` into the model file at `path` (header only; the weights are written back as
 /// they were read).
 fn record(path: &std::path::Path, point: &OperatingPoint) -> Result<()> {
-    let mut m = pipeline::models::load(path)?;
-    m.set_operating_point(Some(serde_json::to_value(point)?));
-    m.save(path, true)?;
+    experiments::eval::calibrate::record(path, point)?;
     println!("recorded in {}: threshold {}, {} frames", path.display(), point.present_threshold, point.min_frames);
     Ok(())
 }

@@ -11,19 +11,19 @@ use std::path::PathBuf;
 pub struct Args {
     /// Folder holding `resnet-lite-{raw,norm,aug,normaug}.safetensors` and `snn-chars.safetensors`
     /// (`scripts/table1.sh`), and the `+ words` models (`scripts/words.sh`); missing models are
-    /// left out [default: those trained at `--realism`: `models/` at `clean`, `models/REALISM/`
-    /// beyond].
+    /// left out [default: those trained at `--realism`, `models/REALISM/`].
     #[arg(long)]
     models: Option<PathBuf>,
-    /// Where to write `chars.md`, `chars.json`, `chars_depth.png` and the confusion PNGs.
-    #[arg(long, default_value = "docs/results")]
-    out: PathBuf,
+    /// Where to write `chars.md`, `chars.json`, `chars_depth.png` and the confusion PNGs
+    /// [default: docs/results/REALISM/].
+    #[arg(long)]
+    out: Option<PathBuf>,
     /// RAB scans per board row and depth. 30 (about 720 windows a depth): the same model scored
     /// 97.9% and 99.1% at 1.5 mm on two sets of 10 scans, too coarse for a 1.5-point comparison.
     #[arg(long, default_value_t = 30)]
     trials: u64,
     /// Scan seed of the test scans (training used others).
-    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
+    #[arg(long, default_value_t = corpus::world::TEST_SEED)]
     seed: u64,
     /// Depths to test, in mm [default: the paper's 0.2-1.5 mm].
     #[arg(long, value_delimiter = ',')]
@@ -36,7 +36,10 @@ pub fn run(args: Args) -> Result<()> {
     let models = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
     let report =
         chars_report(&models, &args.depths, args.trials, args.seed, &args.realism.test_world(), &Bar::default())?;
-    let md = crate::charts::write_chars_report(&report, &args.out)?;
+    let md = experiments::reports::figures::write_chars_report(
+        &report,
+        &args.out.clone().unwrap_or_else(|| args.realism.results_dir()),
+    )?;
     print!("{md}");
     Ok(())
 }

@@ -8,16 +8,11 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The shipped (subtracting) models; those trained on simulated scans in its `REALISM/` beyond
-    /// `clean`, as in the other two folders.
-    #[arg(long, default_value = "models")]
-    models: PathBuf,
-    /// Their reset-to-zero twins (`bash scripts/train_nir.sh`).
-    #[arg(long, default_value = "models/nir")]
-    nir_models: PathBuf,
-    /// The chip models (`bash scripts/train_chips.sh`).
-    #[arg(long, default_value = "models/chip")]
-    chip_models: PathBuf,
+    /// The shipped models' folder: the simulated ones in `REALISM/`, the iCub ones in `icub/`,
+    /// each with its reset-to-zero twins in `nir/` (`bash scripts/train_nir.sh`) and its chip
+    /// models in `chip/` (`bash scripts/train_chips.sh`) [default: the repository's `models/`].
+    #[arg(long)]
+    models: Option<PathBuf>,
     /// Folder holding the iCub dataset folders `raw1350` and `th10`.
     #[arg(long, default_value = "data/icub_braille")]
     data: PathBuf,
@@ -33,9 +28,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let spec = ChipSpec {
-        models: args.models,
-        nir_models: args.nir_models,
-        chip_models: args.chip_models,
+        models: args.models.map_or_else(crate::common::shipped, pipeline::shipped::Shipped::at),
         icub: args.data,
         trials: args.trials,
         realism: args.realism.realism,

@@ -98,7 +98,7 @@ impl Observer for Epochs {
     }
 }
 
-pub use experiments::scans::{truth_path, write_events};
+pub use corpus::scans::{truth_path, write_events};
 
 /// `--realism` of the commands that score the shipped models on simulated scans. Its default is
 /// `nominal`, the world of every published table; `clean` is the simulator before its nuisances,
@@ -111,42 +111,37 @@ pub struct RealismArg {
     pub realism: sim::Realism,
 }
 
+/// The shipped models (`pipeline::shipped`): the repository's `models/`, or `$BRAILLE_MODELS`.
+pub fn shipped() -> pipeline::shipped::Shipped {
+    pipeline::shipped::Shipped::repo()
+}
+
 /// The models a command reads with when none is named: those trained at the default preset,
 /// `nominal` (`models/nominal/`).
 pub fn default_models_dir() -> PathBuf {
-    RealismArg { realism: sim::Realism::Nominal }.models_dir()
+    shipped().dir(pipeline::shipped::Preset::Nominal)
 }
 
 impl RealismArg {
-    pub fn test_world(self) -> experiments::datasets::World {
+    pub fn test_world(self) -> corpus::world::World {
         self.world(SensorBuilds::Test)
     }
 
     /// The world of these sensor builds at this preset.
-    pub fn world(self, builds: SensorBuilds) -> experiments::datasets::World {
-        match builds {
-            SensorBuilds::Test => experiments::datasets::World::test(self.realism),
-            SensorBuilds::Training => experiments::datasets::World::train(self.realism),
-        }
+    pub fn world(self, builds: SensorBuilds) -> corpus::world::World {
+        corpus::world::World::of(self.realism, builds)
     }
 
-    /// The models trained at this preset: `models/` at `clean` (kept for regression),
-    /// `models/REALISM/` beyond (`REALISM=nominal bash scripts/table1.sh`, `scripts/words.sh`).
+    /// The results of the tables at this preset, `docs/results/REALISM/`.
+    pub fn results_dir(self) -> PathBuf {
+        repo_path(&format!("docs/results/{}", self.realism))
+    }
+
+    /// The models trained at this preset, `models/REALISM/` (`REALISM=nominal bash
+    /// scripts/table1.sh`, `scripts/words.sh`; none at `harsh`).
     pub fn models_dir(self) -> PathBuf {
-        match self.realism {
-            sim::Realism::Clean => repo_path("models"),
-            r => repo_path(&format!("models/{r}")),
-        }
+        shipped().root().join(self.realism.to_string())
     }
 }
 
-/// Which sensor builds scan an evaluation's boards (beyond `clean`, which has one build).
-#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum SensorBuilds {
-    /// The test builds, never trained on: every reported figure.
-    #[default]
-    Test,
-    /// The training builds: with a validation board (VAL, VAL-WORDS), for choices made on
-    /// validation data.
-    Training,
-}
+pub use corpus::world::SensorBuilds;

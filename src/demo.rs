@@ -1,4 +1,5 @@
-//! The built-in demonstration of what works so far, on real tactile data.
+//! `braille demo`: both readers on SIMULATED scans of the EV board, then the shipped SNN on real
+//! iCub recordings spelled into a stream, written as AEDAT 4.0 and read back.
 
 use anyhow::{Context, Result, bail};
 use encoders::Event;
@@ -52,7 +53,7 @@ pub fn run(args: Args) -> Result<()> {
     // A stream that spells the text from test-split recordings (sigma-delta encoded pressure,
     // 255 - reading), letter after letter.
     let t = Instant::now();
-    let spelled = experiments::tactile::spell_stream(&ds, &args.text, args.threshold, args.period_us)
+    let spelled = experiments::eval::tactile::spell_stream(&ds, &args.text, args.threshold, args.period_us)
         .with_context(|| data.display().to_string())?;
     println!(
         "2. Sigma-delta encoded (threshold {}) into {} events, {:.1} per sample, in {:.1} ms.",
@@ -129,16 +130,16 @@ fn read_letters(
     classes: &[String],
     threshold: f32,
 ) -> Result<()> {
-    let path = crate::common::repo_path("models/snn-raw1350.safetensors");
+    let path = crate::common::shipped().icub("raw1350", pipeline::shipped::Variant::Trained);
     let model = pipeline::models::load_snn(&path)?;
-    let enc = experiments::tactile::encoding_of(&model, &path)?;
+    let enc = experiments::eval::tactile::encoding_of(&model, &path)?;
     if enc.sigma_delta.as_ref().is_some_and(|sd| sd.threshold != threshold) || model.classes != classes {
         println!("4b. (skipped: the shipped SNN was trained with another encoding or classes than this demo's)");
         return Ok(());
     }
     let t = Instant::now();
     let n = truth.chars().count();
-    let (read, synops) = experiments::tactile::read_letters(&model, &path, stream, resolution, n, sample_us)?;
+    let (read, synops) = experiments::eval::tactile::read_letters(&model, &path, stream, resolution, n, sample_us)?;
     let right = read.chars().zip(truth.chars()).filter(|(a, b)| a == b).count();
     println!(
         "4b. The shipped SNN ({}) read the stream back letter by letter on the event-driven\n    engine: {:?} -> {:?}, {}/{} letters right, in {:.1} ms for {:.0} s of stream ({} synaptic\n    operations). Real recordings; each letter's 2 s slice is given.",
@@ -162,7 +163,7 @@ fn read_words(out: &Path) -> Result<()> {
     use pipeline::reader::{Spell, Speller};
     use snn::model_file::Arch;
     let kind = BoardKind::Ev;
-    let world = experiments::datasets::World::test(sim::Realism::Nominal);
+    let world = corpus::world::World::test(sim::Realism::Nominal);
     let setup = world.setup();
     let board = world.board(&setup, &kind)?;
     let sensor = setup.sensor(encoders::Resolution::DVXPLORER, world.sensor_seed(0))?;
@@ -174,7 +175,8 @@ fn read_words(out: &Path) -> Result<()> {
     let readers = [Arch::Resnet, Arch::Snn]
         .into_iter()
         .map(|a| {
-            let (s, c) = experiments::words::default_models(a, &models);
+            let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
+                pipeline::shipped::reader_in(&models, a);
             Ok((a, ReaderModels::load(&s, &c, SnnRunner::Sliding)?))
         })
         .collect::<Result<Vec<_>>>()?;
@@ -204,7 +206,7 @@ fn read_words(out: &Path) -> Result<()> {
             let read: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
             let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
             // words right, the read line aligned to the printed one (a word split in two is wrong)
-            let hits = experiments::scoring::EditCounts::align(&truth, &read).hits;
+            let hits = experiments::eval::scoring::EditCounts::align(&truth, &read).hits;
             ok.0 += hits;
             ok.1 += truth.len();
             println!(

@@ -4,9 +4,9 @@
 
 use crate::common::Bar;
 use anyhow::Result;
-use experiments::datasets::{CharSetSpec, Task};
-use experiments::tactile::SplitChoice;
-use experiments::words::WordsSpec;
+use corpus::windows::{CharSetSpec, Task};
+use experiments::eval::tactile::SplitChoice;
+use experiments::eval::words::WordsSpec;
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::Spell;
 use pipeline::reader::TimingMode;
@@ -80,7 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         SplitArg::Test => SplitChoice::Test,
         SplitArg::All => SplitChoice::All,
     };
-    let (report, csv) = experiments::tactile::eval_split(&model_path, &data_dir, split, args.mode)?;
+    let (report, csv) = experiments::eval::tactile::eval_split(&model_path, &data_dir, split, args.mode)?;
     if let Some(path) = &args.predictions {
         std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }
@@ -107,11 +107,10 @@ pub struct CharsArgs {
     #[arg(long, value_enum, default_value = "resnet")]
     arch: Arch,
     /// The model file [default: the architecture's model trained at `--realism`,
-    /// resnet-lite-normaug.safetensors or snn-chars.safetensors in models/ at `clean`, in
-    /// models/REALISM/ beyond].
+    /// resnet-lite-normaug.safetensors or snn-chars.safetensors in models/REALISM/].
     #[arg(long)]
     model: Option<PathBuf>,
-    #[arg(long, default_value = "RAB", value_parser = experiments::datasets::parse_board)]
+    #[arg(long, default_value = "RAB", value_parser = corpus::boards::parse_board)]
     board: BoardKind,
     /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
     /// validation board, for choices).
@@ -125,7 +124,7 @@ pub struct CharsArgs {
     #[arg(long, default_value_t = 4)]
     trials: u64,
     /// Scan seed (training used seeds from its own; the default keeps test scans apart).
-    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
+    #[arg(long, default_value_t = corpus::world::TEST_SEED)]
     seed: u64,
     #[arg(long)]
     json: bool,
@@ -136,10 +135,7 @@ pub struct CharsArgs {
 fn chars(args: CharsArgs) -> Result<()> {
     let path = match &args.model {
         Some(p) => p.clone(),
-        None => {
-            let shipped = experiments::chars::default_path(args.arch);
-            args.realism.models_dir().join(shipped.file_name().unwrap_or_default())
-        }
+        None => pipeline::shipped::chars_in(&args.realism.models_dir(), args.arch),
     };
     let spec = CharSetSpec {
         boards: vec![args.board.clone()],
@@ -152,24 +148,11 @@ fn chars(args: CharsArgs) -> Result<()> {
         world: args.realism.world(args.sensor_builds),
         blank_cells: false,
     };
-    let r = experiments::chars::eval(&path, &spec, &Bar::default())?;
+    let r = experiments::eval::chars::eval(&path, &spec, &Bar::default())?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        println!(
-            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped): {} accuracy {:.2}%, macro F1 {:.3}, loss {:.3}{}",
-            r.board,
-            r.speed_mm_s,
-            r.depth_mm,
-            r.score.n,
-            r.scans,
-            r.skipped_scans,
-            r.arch,
-            100.0 * r.score.accuracy,
-            r.score.macro_f1,
-            r.score.loss,
-            r.score.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a))
-        );
+        print!("{r}");
     }
     Ok(())
 }
@@ -189,7 +172,7 @@ pub struct WordsArgs {
     classifier: Option<PathBuf>,
     /// Board: SAB, UN, RAB, VAL (validation), VAL-WORDS (validation words), EV, or text:"ANY WORDS"
     /// (`/` starts a new row; long rows wrap).
-    #[arg(long, default_value = "EV", value_parser = experiments::datasets::parse_board)]
+    #[arg(long, default_value = "EV", value_parser = corpus::boards::parse_board)]
     board: BoardKind,
     /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
     /// validation board, for choices).
@@ -214,7 +197,7 @@ pub struct WordsArgs {
     #[arg(long, value_enum, default_value = "lexicon")]
     spell: Spell,
     /// Scan seed (training used others).
-    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
+    #[arg(long, default_value_t = corpus::world::TEST_SEED)]
     seed: u64,
     #[arg(long, value_enum, default_value = "sliding")]
     snn_runner: SnnRunner,
@@ -225,10 +208,14 @@ pub struct WordsArgs {
 }
 
 fn words(args: WordsArgs) -> Result<()> {
-    let (s, c) = experiments::words::default_models(args.arch, &args.realism.models_dir());
-    let s_path = args.segmenter.clone().unwrap_or(s);
-    let c_path = args.classifier.clone().unwrap_or(c);
-    let readers = ReaderModels::load(&s_path, &c_path, args.snn_runner)?;
+    let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
+        pipeline::shipped::reader_in(&args.realism.models_dir(), args.arch);
+    let files = pipeline::shipped::ReaderFiles {
+        segmenter: args.segmenter.clone().unwrap_or(s),
+        classifier: args.classifier.clone().unwrap_or(c),
+    };
+    let (s_path, c_path) = (&files.segmenter, &files.classifier);
+    let readers = ReaderModels::load(s_path, c_path, args.snn_runner)?;
     let spec = WordsSpec {
         board: args.board.clone(),
         speed_mm_s: args.speed,
@@ -238,56 +225,19 @@ fn words(args: WordsArgs) -> Result<()> {
         seed: args.seed,
         world: args.realism.world(args.sensor_builds),
     };
-    let r = experiments::words::eval_words(&spec, &readers, args.timing, args.spell, &Bar::default())?;
-    let s = &r.score;
+    let r = experiments::eval::words::eval_words(
+        &spec,
+        &readers,
+        &files,
+        args.sensor_builds,
+        args.timing,
+        args.spell,
+        &Bar::default(),
+    )?;
     if args.json {
-        // which networks read, and which sensor builds scanned: a mixed pair or a validation run
-        // names itself
-        let mut v = serde_json::to_value(&r)?;
-        v["segmenter"] = serde_json::json!(s_path.display().to_string());
-        v["classifier"] = serde_json::json!(c_path.display().to_string());
-        v["operating_point"] = serde_json::to_value(readers.operating_point())?;
-        v["sensor_builds"] = serde_json::json!(
-            clap::ValueEnum::to_possible_value(&args.sensor_builds).map(|v| v.get_name().to_string())
-        );
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        let p = readers.operating_point();
-        println!(
-            "models: {} + {} (segmentation read above {}, characters from {} frames{})",
-            s_path.display(),
-            c_path.display(),
-            p.present_threshold,
-            p.min_frames,
-            if p.calibration.is_null() { ", the paper's point" } else { ", calibrated" }
-        );
-        println!(
-            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
-            r.board,
-            args.speed,
-            if args.hand_variation > 0.0 {
-                format!(" hand-held ±{:.0}%", 100.0 * args.hand_variation)
-            } else {
-                String::new()
-            },
-            args.depth,
-            s.lines,
-            s.arch,
-            args.timing,
-            100.0 * s.speed_error.median,
-            100.0 * s.speed_error.mean_abs,
-            s.speed_error.chars,
-            args.spell,
-            r.word_accuracy,
-            r.word_error_rate,
-            r.char_error_rate,
-            r.words_per_line,
-            r.letters_per_word,
-            r.correct_words,
-            r.correct_letters,
-            s.stream_s,
-            s.read_s
-        );
+        print!("{r}");
     }
     Ok(())
 }

@@ -10,16 +10,18 @@ pub struct Args {
     /// Folder holding the dataset folders `raw1350` and `th10`.
     #[arg(long, default_value = "data/icub_braille")]
     data: PathBuf,
-    /// Folder holding `snn-raw1350.safetensors` and `snn-th10.safetensors`.
-    #[arg(long, default_value = "models")]
-    models: PathBuf,
+    /// Folder holding `snn-raw1350.safetensors` and `snn-th10.safetensors` [default: the shipped
+    /// ones, `models/icub/`].
+    #[arg(long)]
+    models: Option<PathBuf>,
     /// Where to write `icub.md`, `icub.json` and `icub.png`.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let md = crate::charts::write_icub_report(&args.data, &args.models, &args.out)?;
+    let models = args.models.unwrap_or_else(|| crate::common::shipped().icub_dir(pipeline::shipped::Variant::Trained));
+    let md = experiments::reports::figures::write_icub_report(&args.data, &models, &args.out)?;
     print!("{md}");
     Ok(())
 }

@@ -1,8 +1,7 @@
 use anyhow::Result;
-use encoders::formats::{self, OpenOptions};
-use encoders::stats::StreamStats;
-use encoders::{Format, Resolution};
-use serde::Serialize;
+use encoders::Resolution;
+use encoders::formats::OpenOptions;
+use encoders::stats::FileSummary;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -20,48 +19,9 @@ pub struct Args {
     json: bool,
 }
 
-#[derive(Serialize)]
-struct Report {
-    path: PathBuf,
-    format: Format,
-    resolution: Option<String>,
-    source: Option<String>,
-    events: u64,
-    duration_s: f64,
-    event_rate_hz: f64,
-    on: u64,
-    off: u64,
-    on_off_ratio: Option<f64>,
-    t_first_us: Option<i64>,
-    t_last_us: Option<i64>,
-    max_x: Option<u16>,
-    max_y: Option<u16>,
-}
-
 pub fn run(args: Args) -> Result<()> {
     let options = OpenOptions { resolution: args.resolution, stream_id: args.stream };
-    let mut source = formats::open(&args.file, &options)?;
-    let mut stats = StreamStats::default();
-    while let Some(chunk) = source.next_chunk()? {
-        stats.add(chunk);
-    }
-    let info = source.info();
-    let r = Report {
-        path: args.file.clone(),
-        format: info.format,
-        resolution: info.resolution.map(|r| r.to_string()),
-        source: info.source.clone(),
-        events: stats.events,
-        duration_s: stats.duration_s(),
-        event_rate_hz: stats.rate_hz(),
-        on: stats.on,
-        off: stats.off,
-        on_off_ratio: stats.on_off_ratio(),
-        t_first_us: stats.t_first_us,
-        t_last_us: stats.t_last_us,
-        max_x: stats.max_x,
-        max_y: stats.max_y,
-    };
+    let r = FileSummary::of(&args.file, &options)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
         return Ok(());

@@ -14,8 +14,8 @@ pub struct Args {
     seed: Option<u64>,
     /// The boards scanned: the test boards (RAB, EV), or the validation boards in their place (VAL,
     /// VAL-WORDS) with the training sensor builds, where the labeler's settings are chosen.
-    #[arg(long, value_enum, default_value_t = experiments::labeling::CheckBoards::Test)]
-    boards: experiments::labeling::CheckBoards,
+    #[arg(long, value_enum, default_value_t = experiments::eval::labeling::CheckBoards::Test)]
+    boards: experiments::eval::labeling::CheckBoards,
     #[command(flatten)]
     realism: crate::common::RealismArg,
     /// Print JSON.
@@ -24,17 +24,17 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    use experiments::labeling::CheckBoards;
+    use experiments::eval::labeling::CheckBoards;
     let (seed, builds) = match args.boards {
-        CheckBoards::Test => (experiments::datasets::TEST_SEED, crate::common::SensorBuilds::Test),
-        CheckBoards::Validation => (experiments::datasets::VALIDATION_SEED, crate::common::SensorBuilds::Training),
+        CheckBoards::Test => (corpus::world::TEST_SEED, crate::common::SensorBuilds::Test),
+        CheckBoards::Validation => (corpus::world::VALIDATION_SEED, crate::common::SensorBuilds::Training),
     };
     let world = args.realism.world(builds);
-    let rows = experiments::labeling::label_check(args.trials, args.seed.unwrap_or(seed), &world, args.boards)?;
+    let rows = experiments::eval::labeling::label_check(args.trials, args.seed.unwrap_or(seed), &world, args.boards)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    print!("{}", experiments::labeling::label_check_markdown(&rows));
+    print!("{}", experiments::eval::labeling::label_check_markdown(&rows));
     Ok(())
 }

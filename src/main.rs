@@ -1,11 +1,11 @@
-//! `braille`: read Braille from event-based touch. Subcommands inspect, convert and encode event
-//! streams; `demo` shows what works on built-in defaults.
+//! `braille`: read Braille from event-based touch. The binary parses arguments, calls the
+//! libraries (`pipeline` to read, `corpus` for data, `experiments` to train, evaluate and
+//! benchmark), prints what they return and draws it; `demo` shows what works on built-in defaults.
 
 mod baselines;
 mod bench;
 mod calibrate_reader;
 mod chars_report;
-mod charts;
 mod chip_report;
 mod common;
 mod convert;
@@ -62,15 +62,19 @@ enum Command {
     Robustness(robustness::Args),
     /// Plot an event file as a heat map and an event raster (PNG).
     Plot(plot::Args),
-    /// Time the event-driven SNN engine on the peer benchmark's network and input statistics.
+    /// Time the event-driven engine: on the peer benchmark's network, or any model file or NIR
+    /// graph (`--model`) on an event file, a dataset split or random input; `--train` times the
+    /// trainers' step.
     Bench(bench::Args),
-    /// Train a classifier (the SNN on a tactile dataset folder) and save it as a model file.
+    /// Train a model and save it: an SNN on a tactile dataset folder (a named recipe, the recipe
+    /// derived from the data, or `--search`), or either architecture on simulated windows.
     Train(Box<train::Args>),
     /// The non-spiking floors of a tactile dataset folder (ridge and logistic regression on
     /// binned event counts), chosen on the SNN search's validation hold-out.
     Baselines(baselines::Args),
     /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
-    /// engine), or `eval chars` on simulated scans of a board.
+    /// engine), `eval chars` on simulated windows of a board, `eval words` a reader on simulated
+    /// scans of a board.
     Eval(eval::Args),
     /// Table I and the depth curve on simulated RAB scans: the four ResNet configurations and the
     /// SNN on the same windows (Markdown, JSON, PNG).
@@ -80,8 +84,8 @@ enum Command {
     /// Read the words in an event stream (a file, or standard input as it arrives): segmentation
     /// network, character classifier (ResNet or SNN), temporal filter, spelling.
     Read(read::Args),
-    /// The paper's speed table on SIMULATED EV scans: both architectures, 8-32 mm/s, with and
-    /// without spelling (Markdown, JSON, PNG).
+    /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
+    /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
     WordsReport(words_report::Args),
     /// Choose a segmentation network's operating point (threshold, shortest segment) on the
     /// SIMULATED validation words, never a test board; `--write` records it in the model file.
@@ -102,8 +106,9 @@ enum Command {
     /// Merge trained SNNs of one architecture into one network: the members side by side, their
     /// readouts summed at every step.
     Ensemble(ensemble::Args),
-    /// Run the built-in demonstration: real iCub taxel recordings encoded to events, written to
-    /// AEDAT4, read back, and binned into heat maps.
+    /// Run the built-in demonstration: both readers on SIMULATED scans of the EV board (a sensor
+    /// build no model saw), then real iCub recordings spelled into a stream, written to AEDAT4,
+    /// read back and classified by the shipped SNN on the event-driven engine.
     Demo(demo::Args),
 }
 

@@ -37,8 +37,12 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{}: no events to plot", args.file.display());
     }
     let title = if args.title.is_empty() { args.file.display().to_string() } else { args.title.clone() };
-    let window = crate::charts::ScanWindow { pool: args.pool, start_s: args.window_start_s, length_s: args.window_s };
-    crate::charts::scan_figure(&events, info.resolution, &window, &title, &args.out)?;
+    let window = experiments::reports::figures::ScanWindow {
+        pool: args.pool,
+        start_s: args.window_start_s,
+        length_s: args.window_s,
+    };
+    experiments::reports::figures::scan_figure(&events, info.resolution, &window, &title, &args.out)?;
     eprintln!("wrote {}", args.out.display());
     Ok(())
 }

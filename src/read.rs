@@ -47,7 +47,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let timing = Timing::from_mode(args.timing, args.speed)?;
-    let (ds, dc) = experiments::words::default_models(args.arch, &crate::common::default_models_dir());
+    let pipeline::shipped::ReaderFiles { segmenter: ds, classifier: dc } =
+        pipeline::shipped::reader_in(&crate::common::default_models_dir(), args.arch);
     let readers = ReaderModels::load(
         args.segmenter.as_deref().unwrap_or(&ds),
         args.model.as_deref().unwrap_or(&dc),
@@ -62,7 +63,7 @@ pub fn run(args: Args) -> Result<()> {
     let resolution = args.resolution.or(source.info().resolution).unwrap_or(Resolution::DVXPLORER);
     let stdout = std::io::stdout();
     let json = args.json;
-    let mut on_word = |w: &pipeline::reader::ReadWord| -> experiments::Result<()> {
+    let mut on_word = |w: &pipeline::reader::ReadWord| -> pipeline::Result<()> {
         let mut lock = stdout.lock();
         let line = if json {
             serde_json::to_string(w).expect("words serialise")
@@ -70,20 +71,13 @@ pub fn run(args: Args) -> Result<()> {
             let c = w.chars.first().map_or(0, |c| c.t_start_us);
             format!("{:>9.3} s  {:<12} (read {}, {} letters)", c as f64 / 1e6, w.text, w.raw, w.chars.len())
         };
-        let io = |source| experiments::Error::Io { path: "standard output".into(), source };
+        let io = |source| pipeline::Error::Io { path: "standard output".into(), source };
         writeln!(lock, "{line}").map_err(io)?;
         lock.flush().map_err(io)
     };
     let name = args.file.display().to_string();
-    let s = experiments::words::read_source(
-        source.as_mut(),
-        &name,
-        &readers,
-        timing,
-        resolution,
-        args.spell,
-        &mut on_word,
-    )?;
+    let s =
+        pipeline::source::read_source(source.as_mut(), &name, &readers, timing, resolution, args.spell, &mut on_word)?;
     if args.json {
         println!("{}", serde_json::to_string(&s)?);
     } else {

@@ -3,8 +3,8 @@
 
 use crate::common::Bar;
 use anyhow::{Context, Result};
-use experiments::chars::CharModel;
-use experiments::robustness::{Nuisance, SweepSpec, markdown, sweep};
+use experiments::eval::chars::CharModel;
+use experiments::eval::robustness::{Nuisance, SweepSpec, markdown, sweep};
 use sim::{BoardKind, Realism};
 use snn::model_file::Arch;
 use std::path::PathBuf;
@@ -31,11 +31,11 @@ pub struct Args {
     #[arg(long, default_value_t = 2_000_003)]
     seed: u64,
     /// The folder of the character classifiers swept (`resnet-lite-normaug`, `snn-chars`)
-    /// [default: those trained at `--realism`: `models/` at `clean`, `models/REALISM/` beyond].
+    /// [default: those trained at `--realism`, `models/REALISM/`].
     #[arg(long)]
     models: Option<PathBuf>,
     /// Where to write `robustness.md`, `robustness.json` and `robustness_*.png` [default:
-    /// `docs/results/` at `clean`, `docs/results/REALISM/` beyond].
+    /// `docs/results/REALISM/`].
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -43,13 +43,10 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let preset = crate::common::RealismArg { realism: args.realism };
     let models_dir = args.models.clone().unwrap_or_else(|| preset.models_dir());
-    let out = args.out.clone().unwrap_or_else(|| match args.realism {
-        Realism::Clean => PathBuf::from("docs/results"),
-        r => PathBuf::from(format!("docs/results/{r}")),
-    });
+    let out = args.out.clone().unwrap_or_else(|| preset.results_dir());
     let mut models = Vec::new();
     for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
-        let path = models_dir.join(experiments::chars::default_path(arch).file_name().unwrap_or_default());
+        let path = pipeline::shipped::chars_in(&models_dir, arch);
         models.push((name.to_string(), CharModel::load(&path).with_context(|| format!("loading {}", path.display()))?));
     }
     let spec = SweepSpec {
@@ -68,7 +65,7 @@ pub fn run(args: Args) -> Result<()> {
     let md = markdown(&report);
     std::fs::write(out.join("robustness.md"), &md)?;
     std::fs::write(out.join("robustness.json"), serde_json::to_string_pretty(&report)? + "\n")?;
-    crate::charts::robustness_figures(&report, &out)?;
+    experiments::reports::figures::robustness_figures(&report, &out)?;
     print!("{md}");
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! as CSV (`layer,step,neuron`), for comparing this engine with another simulator spike for spike.
 
 use anyhow::{Context, Result};
-use experiments::model_bench::{self, NirReading};
+use experiments::bench::models::{self as model_bench, NirReading};
 use snn::nir::ImportReset;
 use std::io::Write;
 use std::path::PathBuf;

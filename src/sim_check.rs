@@ -24,7 +24,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let r = sim::checks::run(args.realism, args.trials.max(1))?;
     if let Some(path) = &args.plot {
-        crate::charts::dot_lag_figure(&r, path)?;
+        experiments::reports::figures::dot_lag_figure(&r, path)?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

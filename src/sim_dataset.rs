@@ -2,7 +2,7 @@
 //! grid of event taxels under each Braille character), written as a dataset folder.
 
 use anyhow::Result;
-use experiments::taxels::{TaxelSetSpec, make_taxel_dataset};
+use corpus::taxels::{TaxelSetSpec, make_taxel_dataset};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

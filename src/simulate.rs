@@ -2,8 +2,8 @@
 //! their ground truth.
 
 use anyhow::Result;
+use corpus::scans::ScanSpec;
 use encoders::Resolution;
-use experiments::scans::ScanSpec;
 use sim::{BoardKind, Direction, Realism};
 use std::path::PathBuf;
 
@@ -77,7 +77,7 @@ pub fn run(args: Args) -> Result<()> {
         force: args.force,
     };
     let quiet = crate::common::Bar::default();
-    let summary = experiments::scans::simulate_files(&spec, if args.json { &() } else { &quiet })?;
+    let summary = corpus::scans::simulate_files(&spec, if args.json { &() } else { &quiet })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {

@@ -1,17 +1,17 @@
 //! `braille train`: trains a classifier and saves it as a model file. The SNN starts from a
-//! recipe (`--recipe NAME|FILE.json`, `experiments::recipe`) whose fields the flags override.
+//! recipe (`--recipe NAME|FILE.json`, `experiments::train::recipe`) whose fields the flags override.
 
 use crate::common::{Bar, Epochs};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
+use corpus::windows::Task;
 use encoders::dataset::Dataset;
-use experiments::chars::{ResnetPreset, ResnetTraining};
-use experiments::datasets::Task;
-use experiments::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice, TrainerChoice};
-use experiments::search::{
-    Budget, DataProfile, SearchObserver, SearchSpace, Shard, Trial, derived_recipe, final_models, final_recipe,
-    read_logs, report_markdown, run_combination, run_trials, trials_markdown, winner,
+use experiments::train::fit::{EvalTest, TactileData, train_on};
+use experiments::train::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice, TrainerChoice};
+use experiments::train::resnet::{ResnetPreset, ResnetTraining};
+use experiments::train::search::{
+    DataProfile, FinalModel, SearchObserver, SearchOutcome, SearchRun, SearchSpace, Shard, Trial, derived_recipe,
+    trials_markdown,
 };
-use experiments::train::{EvalTest, TactileData, train_on};
 use pipeline::augment::Preprocess;
 use snn::model_file::{Arch, Readout};
 use snn::neuron::Reset;
@@ -301,17 +301,8 @@ pub fn run(args: Args) -> Result<()> {
                 realism: r.realism,
                 train: r.train_config(),
             };
-            let m = experiments::chars::train_resnet(&t, &mut epochs, &bar)?;
-            eprintln!(
-                "SIMULATED training windows ({} realism): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {} scans ({} skipped: window count off), {} training and {} validation windows of {:?}",
-                t.realism,
-                t.word_rows,
-                m.scans,
-                m.skipped_scans,
-                m.train_windows,
-                m.val_windows,
-                m.model.input.shape()
-            );
+            let m = experiments::train::resnet::train_resnet(&t, &mut epochs, &bar)?;
+            eprint!("{m}");
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
@@ -319,14 +310,10 @@ pub fn run(args: Args) -> Result<()> {
             if let Some(h) = &args.history {
                 experiments::write_json(h, &m.history, args.force)?;
             }
-            eprintln!(
-                "best validation accuracy {:.2}% (SIMULATED); wrote {}",
-                100.0 * m.best_val_accuracy,
-                out.display()
-            );
+            eprintln!("wrote {}", out.display());
             return Ok(());
         }
-        (Arch::Snn, None) => experiments::train::train_windows(&r, &mut epochs, &bar)?,
+        (Arch::Snn, None) => experiments::train::fit::train_windows(&r, &mut epochs, &bar)?,
         (Arch::Snn, Some(_)) => {
             let dataset = dataset.as_ref().expect("loaded above for the SNN");
             if args.recipe.is_none()
@@ -337,47 +324,8 @@ pub fn run(args: Args) -> Result<()> {
             train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, &mut epochs)?
         }
     };
-    let d = &trained.data;
-    eprintln!(
-        "{}: {} classes, {} inputs, {} steps of {} us; train {} / validation {}{} samples, {:.1} input events per sample{}",
-        d.data,
-        d.classes,
-        d.inputs,
-        d.steps,
-        d.dt_us,
-        d.train,
-        d.validation,
-        d.test.map_or(String::new(), |t| format!(" / test {t}")),
-        d.input_events_per_sample,
-        d.scans.map_or(String::new(), |s| format!(
-            "; {s} scans ({} skipped: window count off)",
-            d.skipped_scans.unwrap_or(0)
-        ))
-    );
-    if let Some((accuracy, chosen)) = trained.average {
-        let verdict = if chosen { "chosen" } else { "not chosen" };
-        eprintln!(
-            "weights averaged over the last {} epochs: validation {:.1}%, {verdict}",
-            r.average_epochs,
-            100.0 * accuracy
-        );
-    }
-    let kept = if d.validation == 0 {
-        format!("kept epoch {} (no validation set)", trained.best_epoch)
-    } else {
-        format!("best epoch {} (validation {:.1}%)", trained.best_epoch, 100.0 * trained.best_val_accuracy)
-    };
-    match (d.test, trained.engine_accuracy) {
-        (Some(_), Some(a)) => {
-            eprintln!("{kept}; test accuracy on the event-driven engine: {:.2}% of {}", 100.0 * a, trained.engine_n)
-        }
-        (Some(_), None) => eprintln!("{kept}; the test split was not looked at (--eval-test scores it)"),
-        (None, a) => eprintln!(
-            "{kept}: {:.1}% of the validation windows on the event-driven engine (SIMULATED)",
-            100.0 * a.unwrap_or(f64::NAN)
-        ),
-    }
-    experiments::train::save_model(&trained.model, &out, args.force)?;
+    eprint!("{trained}");
+    experiments::train::fit::save_model(&trained.model, &out, args.force)?;
     if let Some(h) = &args.history {
         experiments::write_json(h, &trained.history, args.force)?;
     }
@@ -414,6 +362,28 @@ impl SearchObserver for TrialLines {
             );
         }
     }
+    fn chosen(&mut self, w: &Trial, f: &SnnRecipe, seeds: u64) {
+        eprintln!(
+            "chosen: trial {} (score {:.2}%); training it on the whole training split for {} epochs (averaged over the last {}), seeds 1..={seeds}",
+            w.trial,
+            100.0 * w.score,
+            f.epochs,
+            f.average_epochs,
+        );
+    }
+
+    fn final_model(&mut self, m: &FinalModel) {
+        eprintln!(
+            "seed {}: {}; wrote {}",
+            m.seed,
+            m.test_accuracy.map_or("test split not looked at (--eval-test)".into(), |a| format!(
+                "test accuracy on the engine {:.2}%",
+                100.0 * a
+            )),
+            m.path.display()
+        );
+    }
+
     fn trial_end(&mut self, t: &Trial) {
         eprintln!(
             "trial {}: score {:.2}% (best {:.2}% at epoch {} of {}), {:.1} min",
@@ -427,106 +397,51 @@ impl SearchObserver for TrialLines {
     }
 }
 
-/// The model file of the final model with `seed` (seed 1 is `out` itself).
-fn seed_path(out: &Path, seed: u64) -> PathBuf {
-    if seed == 1 {
-        return out.to_path_buf();
-    }
-    let stem = out.file_stem().map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
-    out.with_file_name(format!("{stem}.seed{seed}.safetensors"))
-}
-
-/// `--search` (this shard's trials, then, unsharded, the final models) and `--collect`.
+/// `--search` (this shard's trials, then, unsharded, the final models) and `--collect`, run by
+/// [`experiments::train::search::run`]; this prints what it returns.
 fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecipe, out: &Path) -> Result<()> {
-    let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
-    let space = SearchSpace {
-        trials: args.search_trials,
-        epochs: args.search_epochs,
-        trial_seeds: args.trial_seeds.max(1),
-        ..SearchSpace::default()
-    };
-    let dir = args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search"));
-    let shard = args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
-    let finishing = args.collect.is_some() || shard.count == 1;
-    if finishing {
-        for seed in 1..=args.seeds.max(1) {
-            let p = seed_path(out, seed);
-            if p.exists() && !args.force {
-                bail!("{}: exists; pass --force to replace it", p.display());
-            }
-        }
+    if let Some(m) = args.budget_min
+        && !(m.is_finite() && m >= 0.0)
+    {
+        bail!("--budget-min: expected a number of minutes, 0 or more, got {m}");
     }
+    let run = SearchRun {
+        dataset,
+        profile,
+        base,
+        space: SearchSpace {
+            trials: args.search_trials,
+            epochs: args.search_epochs,
+            trial_seeds: args.trial_seeds.max(1),
+            ..SearchSpace::default()
+        },
+        dir: args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search")),
+        shard: args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL),
+        run_trials: args.search,
+        budget: args.budget_min.map(|m| std::time::Duration::from_secs_f64(60.0 * m)),
+        seeds: args.seeds,
+        eval_test: if args.eval_test { EvalTest::Yes } else { EvalTest::No },
+        out: out.to_path_buf(),
+        force: args.force,
+    };
     eprintln!("{profile}");
-    let data = TactileData::encode(dataset, base)?;
-    if args.search {
-        if let Some(m) = args.budget_min
-            && !(m.is_finite() && m >= 0.0)
-        {
-            bail!("--budget-min: expected a number of minutes, 0 or more, got {m}");
-        }
-        let budget = args.budget_min.map(|m| {
-            let total = std::time::Duration::from_secs_f64(60.0 * m);
-            if finishing { Budget::finishing(total, &space, args.seeds) } else { Budget::shard(total) }
-        });
-        let ran = run_trials(&data, profile, base, &space, shard, &dir, budget, &mut TrialLines { quiet: args.quiet })?;
-        if !finishing {
-            println!("{}", trials_markdown(&ran));
+    match experiments::train::search::run(&run, &mut TrialLines { quiet: args.quiet }, &mut Epochs::new(args.quiet))? {
+        SearchOutcome::Shard { trials } => {
+            println!("{}", trials_markdown(&trials));
             eprintln!(
-                "shard {shard}: {} trials in {}; when every shard is done: braille train --data {} --collect {} --out {}",
-                ran.len(),
-                dir.display(),
+                "shard {}: {} trials in {}; when every shard is done: braille train --data {} --collect {} --out {}",
+                run.shard,
+                trials.len(),
+                run.dir.display(),
                 dataset.dir.display(),
-                dir.display(),
+                run.dir.display(),
                 out.display()
             );
-            return Ok(());
+        }
+        SearchOutcome::Done { trials, report, .. } => {
+            println!("{}", trials_markdown(&trials));
+            eprintln!("wrote {}", report.display());
         }
     }
-    let trials = read_logs(&dir)?;
-    if let Some(t) = trials.first()
-        && t.profile != *profile
-    {
-        bail!("{}: the trials were run on {}, not on {}", dir.display(), t.profile.data, profile.data);
-    }
-    // each dimension at its best neighbour's value, if that point was not run
-    let trials = match run_combination(&data, profile, base, &space, &dir, &mut TrialLines { quiet: args.quiet })? {
-        Some(_) => read_logs(&dir)?,
-        None => trials,
-    };
-    let Some(w) = winner(&trials) else { bail!("{}: no trials logged", dir.display()) };
-    println!("{}", trials_markdown(&trials));
-    let f = final_recipe(w, 1);
-    eprintln!(
-        "chosen: trial {} (score {:.2}%); training it on the whole training split for {} epochs (averaged over the last {}), seeds 1..={}",
-        w.trial,
-        100.0 * w.score,
-        f.epochs,
-        f.average_epochs,
-        args.seeds.max(1)
-    );
-    let data = if (w.recipe.dt_us, w.recipe.sigma_delta) == (base.dt_us, base.sigma_delta) {
-        data
-    } else {
-        TactileData::encode(dataset, &w.recipe)?
-    };
-    let mut epochs = Epochs::new(args.quiet);
-    let finals = final_models(&data, w, args.seeds, eval_test, &mut epochs)?;
-    for (seed, t) in &finals {
-        let p = seed_path(out, *seed);
-        experiments::train::save_model(&t.model, &p, args.force)?;
-        eprintln!(
-            "seed {seed}: {}; wrote {}",
-            t.engine_accuracy.map_or("test split not looked at (--eval-test)".into(), |a| format!(
-                "test accuracy on the engine {:.2}%",
-                100.0 * a
-            )),
-            p.display()
-        );
-    }
-    let refs: Vec<(u64, &experiments::train::TrainedSnn)> = finals.iter().map(|(s, t)| (*s, t)).collect();
-    let md = report_markdown(profile, &space, &trials, &refs);
-    let report = dir.join("search.md");
-    std::fs::write(&report, &md).with_context(|| format!("writing {}", report.display()))?;
-    eprintln!("wrote {}", report.display());
     Ok(())
 }

@@ -9,12 +9,13 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Where to write `words.md`, `words.json` and `words_speed.png`.
-    #[arg(long, default_value = "docs/results")]
-    out: PathBuf,
+    /// Where to write `words.md`, `words.json` and `words_speed.png` [default:
+    /// docs/results/REALISM/].
+    #[arg(long)]
+    out: Option<PathBuf>,
     /// The folder of the reading models (`snn-segment`, `snn-words`, `resnet-tiny-segment`,
-    /// `resnet-lite-normaug-words`) [default: those trained at `--realism`: `models/` at `clean`,
-    /// `models/nominal/` at `nominal` (`REALISM=nominal bash scripts/words.sh`)].
+    /// `resnet-lite-normaug-words`) [default: those trained at `--realism`, `models/REALISM/`
+    /// (`REALISM=nominal bash scripts/words.sh`)].
     #[arg(long)]
     models: Option<PathBuf>,
     /// EV scans per row and speed (the paper: 30).
@@ -40,7 +41,7 @@ pub struct Args {
     unseen_trials: u64,
     #[arg(long, default_value_t = 1.5)]
     depth: f64,
-    #[arg(long, default_value_t = experiments::datasets::TEST_SEED)]
+    #[arg(long, default_value_t = corpus::world::TEST_SEED)]
     seed: u64,
     #[command(flatten)]
     realism: crate::common::RealismArg,
@@ -62,5 +63,8 @@ pub fn run(args: Args) -> Result<()> {
         unseen_trials: args.unseen_trials,
     };
     let r = words_report(&models, &spec, &Bar::default())?;
-    crate::charts::write_words_report(&r, &args.out)
+    let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir());
+    experiments::reports::figures::write_words_report(&r, &out)?;
+    eprintln!("wrote {}/words.md, words.json, words_speed.png", out.display());
+    Ok(())
 }

@@ -32,44 +32,50 @@ fn s(p: &Path) -> &str {
 fn every_shipped_snn_has_a_twin_that_exports_as_trained_and_chip_models_pass_their_chips() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.nir");
-    // the iCub models, the `clean` ones, and those trained at `nominal` (the published tables)
-    let sims = ["snn-chars", "snn-words", "snn-segment"];
-    let pairs = ["snn-raw1350", "snn-th10"]
+    // the iCub models, the `clean` ones, and those trained at `nominal` (the published tables),
+    // each beside its twin, as the registry of shipped models names them
+    use pipeline::shipped::{ICUB_DATASETS, Preset, SIMULATED_SNNS, Shipped, Variant};
+    let shipped = Shipped::at(root("models"));
+    let pairs: Vec<_> = ICUB_DATASETS
         .iter()
-        .chain(&sims)
-        .map(|n| (format!("models/{n}"), format!("models/nir/{n}")))
-        .chain(sims.iter().map(|n| (format!("models/nominal/{n}"), format!("models/nir/nominal/{n}"))));
+        .map(|d| (shipped.icub(d, Variant::Trained), shipped.icub(d, Variant::NirTwin)))
+        .chain(Preset::ALL.iter().flat_map(|&p| {
+            let shipped = &shipped;
+            SIMULATED_SNNS
+                .iter()
+                .map(move |n| (shipped.model(p, Variant::Trained, n), shipped.model(p, Variant::NirTwin, n)))
+        }))
+        .collect();
+    assert_eq!(pairs.len(), 8);
     for (shipped, twin) in pairs {
-        let shipped = root(&format!("{shipped}.safetensors"));
         assert!(
             failed(&braille(&["export", "--model", s(&shipped), "--out", s(&out), "--force"])).contains("subtraction")
         );
-        let twin = root(&format!("{twin}.safetensors"));
         ok(&braille(&["export", "--model", s(&twin), "--out", s(&out), "--force"]));
     }
     for (model, target) in [
-        ("models/chip/xylo-braille7.safetensors", "xylo"),
-        ("models/chip/speck-chars.safetensors", "speck"),
-        ("models/chip/nominal/speck-chars.safetensors", "speck"),
-        ("models/nir/snn-th10.safetensors", "loihi2"),
-        ("models/nir/snn-raw1350.safetensors", "spinnaker2"),
+        ("models/icub/chip/xylo-braille7.safetensors", "xylo"),
+        ("models/clean/chip/speck-chars.safetensors", "speck"),
+        ("models/nominal/chip/speck-chars.safetensors", "speck"),
+        ("models/icub/nir/snn-th10.safetensors", "loihi2"),
+        ("models/icub/nir/snn-raw1350.safetensors", "spinnaker2"),
     ] {
         let (_, err) =
             ok(&braille(&["export", "--model", s(&root(model)), "--out", s(&out), "--force", "--target", target]));
         assert!(err.contains("target"), "{err}");
     }
     // a model over a chip's limits: the layer, its node and the limit are named
-    let th10 = root("models/nir/snn-th10.safetensors");
+    let th10 = root("models/icub/nir/snn-th10.safetensors");
     let err = failed(&braille(&["export", "--model", s(&th10), "--out", s(&out), "--force", "--target", "xylo"]));
     assert!(err.contains("layer0.op") && err.contains("16 input channels"), "{err}");
-    let chars = root("models/nir/snn-chars.safetensors");
+    let chars = root("models/clean/nir/snn-chars.safetensors");
     let err = failed(&braille(&["export", "--model", s(&chars), "--out", s(&out), "--force", "--target", "speck"]));
     assert!(err.contains("layer0.neurons") && err.contains("IF neurons"), "{err}");
     // snnTorch 1.0 reads graphs at 100 us: the convention says where to import
     let (_, err) = ok(&braille(&[
         "export",
         "--model",
-        s(&root("models/chip/xylo-braille7.safetensors")),
+        s(&root("models/icub/chip/xylo-braille7.safetensors")),
         "--out",
         s(&out),
         "--force",
@@ -82,7 +88,7 @@ fn every_shipped_snn_has_a_twin_that_exports_as_trained_and_chip_models_pass_the
 #[test]
 fn bench_times_an_exported_graph_on_its_dataset_as_the_model_file_scores() {
     let dir = tempfile::tempdir().unwrap();
-    let model = root("models/chip/xylo-braille7.safetensors");
+    let model = root("models/icub/chip/xylo-braille7.safetensors");
     let graph = dir.path().join("x.nir");
     ok(&braille(&["export", "--model", s(&model), "--out", s(&graph), "--target", "xylo"]));
     let data = root("data/icub_braille/raw1350");

@@ -353,7 +353,11 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
         "--out",
         other.to_str().unwrap(),
     ]);
-    assert!(!o.status.success() && text(&o).1.contains("--recurrent-init-gain needs --recurrent"), "{:?}", text(&o));
+    assert!(
+        !o.status.success() && text(&o).1.contains("--recurrent-init-gain = 0: expected --recurrent"),
+        "{:?}",
+        text(&o)
+    );
     assert!(!other.exists());
     let csv = dir.path().join("predictions.csv");
     let o = braille(&[
@@ -435,11 +439,13 @@ fn train_a_resnet_on_simulated_windows_and_evaluate_characters() {
     }
     // the file's header names its architecture; a tactile dataset's SNN reads no character
     // windows: the file is named
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/snn-raw1350.safetensors");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/icub/snn-raw1350.safetensors");
     let o = braille(&["eval", "chars", "--model", data.to_str().unwrap(), "--trials", "1"]);
     let (_, err) = text(&o);
     assert!(
-        !o.status.success() && err.contains("snn-raw1350.safetensors") && err.contains("not a character-window input"),
+        !o.status.success()
+            && err.contains("snn-raw1350.safetensors")
+            && err.contains("expected a character-window input"),
         "{err}"
     );
 }
@@ -467,11 +473,13 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
     // LIF without bias: the async engine runs it too
     assert!(v["accuracy_async"].as_f64().is_some(), "{out}");
     // an SNN of the iCub data is no character model: the file is named
-    let icub = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/snn-raw1350.safetensors");
+    let icub = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/icub/snn-raw1350.safetensors");
     let o = braille(&["eval", "chars", "--arch", "snn", "--model", icub.to_str().unwrap(), "--trials", "1"]);
     let (_, err) = text(&o);
     assert!(
-        !o.status.success() && err.contains("snn-raw1350.safetensors") && err.contains("not a character-window input"),
+        !o.status.success()
+            && err.contains("snn-raw1350.safetensors")
+            && err.contains("expected a character-window input"),
         "{err}"
     );
     // the report over whatever models the folder holds
@@ -499,7 +507,7 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
 fn export_to_nir_and_import_back() {
     let dir = tempfile::tempdir().unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = root.join("models/snn-raw1350.safetensors");
+    let model = root.join("models/icub/snn-raw1350.safetensors");
     let nir = dir.path().join("m.nir");
     // the shipped model resets by subtraction, which NIR cannot say: refused unless accepted
     let o = braille(&["export", "--model", model.to_str().unwrap(), "--out", nir.to_str().unwrap()]);

@@ -279,7 +279,7 @@ fn calibrate_reader_chooses_on_the_validation_words_and_records_the_point() {
     let dir = tempfile::tempdir().unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     for f in ["snn-segment.safetensors", "snn-words.safetensors"] {
-        std::fs::copy(root.join("models").join(f), dir.path().join(f)).unwrap();
+        std::fs::copy(root.join("models/clean").join(f), dir.path().join(f)).unwrap();
     }
     let d = dir.path().to_str().unwrap();
     let args = ["calibrate-reader", "--realism", "clean", "--models", d, "--out", d, "--trials", "1", "--speeds", "32"];

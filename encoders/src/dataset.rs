@@ -107,14 +107,13 @@ impl Dataset {
         let mut map = vec![None; self.classes.len()];
         for (new, name) in names.iter().enumerate() {
             let old = self.classes.iter().position(|c| c == name).ok_or_else(|| {
-                Error::Config(format!(
-                    "{}: no class `{name}` (the classes are {})",
-                    self.dir.display(),
-                    self.classes.join(", ")
-                ))
+                Error::config(
+                    "classes",
+                    format!("{}: no class `{name}` (the classes are {})", self.dir.display(), self.classes.join(", ")),
+                )
             })?;
             if map[old].replace(new).is_some() {
-                return Err(Error::Config(format!("class `{name}` is named twice")));
+                return Err(Error::config("classes", format!("class `{name}` is named twice")));
             }
         }
         let samples =
@@ -267,7 +266,7 @@ fn split_of(split: &HashMap<u64, Split>, id: u64, t: &Table) -> Result<Split> {
 
 fn load_analog(dir: &Path, period_us: i64, split: &HashMap<u64, Split>) -> Result<Dataset> {
     if period_us <= 0 {
-        return Err(Error::Config(format!("sampling period must be positive, got {period_us} us")));
+        return Err(Error::config("sampling period", format!("must be positive, got {period_us} us")));
     }
     let mut t = Table::open(&dir.join("raw.csv"))?;
     let (cs, cl, cn, ct) = (t.column("sample")?, t.column("label")?, t.column("letter")?, t.column("t_idx")?);

@@ -64,11 +64,19 @@ pub enum Error {
     #[error("{path}: exists, and is replaced only when asked (--force on the command line, overwrite=True in Python)")]
     Exists { path: PathBuf },
 
-    #[error("invalid configuration: {0}")]
-    Config(String),
+    /// A setting outside what it can be: which setting, and what is wrong with the value given.
+    #[error("invalid {setting}: {what}")]
+    Config { setting: &'static str, what: String },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Setting `setting` with a value that is not allowed.
+    pub fn config(setting: &'static str, what: impl Into<String>) -> Error {
+        Error::Config { setting, what: what.into() }
+    }
+}
 
 /// Maps an I/O error on `path` to [`Error::Io`], or to [`Error::Truncated`] for an unexpected end.
 pub(crate) fn io_at(path: &std::path::Path, at: Location, expected: &str, e: std::io::Error) -> Error {

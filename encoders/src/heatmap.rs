@@ -54,7 +54,7 @@ impl HeatmapConfig {
 
     pub fn validate(&self) -> Result<()> {
         if self.bin_us <= 0 {
-            return Err(Error::Config(format!("bin_us must be positive, got {}", self.bin_us)));
+            return Err(Error::config("bin_us", format!("must be positive, got {}", self.bin_us)));
         }
         pooling::validate(self.sensor, self.pool, self.mask_cols.as_ref())
     }

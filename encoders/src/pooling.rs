@@ -14,16 +14,16 @@ pub fn pooled(sensor: Resolution, pool: u16) -> Resolution {
 /// Checks a pooling factor and a mask of pooled columns.
 pub fn validate(sensor: Resolution, pool: u16, mask_cols: Option<&Range<u16>>) -> Result<()> {
     if pool == 0 {
-        return Err(Error::Config("pool must be at least 1".into()));
+        return Err(Error::config("pool", "must be at least 1"));
     }
     let width = pooled(sensor, pool).width;
     if let Some(m) = mask_cols
         && (m.start >= m.end || m.end > width)
     {
-        return Err(Error::Config(format!(
-            "mask_cols {}..{} must be a non-empty range inside 0..{width}",
-            m.start, m.end
-        )));
+        return Err(Error::config(
+            "mask_cols",
+            format!("mask_cols {}..{} must be a non-empty range inside 0..{width}", m.start, m.end),
+        ));
     }
     Ok(())
 }

@@ -27,17 +27,19 @@ impl Default for SigmaDeltaConfig {
 /// at its first sample.
 pub fn encode(config: &SigmaDeltaConfig, frames: &[f32], channels: usize, period_us: i64) -> Result<Vec<Event>> {
     if !(config.threshold > 0.0 && config.threshold.is_finite()) {
-        return Err(Error::Config(format!("sigma-delta threshold must be positive, got {}", config.threshold)));
+        return Err(Error::config("sigma-delta threshold", format!("must be positive, got {}", config.threshold)));
     }
     if channels == 0 || channels > u16::MAX as usize || !frames.len().is_multiple_of(channels) {
-        return Err(Error::Config(format!("{} samples do not form frames of {channels} channels", frames.len())));
+        return Err(Error::config(
+            "frames",
+            format!("{} samples do not form frames of {channels} channels", frames.len()),
+        ));
     }
     if let Some(i) = frames.iter().position(|v| !v.is_finite()) {
-        return Err(Error::Config(format!(
-            "sample {i} (frame {}, channel {}) is not finite",
-            i / channels,
-            i % channels
-        )));
+        return Err(Error::config(
+            "frames",
+            format!("sample {i} (frame {}, channel {}) is not finite", i / channels, i % channels),
+        ));
     }
     let th = config.threshold as f64;
     let mut reference: Vec<f64> = frames.iter().take(channels).map(|&v| v as f64).collect();

@@ -127,7 +127,7 @@ pub struct SpikeTrainEncoder {
 impl SpikeTrainEncoder {
     pub fn new(config: SpikeTrainConfig) -> Result<Self> {
         if config.dt_us <= 0 {
-            return Err(Error::Config(format!("dt_us must be positive, got {}", config.dt_us)));
+            return Err(Error::config("dt_us", format!("must be positive, got {}", config.dt_us)));
         }
         let map = PoolMap::new(config.sensor, config.pool, config.mask_cols.as_ref())?;
         Ok(Self { plane: if config.merge_polarities { 0 } else { map.output.pixels() as u32 }, config, map })

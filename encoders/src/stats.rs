@@ -52,3 +52,50 @@ impl StreamStats {
         (self.off > 0).then(|| self.on as f64 / self.off as f64)
     }
 }
+/// What `braille info` reports of an event file: its format and declared metadata, and the
+/// statistics of every event, read chunk by chunk with bounded memory.
+#[derive(Debug, Clone, Serialize)]
+pub struct FileSummary {
+    pub path: std::path::PathBuf,
+    pub format: crate::formats::Format,
+    pub resolution: Option<String>,
+    pub source: Option<String>,
+    pub events: u64,
+    pub duration_s: f64,
+    pub event_rate_hz: f64,
+    pub on: u64,
+    pub off: u64,
+    pub on_off_ratio: Option<f64>,
+    pub t_first_us: Option<i64>,
+    pub t_last_us: Option<i64>,
+    pub max_x: Option<u16>,
+    pub max_y: Option<u16>,
+}
+
+impl FileSummary {
+    /// Reads every event of the file at `path`.
+    pub fn of(path: &std::path::Path, options: &crate::formats::OpenOptions) -> crate::Result<FileSummary> {
+        let mut source = crate::formats::open(path, options)?;
+        let mut stats = StreamStats::default();
+        while let Some(chunk) = source.next_chunk()? {
+            stats.add(chunk);
+        }
+        let info = source.info();
+        Ok(FileSummary {
+            path: path.to_path_buf(),
+            format: info.format,
+            resolution: info.resolution.map(|r| r.to_string()),
+            source: info.source.clone(),
+            events: stats.events,
+            duration_s: stats.duration_s(),
+            event_rate_hz: stats.rate_hz(),
+            on: stats.on,
+            off: stats.off,
+            on_off_ratio: stats.on_off_ratio(),
+            t_first_us: stats.t_first_us,
+            t_last_us: stats.t_last_us,
+            max_x: stats.max_x,
+            max_y: stats.max_y,
+        })
+    }
+}

@@ -8,7 +8,7 @@
 //! `cargo run --release -p experiments --example labeler_diag [trials] [depth_mm] [speed_mm_s] [whole]`
 //! (`whole`: the start window over every row, as before the fix).
 
-use experiments::datasets::{VALIDATION_SEED, World};
+use corpus::world::{VALIDATION_SEED, World};
 use pipeline::labeling::{LabelerConfig, label, peaks};
 use sim::{BoardKind, Realism};
 
@@ -35,7 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let s = sim::simulate(&board, sensor, &setup.scan(speed, depth, row, seed))?;
             let n = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).count();
             let l = label(&s.events, sensor.camera.resolution, speed, n, &cfg)?;
-            let sc = experiments::labeling::score(&l, &s.truth, &cfg);
+            let sc = experiments::eval::labeling::score(&l, &s.truth, &cfg);
             println!(
                 "row {row} trial {trial}: expected {n}, found {}, at their character {}",
                 l.windows.len(),

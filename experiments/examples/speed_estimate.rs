@@ -7,8 +7,8 @@
 //! validation board with the training sensor builds and the validation seed, where the
 //! estimator's settings are chosen; EV with the test builds is the reported test).
 
-use experiments::datasets::World;
-use experiments::words::truth_speed_at;
+use corpus::world::World;
+use experiments::eval::words::truth_speed_at;
 use pipeline::speed::{SpeedEstimator, SpeedEstimatorConfig};
 use sim::{BoardKind, Realism};
 use std::time::Instant;

@@ -1,7 +1,7 @@
 //! The paper's labeling pipeline on simulated scans, scored against the simulator's truth.
 
-use experiments::datasets::{VALIDATION_SEED, World};
-use experiments::labeling::score;
+use corpus::world::{VALIDATION_SEED, World};
+use experiments::eval::labeling::score;
 use pipeline::labeling::{LabelerConfig, label, window_heatmap};
 use sim::{Board, BoardGeometry, BoardKind, CameraConfig, GelConfig, ScanConfig, Sensor, simulate};
 

@@ -1,14 +1,14 @@
 //! A robustness sweep on a small board: every level is scored for every model, the Markdown names
 //! each level, and the sweep repeats from its seed.
 
-use experiments::chars::CharModel;
-use experiments::robustness::{Nuisance, SweepSpec, markdown, sweep};
+use experiments::eval::chars::CharModel;
+use experiments::eval::robustness::{Nuisance, SweepSpec, markdown, sweep};
 use sim::{BoardKind, Realism};
 
 #[test]
 fn a_sweep_scores_every_level_and_repeats() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let model = CharModel::load(&root.join("models/resnet-lite-normaug.safetensors")).unwrap();
+    let model = CharModel::load(&root.join("models/clean/resnet-lite-normaug.safetensors")).unwrap();
     let spec = SweepSpec {
         base: Realism::Clean,
         nuisances: vec![Nuisance::Misalignment],

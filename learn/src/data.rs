@@ -115,7 +115,9 @@ fn sample_events(
         SampleData::Analog { frames } => {
             let sd = enc.sigma_delta.clone().unwrap_or_default();
             sigma_delta::encode(&sd, frames, data.channels, enc.period_us).map_err(|e| match e {
-                encoders::Error::Config(m) => encoders::Error::Config(format!("sample {}: {m}", sample.id)),
+                encoders::Error::Config { setting, what } => {
+                    encoders::Error::Config { setting, what: format!("sample {}: {what}", sample.id) }
+                }
                 other => other,
             })
         }
@@ -198,12 +200,15 @@ impl TactileEncoding {
     /// Encodes the samples of `split` (all samples for `None`).
     pub fn encode(&self, data: &Dataset, split: Option<Split>) -> encoders::Result<SpikeSet> {
         if data.channels != self.channels {
-            return Err(encoders::Error::Config(format!(
-                "{}: {} channels, the model was trained on {}",
-                data.dir.display(),
-                data.channels,
-                self.channels
-            )));
+            return Err(encoders::Error::config(
+                "channels",
+                format!(
+                    "{}: {} channels, the model was trained on {}",
+                    data.dir.display(),
+                    data.channels,
+                    self.channels
+                ),
+            ));
         }
         let data = &*self.select(data)?;
         let encoder = self.encoder(data.resolution())?;

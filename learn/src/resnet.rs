@@ -398,13 +398,13 @@ pub fn train(
 pub fn to_tensors(model: &Resnet) -> Result<Vec<::snn::model_file::NamedTensor>> {
     use burn::store::{ModuleSnapshot, SafetensorsStore};
     let mut store = SafetensorsStore::from_bytes(None);
-    model.save_into(&mut store).map_err(|e| Error::Store(e.to_string()))?;
-    let bytes = store.get_bytes().map_err(|e| Error::Store(e.to_string()))?;
+    model.save_into(&mut store).map_err(|e| Error::Store { step: "save", what: e.to_string() })?;
+    let bytes = store.get_bytes().map_err(|e| Error::Store { step: "save", what: e.to_string() })?;
     let st = safetensors::SafeTensors::deserialize(&bytes)?;
     let mut out = Vec::new();
     for (name, view) in st.tensors() {
         if view.dtype() != safetensors::Dtype::F32 {
-            return Err(Error::Tensors(format!("tensor `{name}` is {:?}, not F32", view.dtype())));
+            return Err(Error::Tensors { tensor: Some(name), what: format!("{:?}, not F32", view.dtype()) });
         }
         let data = view.data().chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         out.push(::snn::model_file::NamedTensor { name, shape: view.shape().to_vec(), data });
@@ -430,15 +430,18 @@ pub fn from_tensors(cfg: &ResnetConfig, tensors: &[::snn::model_file::NamedTenso
     let mut model = cfg.init(&Device::flex());
     let r = model
         .load_from(&mut SafetensorsStore::from_bytes(Some(st)))
-        .map_err(|e| Error::Tensors(format!("tensors do not fit the config: {e}")))?;
+        .map_err(|e| Error::Tensors { tensor: None, what: format!("tensors do not fit the config: {e}") })?;
     if !r.errors.is_empty() || !r.missing.is_empty() || !r.unused.is_empty() {
-        return Err(Error::Tensors(format!(
-            "tensors do not fit the config: {} errors ({}), missing {:?}, unused {:?}",
-            r.errors.len(),
-            r.errors.first().map_or(String::new(), |e| format!("{e:?}")),
-            r.missing.iter().map(|m| &m.0).collect::<Vec<_>>(),
-            r.unused
-        )));
+        return Err(Error::Tensors {
+            tensor: None,
+            what: format!(
+                "tensors do not fit the config: {} errors ({}), missing {:?}, unused {:?}",
+                r.errors.len(),
+                r.errors.first().map_or(String::new(), |e| format!("{e:?}")),
+                r.missing.iter().map(|m| &m.0).collect::<Vec<_>>(),
+                r.unused
+            ),
+        });
     }
     Ok(model.valid())
 }

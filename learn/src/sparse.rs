@@ -276,13 +276,13 @@ pub struct SparseSnn {
 /// layer that fits the readout.
 pub fn check_trainable(spec: &NetworkSpec, readout: Readout) -> snn::Result<()> {
     if let Some(k) = spec.layers.iter().position(|l| l.recurrent_bias) {
-        return Err(snn::Error::Network(format!("layer {k}: recurrent biases are not trained here")));
+        return Err(snn::Error::layer(k, "recurrent biases are not trained here"));
     }
     let last = spec.layers.last().and_then(|l| l.neurons).map(|p| p.kind);
     match (readout, last) {
         (Readout::MaxMembrane, Some(NeuronKind::Li)) => Ok(()),
         (Readout::SpikeCount, Some(k)) if k != NeuronKind::Li => Ok(()),
-        _ => Err(snn::Error::Network(format!("readout {readout:?} does not fit an output layer of {last:?} neurons"))),
+        _ => Err(snn::Error::network(format!("readout {readout:?} does not fit an output layer of {last:?} neurons"))),
     }
 }
 
@@ -300,7 +300,7 @@ impl SparseSnn {
     pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout, cutoff: f32) -> snn::Result<SparseSnn> {
         let shapes = spec.shapes()?;
         if !(0.0..1.0).contains(&cutoff) {
-            return Err(snn::Error::Network(format!("gradient cutoff {cutoff} must lie in [0, 1)")));
+            return Err(snn::Error::network(format!("gradient cutoff {cutoff} must lie in [0, 1)")));
         }
         check_trainable(&spec, readout)?;
         let input = Layout::of(&spec.input_shape);
@@ -311,8 +311,7 @@ impl SparseSnn {
             let kernel = match l.op {
                 OpSpec::Dense { .. } => Kernel::Dense,
                 OpSpec::Conv2d { out_channels, kernel, stride, padding } => {
-                    let [h, w] =
-                        in_hw().ok_or_else(|| snn::Error::Network("a convolution needs a 3-d input".into()))?;
+                    let [h, w] = in_hw().ok_or_else(|| snn::Error::network("a convolution needs a 3-d input"))?;
                     let (mut offsets, mut targets) = (vec![0u32], Vec::new());
                     for y in 0..h {
                         for x in 0..w {
@@ -325,7 +324,7 @@ impl SparseSnn {
                     Kernel::Conv { ic: s.input[0], oc: out_channels, kk: kernel[0] * kernel[1], offsets, targets }
                 }
                 OpSpec::Pool { kind, kernel, stride } => {
-                    let [h, w] = in_hw().ok_or_else(|| snn::Error::Network("a pooling needs a 3-d input".into()))?;
+                    let [h, w] = in_hw().ok_or_else(|| snn::Error::network("a pooling needs a 3-d input"))?;
                     let (mut offsets, mut targets) = (vec![0u32], Vec::new());
                     for p in 0..h * w {
                         // channel 0's targets are the pixel's output pixels

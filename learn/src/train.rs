@@ -247,7 +247,7 @@ fn targets(set: &SpikeSet, idx: &[usize], device: &Device) -> Tensor<1, Int> {
 
 fn correct(logits: &Tensor<2>, set: &SpikeSet, idx: &[usize]) -> usize {
     let pred = logits.clone().argmax(1).to_data().convert::<i64>().try_into_vec::<i64>().expect("int predictions");
-    pred.iter().zip(idx).filter(|&(&p, &i)| p as usize == set.labels[i]).count()
+    snn::scoring::hits(pred.iter().map(|&p| p as usize), idx.iter().map(|&i| set.labels[i]))
 }
 
 /// Validation: loss, accuracy and spikes per sample with the time-stepped network (no autodiff).
@@ -374,13 +374,13 @@ pub fn train(
     observer: &mut dyn Observer,
 ) -> snn::Result<Outcome> {
     if train.is_empty() || cfg.batch_size == 0 || cfg.epochs == 0 {
-        return Err(snn::Error::Input("training needs samples, a batch size and epochs".into()));
+        return Err(snn::Error::input("training needs samples, a batch size and epochs"));
     }
     if !(0.0..1.0).contains(&cfg.dropout)
         || !(0.0..=f64::MAX).contains(&cfg.weight_decay)
         || cfg.augment.event_jitter_us < 0
     {
-        return Err(snn::Error::Input(format!(
+        return Err(snn::Error::input(format!(
             "dropout {} must lie in [0, 1), weight decay {} and event jitter {} us must not be negative",
             cfg.dropout, cfg.weight_decay, cfg.augment.event_jitter_us
         )));

@@ -15,6 +15,8 @@ use snn::sliding::{RunScratch, Sliding};
 use std::path::Path;
 use std::time::Instant;
 
+pub use snn::scoring::argmax;
+
 /// How the SNN reads a window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -153,10 +155,7 @@ impl WindowModel {
     pub fn snn(model: SnnModel, input: CharInput, runner: SnnRunner) -> Result<WindowModel> {
         let n = 2 * input.shape()[1] * input.shape()[2];
         if model.network.n_inputs() != n {
-            return Err(Error::Config(format!(
-                "the preparation gives {n} inputs, the network takes {}",
-                model.network.n_inputs()
-            )));
+            return Err(Error::Mismatch { what: "the preparation's inputs differ from the network's" });
         }
         let classes = model.classes.clone();
         let runner = match runner {
@@ -267,7 +266,7 @@ impl WindowModel {
             unreachable!("called for the sliding runner only")
         };
         let StateKind::Sliding { bins, scratch, run } = &mut st.kind else {
-            return Err(Error::Config("a window state of another model".into()));
+            return Err(Error::Mismatch { what: "a window state of another model" });
         };
         let [_, h, wd] = input.shape();
         let n = w.n_bins();
@@ -291,7 +290,7 @@ impl WindowModel {
             }
         }
         if bins.len() != n {
-            return Err(Error::Config("the window's bins are not consecutive".into()));
+            return Err(Error::Mismatch { what: "the window's bins are not consecutive" });
         }
         // the vertical centring of the whole window, as `CharInput::spikes` does it
         let shift = if input.preprocess.normalises() {
@@ -366,7 +365,7 @@ impl WindowClassifier for WindowModel {
                 }
             }
             (Runner::Sliding { .. }, _) => self.sliding(st, w)?,
-            (Runner::Engine { .. }, _) => return Err(Error::Config("a window state of another model".into())),
+            (Runner::Engine { .. }, _) => return Err(Error::Mismatch { what: "a window state of another model" }),
         };
         let ns = t.elapsed().as_nanos() as u64;
         st.stats.calls += 1;
@@ -456,7 +455,7 @@ mod tests {
         // the shipped SNN segmentation network on a stream whose speed jumps between 8 and 40 mm/s:
         // the reader retunes its bins within a window, and the sliding runner's cache of bins
         // (known by their end times) must give what running every window from rest gives
-        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/clean");
         let seg = models.join("snn-segment.safetensors");
         let mut ev = Vec::new();
         for (k, speed) in [8.0, 24.0, 12.0, 40.0, 16.0, 32.0].into_iter().enumerate() {

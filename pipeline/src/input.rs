@@ -43,10 +43,14 @@ impl CharInput {
     /// The window's counts, cropped and pooled, as a heat map of the crop.
     pub fn crop(&self, map: &Heatmap) -> Result<Heatmap> {
         if self.rows.end > map.height || self.cols.end > map.width || map.bins != self.labeler.frames {
-            return Err(Error::Config(format!(
-                "a window of {} bins x {}x{} does not fit the model's input (rows {:?}, columns {:?}, {} bins)",
-                map.bins, map.height, map.width, self.rows, self.cols, self.labeler.frames
-            )));
+            return Err(Error::WindowShape {
+                bins: map.bins,
+                height: map.height,
+                width: map.width,
+                rows: self.rows.clone(),
+                cols: self.cols.clone(),
+                frames: self.labeler.frames,
+            });
         }
         let [_, h, w] = self.shape();
         let p = self.pool.max(1);
@@ -68,15 +72,14 @@ impl CharInput {
     pub fn crop_window(&self, w: &crate::reader::Window) -> Result<Vec<f32>> {
         let [planes, h, wd] = self.shape();
         if w.n_bins() * 2 != planes || self.rows.end > w.height || self.cols.end > w.width {
-            return Err(Error::Config(format!(
-                "a window of {} bins x {}x{} does not fit the model's input (rows {:?}, columns {:?}, {} bins)",
-                w.n_bins(),
-                w.height,
-                w.width,
-                self.rows,
-                self.cols,
-                self.labeler.frames
-            )));
+            return Err(Error::WindowShape {
+                bins: w.n_bins(),
+                height: w.height,
+                width: w.width,
+                rows: self.rows.clone(),
+                cols: self.cols.clone(),
+                frames: self.labeler.frames,
+            });
         }
         let mut out = vec![0f32; planes * h * wd];
         for (b, bin) in w.bins().enumerate() {

@@ -124,7 +124,11 @@ impl LabelerConfig {
         if ok {
             Ok(())
         } else {
-            Err(Error::Config(format!("labeler configuration out of range at {speed_mm_s} mm/s: {self:?}")))
+            Err(Error::Setting {
+                name: "labeler configuration",
+                value: format!("{self:?} at {speed_mm_s} mm/s"),
+                expected: "positive durations, frames and thresholds, a positive speed",
+            })
         }
     }
 

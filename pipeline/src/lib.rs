@@ -1,8 +1,11 @@
-//! Words out: from an event stream to character windows (the paper's labeling pipeline,
-//! [`labeling`]), a window to a network's input ([`input`], [`augment`]), trained models loaded by
-//! the architecture their header names ([`models`]) and run on windows ([`classify`]: a loaded
-//! model is shared, each stream owns its state), the streaming reader ([`reader`]), the temporal
-//! filter ([`words`]) and spelling ([`spelling`], [`lexicon`]).
+//! Words out: everything a deployed reader needs. From an event stream to character windows (the
+//! paper's labeling pipeline, [`labeling`]), a window to a network's input ([`input`],
+//! [`augment`]), trained models loaded by the architecture their header names ([`models`], with
+//! typed headers) and run on windows ([`classify`]: a loaded model is shared, each stream owns its
+//! state), the streaming reader ([`reader`]) and a whole source read with bounded memory
+//! ([`source`]), the temporal filter ([`words`]), spelling ([`spelling`], [`lexicon`]), every
+//! shipped model named in one place ([`shipped`]), and any SNN or NIR graph run on events
+//! ([`network`]).
 //!
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
@@ -14,7 +17,10 @@ pub mod input;
 pub mod labeling;
 pub mod lexicon;
 pub mod models;
+pub mod network;
 pub mod reader;
+pub mod shipped;
+pub mod source;
 pub mod speed;
 pub mod spelling;
 pub mod words;

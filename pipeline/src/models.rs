@@ -3,6 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::input::CharInput;
+use learn::data::TactileEncoding;
 use learn::resnet::{Resnet, ResnetConfig};
 use snn::model_file::{Arch, ModelFile, SnnModel};
 use std::path::Path;
@@ -67,6 +68,54 @@ impl ResnetModel {
             provenance: f.provenance,
             operating_point: f.operating_point,
         })
+    }
+}
+
+/// What a model file's `preprocess` header says its input is, parsed once where the model is
+/// loaded: character windows of the labeler (the readers' models), a tactile dataset's encoding
+/// (models trained on a dataset folder), or nothing recorded (a NIR twin's header, a bare
+/// network).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Preprocessing {
+    CharWindows(CharInput),
+    Tactile(TactileEncoding),
+    None,
+}
+
+impl Preprocessing {
+    /// The kind of a `preprocess` header by the key only its kind has (`labeler` for character
+    /// windows, `channels` for a tactile encoding); a header of neither kind, or one of a kind
+    /// that does not parse, is an error naming the file and the key.
+    pub fn of_header(value: &serde_json::Value, path: &Path) -> Result<Preprocessing> {
+        let header = |expected: &'static str, found: String| Error::Header {
+            path: path.to_path_buf(),
+            key: "preprocess",
+            expected,
+            found,
+        };
+        match value {
+            serde_json::Value::Null => Ok(Preprocessing::None),
+            serde_json::Value::Object(o) if o.is_empty() => Ok(Preprocessing::None),
+            serde_json::Value::Object(o) if o.contains_key("labeler") => serde_json::from_value(value.clone())
+                .map(Preprocessing::CharWindows)
+                .map_err(|e| header("a character-window input", e.to_string())),
+            serde_json::Value::Object(o) if o.contains_key("channels") => serde_json::from_value(value.clone())
+                .map(Preprocessing::Tactile)
+                .map_err(|e| header("a tactile encoding", e.to_string())),
+            other => Err(header(
+                "a character-window input (with `labeler`) or a tactile encoding (with `channels`)",
+                other.to_string().chars().take(120).collect(),
+            )),
+        }
+    }
+
+    /// The kind's name, as errors and reports give it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Preprocessing::CharWindows(_) => "character windows",
+            Preprocessing::Tactile(_) => "a tactile encoding",
+            Preprocessing::None => "none recorded",
+        }
     }
 }
 
@@ -147,14 +196,17 @@ impl Model {
         match self {
             Model::Resnet(m) => Ok(m.input.clone()),
             Model::Snn(m) => {
-                let input: CharInput = serde_json::from_value(m.preprocess.clone()).map_err(|e| {
-                    bad(
-                        path,
-                        format!(
-                            "header `preprocess` is not a character-window input (a model for `eval --data`?): {e}"
-                        ),
-                    )
-                })?;
+                let input = match Preprocessing::of_header(&m.preprocess, path)? {
+                    Preprocessing::CharWindows(input) => input,
+                    other => {
+                        return Err(Error::Header {
+                            path: path.to_path_buf(),
+                            key: "preprocess",
+                            expected: "a character-window input",
+                            found: format!("{} (a model for `eval --data`?)", other.kind()),
+                        });
+                    }
+                };
                 let n = 2 * input.shape()[1] * input.shape()[2];
                 if m.network.n_inputs() != n {
                     return Err(bad(

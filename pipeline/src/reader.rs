@@ -179,23 +179,47 @@ pub struct OperatingPoint {
     #[serde(serialize_with = "serialize_as_printed")]
     pub present_threshold: f32,
     pub min_frames: usize,
-    /// How the point was chosen (data, rule, scores): informative.
-    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
-    pub calibration: serde_json::Value,
+    /// How the point was chosen (none: the paper's point, or set by hand).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<PointCalibration>,
+}
+
+/// How an operating point was chosen (`braille calibrate-reader`): on what data, by which rule,
+/// over which grid, and the validation scores of the point chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointCalibration {
+    pub command: String,
+    /// The validation data (SIMULATED validation words, their world and scans).
+    pub data: String,
+    /// The classifier the segmentation network was read with.
+    pub classifier: String,
+    pub rule: String,
+    /// The chosen point's mean word accuracy over the validation speeds, without spelling and
+    /// with the lexicon.
+    pub mean_word_accuracy_none: f64,
+    pub mean_word_accuracy_lexicon: f64,
+    pub grid: CalibrationGrid,
+}
+
+/// The points a calibration tried: every threshold with every shortest segment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationGrid {
+    pub thresholds: Vec<f64>,
+    pub min_frames: Vec<usize>,
 }
 
 impl OperatingPoint {
     /// The paper's: a detection above 0.5, a character from 4 detections.
-    pub const PAPER: OperatingPoint =
-        OperatingPoint { present_threshold: 0.5, min_frames: 4, calibration: serde_json::Value::Null };
+    pub const PAPER: OperatingPoint = OperatingPoint { present_threshold: 0.5, min_frames: 4, calibration: None };
 
     /// Checks the values: a threshold in [0, 1) and at least one frame.
     pub fn validate(&self) -> Result<()> {
         if !(0.0..1.0).contains(&self.present_threshold) || self.min_frames == 0 {
-            return Err(Error::Config(format!(
-                "an operating point needs a threshold in [0, 1) and at least one frame, got {} and {}",
-                self.present_threshold, self.min_frames
-            )));
+            return Err(Error::Setting {
+                name: "operating point (threshold, shortest segment)",
+                value: format!("{}, {} frames", self.present_threshold, self.min_frames),
+                expected: "a threshold in [0, 1) and at least one frame",
+            });
         }
         Ok(())
     }
@@ -246,7 +270,11 @@ impl Timing {
         match (mode, speed_mm_s) {
             (TimingMode::Estimated, hint_mm_s) => Ok(Timing::Estimated { hint_mm_s }),
             (TimingMode::Given, Some(speed_mm_s)) => Ok(Timing::Given { speed_mm_s }),
-            (TimingMode::Given, None) => Err(Error::Config("timing `given` needs a speed".into())),
+            (TimingMode::Given, None) => Err(Error::Setting {
+                name: "speed",
+                value: "none".into(),
+                expected: "a speed: timing `given` needs a speed (--speed)",
+            }),
             (TimingMode::Paper, _) => Ok(Timing::Paper),
         }
     }
@@ -377,16 +405,17 @@ impl ReaderConfig {
         if let Some(v) = self.initial_speed_mm_s()
             && !speed_ok(v)
         {
-            return Err(Error::Config(format!("the speed must be positive, got {v} mm/s")));
+            return Err(Error::Setting { name: "speed (mm/s)", value: v.to_string(), expected: "a positive speed" });
         }
         if self.labeler.frames == 0 {
-            return Err(Error::Config("the window needs at least one frame".into()));
+            return Err(Error::Setting { name: "window frames", value: "0".into(), expected: "at least one frame" });
         }
         if !(self.hold_ms > 0.0 && self.retune_fraction >= 0.0) {
-            return Err(Error::Config(format!(
-                "hold_ms must be positive and retune_fraction not negative, got {} and {}",
-                self.hold_ms, self.retune_fraction
-            )));
+            return Err(Error::Setting {
+                name: "hold_ms, retune_fraction",
+                value: format!("{}, {}", self.hold_ms, self.retune_fraction),
+                expected: "a positive hold and a fraction not negative",
+            });
         }
         Ok(())
     }
@@ -547,10 +576,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     /// order (the `event` index in the error is the count handed in so far).
     pub fn push(&mut self, e: &Event, out: &mut Vec<ReadOutput>) -> Result<()> {
         if e.t_us < self.last_t {
-            return Err(Error::Input(format!(
-                "event {} at {} us goes back in time (the previous was at {} us)",
-                self.stats.events, e.t_us, self.last_t
-            )));
+            return Err(Error::OutOfOrder { index: self.stats.events, t_us: e.t_us, previous_t_us: self.last_t });
         }
         self.last_t = e.t_us;
         self.stats.events += 1;
@@ -791,7 +817,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             .iter()
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))
-            .ok_or_else(|| Error::Config("the character classifier gave no probabilities".into()))?;
+            .ok_or(Error::Mismatch { what: "the character classifier gave no probabilities" })?;
         let letter = (b'A' + k.min(25) as u8) as char;
         self.filter.detect(&Detection { t_us: t_end_us, letter, confidence: p }, Some(&probs), &mut self.pending);
         Ok(())

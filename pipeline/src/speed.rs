@@ -118,7 +118,15 @@ impl SpeedEstimatorConfig {
             && self.min_gain >= 1.0
             && self.bin_x_px >= 1
             && self.bin_y_px >= 1;
-        if ok { Ok(()) } else { Err(Error::Config(format!("speed estimator configuration out of range: {self:?}"))) }
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::Setting {
+                name: "speed estimator configuration",
+                value: format!("{self:?}"),
+                expected: "positive windows, thresholds and bounds",
+            })
+        }
     }
 }
 

@@ -45,14 +45,15 @@ fn event_file_error<'a>(e: &'a (dyn std::error::Error + 'static)) -> Option<&'a 
     if let Some(e) = e.downcast_ref::<pipeline::Error>() {
         return match e {
             pipeline::Error::Encoders(e) => Some(e),
-            pipeline::Error::Snn(e) => event_file_error(e),
+            pipeline::Error::Read { source, .. } => Some(&**source),
+            pipeline::Error::Snn(e) => event_file_error(&**e),
+            pipeline::Error::Source { source, .. } => event_file_error(&**source),
             _ => None,
         };
     }
-    match e.downcast_ref::<experiments::Error>()? {
-        experiments::Error::Encoders(e) | experiments::Error::Read { source: e, .. } => Some(e),
-        experiments::Error::Snn(e) => event_file_error(e),
-        experiments::Error::Pipeline(e) | experiments::Error::Stream { source: e, .. } => event_file_error(&**e),
+    match e.downcast_ref::<corpus::Error>()? {
+        corpus::Error::Encoders(e) => Some(e),
+        corpus::Error::Pipeline(e) => event_file_error(&**e),
         _ => None,
     }
 }

@@ -1,8 +1,8 @@
 //! The `braille` Python module (`braille._braille`, re-exported by `braille/__init__.py`).
 //!
 //! Everything here is a thin layer over the Rust crates: event files ([`encoders`]), the
-//! event-driven engine and NIR ([`snn`], [`experiments::model_bench`]), the virtual Evetac
-//! ([`experiments::scans`]) and the word reader ([`pipeline`]). Events cross the boundary as NumPy
+//! event-driven engine and NIR ([`snn`], [`pipeline::network`]), the virtual Evetac
+//! ([`corpus::scans`]) and the word reader ([`pipeline`]). Events cross the boundary as NumPy
 //! structured arrays with Tonic's fields `x, y, t, p`; work runs with the GIL released; every Rust
 //! error arrives as a Python exception carrying the same message.
 

@@ -4,8 +4,8 @@
 use crate::errors::{BrailleError, OrPy, choice, name_of, to_python};
 use crate::events::{TonicEvent, events_of, resolution_of, to_array, tonic_events};
 use encoders::{Event, Resolution};
-use experiments::model_bench::{self, BenchNetwork, InputMap, ModelSource, NirReading};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pipeline::network::{self as model_bench, InputMap, LoadedNetwork, ModelSource, NirReading};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use snn::engine::{Engine, EngineState, Mode};
@@ -20,7 +20,7 @@ use std::time::Instant;
 /// engine state.
 #[pyclass(frozen, module = "braille")]
 pub struct Network {
-    net: Arc<BenchNetwork>,
+    net: Arc<LoadedNetwork>,
     name: String,
     /// The compiled engine per mode (stepped, async), built on first use.
     engines: Mutex<[Option<Arc<Engine>>; 2]>,
@@ -77,7 +77,7 @@ fn mode_index(mode: Mode) -> usize {
 
 /// A sample's events as the engine's inputs `(t_us, input)`.
 fn inputs_of(
-    net: &BenchNetwork,
+    net: &LoadedNetwork,
     events: &[Event],
     resolution: Option<Resolution>,
     what: &str,
@@ -88,7 +88,7 @@ fn inputs_of(
 }
 
 impl Network {
-    fn new(net: BenchNetwork, name: String) -> Network {
+    fn new(net: LoadedNetwork, name: String) -> Network {
         Network {
             net: Arc::new(net),
             name,
@@ -193,7 +193,7 @@ impl Network {
     }
 
     fn result(&self, py: Python<'_>, o: Outcome) -> PyResult<RunResult> {
-        let prediction = experiments::scoring::argmax(o.readout.iter().copied());
+        let prediction = pipeline::classify::argmax(o.readout.iter().copied());
         let rows: Vec<Vec<i64>> = o.output.iter().map(|&(t, j)| vec![t, j as i64]).collect();
         let output_spikes = if rows.is_empty() {
             PyArray2::<i64>::zeros(py, [0, 2], false)

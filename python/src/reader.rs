@@ -133,7 +133,8 @@ impl Reader {
         let mode: TimingMode = choice("timing", timing)?;
         let runner: SnnRunner = choice("runner", runner)?;
         let timing = Timing::from_mode(mode, speed_mm_s).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let (ds, dc) = experiments::words::default_models(arch, &shipped_models(models_dir));
+        let pipeline::shipped::ReaderFiles { segmenter: ds, classifier: dc } =
+            pipeline::shipped::reader_in(&shipped_models(models_dir), arch);
         let segmenter = segmenter.unwrap_or(ds);
         let classifier = classifier.unwrap_or(dc);
         let (models, speller) = py

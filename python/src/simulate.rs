@@ -2,8 +2,8 @@
 
 use crate::errors::{OrPy, choice, to_python};
 use crate::events::{TonicEvent, resolution_of, to_array, tonic_events};
+use corpus::scans::Scanner;
 use encoders::Resolution;
-use experiments::scans::Scanner;
 use numpy::{PyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;

@@ -91,7 +91,7 @@ def test_batch_equals_single_runs_and_threads_share_the_network():
 
 
 def test_model_file_exports_to_nir_and_reloads_the_same(tmp_path):
-    model = ROOT / "models" / "nir" / "snn-th10.safetensors"
+    model = ROOT / "models" / "icub" / "nir" / "snn-th10.safetensors"
     net = braille.Network.load(model)
     assert net.source == "model_file" and net.readout == "max-membrane"
     out = tmp_path / "th10.nir"
@@ -111,12 +111,12 @@ def test_model_file_exports_to_nir_and_reloads_the_same(tmp_path):
 
 
 def test_chip_rules_and_bad_input_are_named(tmp_path):
-    net = braille.Network.load(ROOT / "models" / "nir" / "snn-th10.safetensors")
+    net = braille.Network.load(ROOT / "models" / "icub" / "nir" / "snn-th10.safetensors")
     with pytest.raises(braille.BrailleError, match="xylo|Xylo"):
         net.check("xylo")
     with pytest.raises(ValueError, match="one of generic"):
         net.check("tpu")
-    shipped = braille.Network.load(ROOT / "models" / "snn-th10.safetensors")
+    shipped = braille.Network.load(ROOT / "models" / "icub" / "snn-th10.safetensors")
     with pytest.raises(braille.BrailleError, match="subtraction"):
         shipped.export(tmp_path / "x.nir")
     garbage = tmp_path / "garbage.safetensors"

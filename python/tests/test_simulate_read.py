@@ -62,7 +62,7 @@ def test_reader_refuses_bad_streams_and_models(scan, tmp_path):
     with pytest.raises(FileNotFoundError, match="nowhere"):
         braille.Reader(models_dir=tmp_path / "nowhere")
     with pytest.raises(braille.BrailleError, match="not a 26-letter"):
-        braille.Reader(classifier=ROOT / "models" / "snn-segment.safetensors")
+        braille.Reader(classifier=ROOT / "models" / "clean" / "snn-segment.safetensors")
     with pytest.raises(ValueError, match="board"):
         braille.simulate(board="text:")
     with pytest.raises(braille.BrailleError, match="row 3"):

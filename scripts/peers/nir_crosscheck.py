@@ -165,19 +165,19 @@ CASES = [
      {"norse": "Norse 1.1's importer maps AvgPool2d to nothing"}),
     ("Braille recurrent CubaLIF fixture", f"{FIXTURES}/braille/braille_noDelay_bias_zero.nir", 100, 0.05,
      {"snntorch": "snnTorch 1.0's importer wires a recurrent subgraph's input into its recurrent weights"}),
-    ("models/nir/snn-raw1350 (CubaLIF)", "models/nir/snn-raw1350.safetensors", 100, 0.05, {}),
-    ("models/nir/snn-th10 (recurrent CubaLIF)", "models/nir/snn-th10.safetensors", 100, 0.05,
+    ("models/icub/nir/snn-raw1350 (CubaLIF)", "models/icub/nir/snn-raw1350.safetensors", 100, 0.05, {}),
+    ("models/icub/nir/snn-th10 (recurrent CubaLIF)", "models/icub/nir/snn-th10.safetensors", 100, 0.05,
      {"snntorch": "snnTorch 1.0's importer wires a recurrent subgraph's input into its recurrent weights"}),
-    ("models/nir/snn-chars (LIF)", "models/nir/snn-chars.safetensors", 40, 0.05, {}),
-    ("models/chip/xylo-braille7 (CubaLIF)", "models/chip/xylo-braille7.safetensors", 100, 0.05, {}),
-    ("models/chip/speck-chars (Conv2d, IF, SumPool2d)", "models/chip/speck-chars.safetensors", 40, 0.05,
+    ("models/clean/nir/snn-chars (LIF)", "models/clean/nir/snn-chars.safetensors", 40, 0.05, {}),
+    ("models/icub/chip/xylo-braille7 (CubaLIF)", "models/icub/chip/xylo-braille7.safetensors", 100, 0.05, {}),
+    ("models/clean/chip/speck-chars (Conv2d, IF, SumPool2d)", "models/clean/chip/speck-chars.safetensors", 40, 0.05,
      {"snntorch": "snnTorch 1.0's importer runs IF with a leak of 0.9 and has no SumPool2d"}),
 ]
 
 
 # Also exported in NIR's own convention (the model's step, r = tau / dt), to show what each
 # importer makes of it.
-SHOW_NIR_CONVENTION = {"models/nir/snn-raw1350.safetensors", "models/nir/snn-chars.safetensors"}
+SHOW_NIR_CONVENTION = {"models/icub/nir/snn-raw1350.safetensors", "models/clean/nir/snn-chars.safetensors"}
 
 
 def main():

@@ -178,10 +178,13 @@ impl BoardGeometry {
         check("texture_pitch_mm", self.texture_pitch_mm, 0.01..100.0, "at least 0.01 mm")?;
         check("texture_angle_deg", self.texture_angle_deg, -180.0..=180.0, "in [-180, 180] degrees")?;
         if self.dot_height_mm > self.dot_radius_mm {
-            return Err(Error::Inconsistent(format!(
-                "dot_height_mm {} exceeds dot_radius_mm {}: a dot is a cap of a sphere",
-                self.dot_height_mm, self.dot_radius_mm
-            )));
+            return Err(Error::Inconsistent {
+                names: "dot_height_mm, dot_radius_mm",
+                why: format!(
+                    "the height {} exceeds the radius {}: a dot is a cap of a sphere",
+                    self.dot_height_mm, self.dot_radius_mm
+                ),
+            });
         }
         Ok(())
     }

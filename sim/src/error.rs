@@ -4,9 +4,9 @@ pub enum Error {
     /// A parameter outside the range the physics allows.
     #[error("simulator parameter `{name}` = {value} is out of range: {expected}")]
     OutOfRange { name: &'static str, value: String, expected: &'static str },
-    /// Parameters that are each in range but do not fit together.
-    #[error("simulator parameters do not fit together: {0}")]
-    Inconsistent(String),
+    /// Parameters that are each in range but do not fit together: which, and why.
+    #[error("simulator parameters {names} do not fit together: {why}")]
+    Inconsistent { names: &'static str, why: String },
     #[error("no Braille cell for {0:?}")]
     NoCell(char),
     #[error("row {row} does not exist: the board has {rows} rows")]

@@ -161,9 +161,12 @@ pub fn trace(
     params.validate()?;
     // The trace holds a sample every 50 us: an hour of slide is 72 M samples (0.6 GB).
     if slide_mm / mean_speed_mm_s > 3600.0 {
-        return Err(crate::error::Error::Inconsistent(format!(
-            "stick-slip: a {slide_mm} mm slide at {mean_speed_mm_s} mm/s lasts over an hour; the trace covers at most one"
-        )));
+        return Err(crate::error::Error::Inconsistent {
+            names: "stick-slip slide and speed",
+            why: format!(
+                "a {slide_mm} mm slide at {mean_speed_mm_s} mm/s lasts over an hour; the trace covers at most one"
+            ),
+        });
     }
     let (ka, m) = (params.mount_stiffness_n_per_m, params.mount_mass_kg);
     let c = 2.0 * params.mount_damping_ratio * (ka * m).sqrt();
@@ -267,10 +270,13 @@ pub fn trace(
             return Ok((Trace { dt_s: DT_S * SAMPLE_EVERY as f64, x_mm: samples }, out));
         }
     }
-    Err(crate::error::Error::Inconsistent(format!(
-        "stick-slip: the camera did not cover the {slide_mm} mm slide in {:.1} s (a mount too soft for the friction?)",
-        max_steps as f64 * DT_S
-    )))
+    Err(crate::error::Error::Inconsistent {
+        names: "stick-slip mount and friction",
+        why: format!(
+            "the camera did not cover the {slide_mm} mm slide in {:.1} s (a mount too soft for the friction?)",
+            max_steps as f64 * DT_S
+        ),
+    })
 }
 
 #[cfg(test)]

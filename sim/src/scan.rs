@@ -336,10 +336,13 @@ fn validate(scan: &ScanConfig, board: &Board) -> Result<f64> {
         p.validate()?;
     }
     if scan.speed_ripple + scan.speed_variation >= 0.95 {
-        return Err(Error::Inconsistent(format!(
-            "speed_ripple {} + speed_variation {} must stay below 0.95: the sensor would stop or reverse",
-            scan.speed_ripple, scan.speed_variation
-        )));
+        return Err(Error::Inconsistent {
+            names: "speed_ripple, speed_variation",
+            why: format!(
+                "{} + {} must stay below 0.95: the sensor would stop or reverse",
+                scan.speed_ripple, scan.speed_variation
+            ),
+        });
     }
     if scan.row >= board.rows.len() {
         return Err(Error::NoRow { row: scan.row, rows: board.rows.len() });

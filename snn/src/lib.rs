@@ -26,6 +26,7 @@ pub mod model_file;
 pub mod network;
 pub mod neuron;
 pub mod nir;
+pub mod scoring;
 pub mod sliding;
 pub mod spec;
 

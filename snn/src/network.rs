@@ -77,7 +77,7 @@ impl Op {
     }
 
     fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Network(m));
+        let bad = |m: String| Err(Error::network(m));
         match self {
             Op::Dense { n_in, n_out, weight, bias } => {
                 if weight.len() != n_in * n_out {
@@ -225,13 +225,13 @@ impl Network {
 
     pub fn validate(&self) -> Result<()> {
         if self.layers.is_empty() {
-            return Err(Error::Network("a network needs at least one layer".into()));
+            return Err(Error::network("a network needs at least one layer"));
         }
         let mut n = self.n_inputs();
         for (k, l) in self.layers.iter().enumerate() {
-            l.op.validate().map_err(|e| Error::Network(format!("layer {k}: {e}")))?;
+            l.op.validate().map_err(|e| Error::layer(k, format!("{e}")))?;
             if l.op.n_in() != n {
-                return Err(Error::Network(format!(
+                return Err(Error::network(format!(
                     "layer {k} takes {} inputs, the previous layer gives {n}",
                     l.op.n_in()
                 )));
@@ -240,27 +240,26 @@ impl Network {
             if let Some(r) = &l.recurrent
                 && (r.len() != n * n || l.neurons.is_none())
             {
-                return Err(Error::Network(format!("layer {k}: recurrent weights need neurons and {n}x{n} values")));
+                return Err(Error::layer(k, format!("recurrent weights need neurons and {n}x{n} values")));
             }
             if let Some(b) = &l.recurrent_bias
                 && (b.len() != n || l.recurrent.is_none() || b.iter().any(|v| !v.is_finite()))
             {
-                return Err(Error::Network(format!(
-                    "layer {k}: a recurrent bias needs recurrent weights and {n} finite values"
-                )));
+                return Err(Error::layer(k, format!("a recurrent bias needs recurrent weights and {n} finite values")));
             }
             if let Some(p) = &l.neurons
                 && p.kind == crate::neuron::NeuronKind::Li
                 && (k + 1 != self.layers.len() || matches!(l.op, Op::Conv2d { .. }) || l.recurrent.is_some())
             {
-                return Err(Error::Network(format!(
-                    "layer {k}: leaky integrators (non-spiking) are a readout: the last layer, dense or pooled, not recurrent"
-                )));
+                return Err(Error::layer(
+                    k,
+                    "leaky integrators (non-spiking) are a readout: the last layer, dense or pooled, not recurrent",
+                ));
             }
             if let Some(p) = &l.neurons {
                 let finite = [p.alpha, p.beta, p.v_th, p.v_reset, p.v_leak].iter().all(|v| v.is_finite());
                 if !finite || !(0.0..=1.0).contains(&p.beta) || !(0.0..=1.0).contains(&p.alpha) {
-                    return Err(Error::Network(format!("layer {k}: neuron parameters out of range: {p:?}")));
+                    return Err(Error::layer(k, format!("neuron parameters out of range: {p:?}")));
                 }
             }
             let weights: &[f32] = match &l.op {
@@ -268,7 +267,7 @@ impl Network {
                 Op::Pool { .. } => &[],
             };
             if let Some(i) = weights.iter().chain(l.op.bias().unwrap_or(&[])).position(|w| !w.is_finite()) {
-                return Err(Error::Network(format!("layer {k}: weight {i} is not finite")));
+                return Err(Error::layer(k, format!("weight {i} is not finite")));
             }
         }
         Ok(())
@@ -326,7 +325,7 @@ pub fn forward_dense_traced(net: &Network, input: &[f32], steps: usize) -> Resul
 fn forward(net: &Network, input: &[f32], steps: usize, mut trace: Option<&mut Trace>) -> Result<Record> {
     let n_in = net.n_inputs();
     if input.len() != steps * n_in {
-        return Err(Error::Input(format!("{} input values are not {steps} steps of {n_in}", input.len())));
+        return Err(Error::input(format!("{} input values are not {steps} steps of {n_in}", input.len())));
     }
     let mut v: Vec<Vec<f32>> = net.layers.iter().map(|l| vec![0.0; l.op.n_out()]).collect();
     let mut cur: Vec<Vec<f32>> = v.clone();
@@ -406,6 +405,29 @@ fn forward(net: &Network, input: &[f32], steps: usize, mut trace: Option<&mut Tr
 fn uniform(rng: &mut ChaCha8Rng, n: usize, fan_in: usize, gain: f32) -> Vec<f32> {
     let bound = gain / (fan_in as f32).sqrt();
     (0..n).map(|_| rng.random_range(-bound..bound)).collect()
+}
+
+/// The peer benchmark's weight scale: the peers' work per sample (about 330 k synaptic events).
+pub const PEER_GAIN: f32 = 7.5;
+/// The peer benchmark's steps per sample, and the step.
+pub const PEER_STEPS: usize = 20;
+pub const PEER_DT_US: i64 = 1_000;
+/// The peer benchmark's input shape, `[channels, height, width]`.
+pub const PEER_INPUT: [usize; 3] = [2, 60, 80];
+
+/// Input events `(t_us, input)` of one peer-benchmark sample, in time order: each input spikes
+/// with probability 0.75% per step, 10 us into the step. Seeded.
+pub fn peer_sample(seed: u64, n_inputs: usize) -> Vec<(i64, u32)> {
+    let x = random_input(seed, PEER_STEPS, n_inputs, 0.0075);
+    let mut ev = Vec::new();
+    for t in 0..PEER_STEPS {
+        for i in 0..n_inputs {
+            if x[t * n_inputs + i] != 0.0 {
+                ev.push((t as i64 * PEER_DT_US + 10, i as u32));
+            }
+        }
+    }
+    ev
 }
 
 /// The peer benchmark's convolutional SNN (snnTorch, Norse and PyTorch in the shared benchmark):

@@ -39,7 +39,7 @@ impl Sliding {
     pub fn new(net: &Network) -> Result<Sliding> {
         net.validate()?;
         if net.layers[0].recurrent.is_some() {
-            return Err(Error::Network("sliding-window inference needs a first layer without recurrence".into()));
+            return Err(Error::network("sliding-window inference needs a first layer without recurrence"));
         }
         let by_input = net
             .layers
@@ -90,7 +90,7 @@ impl Sliding {
         let mut synops = 0u64;
         for &(i, x) in inputs {
             if i as usize >= self.net.n_inputs() {
-                return Err(Error::Input(format!("input {i} outside 0..{}", self.net.n_inputs())));
+                return Err(Error::input(format!("input {i} outside 0..{}", self.net.n_inputs())));
             }
             synops += self.accumulate(0, i as usize, x, out);
         }

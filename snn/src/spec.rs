@@ -74,7 +74,7 @@ impl NetworkSpec {
     /// The tensor shapes of every layer; fails when an op does not fit its input.
     pub fn shapes(&self) -> Result<Vec<LayerShapes>> {
         if self.layers.is_empty() || self.input_shape.is_empty() || self.input_shape.contains(&0) {
-            return Err(Error::Network(format!(
+            return Err(Error::network(format!(
                 "a network needs layers and a non-empty input shape, got {:?}",
                 self.input_shape
             )));
@@ -82,7 +82,7 @@ impl NetworkSpec {
         let mut shape = self.input_shape.clone();
         let mut out = Vec::with_capacity(self.layers.len());
         for (k, l) in self.layers.iter().enumerate() {
-            let bad = |m: String| Error::Network(format!("layer {k}: {m}"));
+            let bad = |m: String| Error::layer(k, m);
             let chw = |shape: &[usize]| -> Result<[usize; 3]> {
                 match *shape {
                     [c, h, w] => Ok([c, h, w]),
@@ -140,7 +140,7 @@ impl NetworkSpec {
     pub fn build(&self, weights: Vec<LayerWeights>) -> Result<Network> {
         let shapes = self.shapes()?;
         if weights.len() != shapes.len() {
-            return Err(Error::Network(format!("{} layers of weights for {} layers", weights.len(), shapes.len())));
+            return Err(Error::network(format!("{} layers of weights for {} layers", weights.len(), shapes.len())));
         }
         let mut layers = Vec::with_capacity(shapes.len());
         for (k, ((l, s), w)) in self.layers.iter().zip(&shapes).zip(weights).enumerate() {
@@ -148,9 +148,7 @@ impl NetworkSpec {
                 let n: usize = if want.is_empty() { 0 } else { want.iter().product() };
                 let len = got.map_or(0, Vec::len);
                 if len != n || (want.is_empty() != got.is_none()) {
-                    return Err(Error::Network(format!(
-                        "layer {k}: {name} has {len} values, its shape {want:?} needs {n}"
-                    )));
+                    return Err(Error::layer(k, format!("{name} has {len} values, its shape {want:?} needs {n}")));
                 }
                 Ok(())
             };
@@ -231,7 +229,7 @@ pub fn ensemble(spec: &NetworkSpec, members: &[Vec<LayerWeights>]) -> Result<(Ne
     let shapes = spec.shapes()?;
     let n_layers = spec.layers.len();
     let m = members.len();
-    let refuse = |why: String| Err(Error::Network(format!("ensemble: {why}")));
+    let refuse = |why: String| Err(Error::network(format!("ensemble: {why}")));
     if m == 0 {
         return refuse("no members".into());
     }
@@ -249,7 +247,7 @@ pub fn ensemble(spec: &NetworkSpec, members: &[Vec<LayerWeights>]) -> Result<(Ne
     }
     for (j, w) in members.iter().enumerate() {
         // checks every length against the spec
-        spec.build(w.clone()).map_err(|e| Error::Network(format!("ensemble member {j}: {e}")))?;
+        spec.build(w.clone()).map_err(|e| Error::network(format!("ensemble member {j}: {e}")))?;
     }
     let mut layers = spec.layers.clone();
     let mut weights = Vec::with_capacity(n_layers);

@@ -3,9 +3,10 @@
 //! and energy estimates.
 
 use crate::Progress;
-use crate::chars::{CharModel, Score};
-use crate::datasets::{CharSetSpec, Task, Windows, World, build, build_many};
 use crate::error::{Error, Result};
+use crate::eval::chars::{CharModel, Score};
+use corpus::windows::{CharSetSpec, Task, Windows, build, build_many};
+use corpus::world::World;
 use pipeline::input::CharInput;
 use serde::Serialize;
 use sim::BoardKind;
@@ -78,18 +79,9 @@ pub fn chars_report(
     progress: &dyn Progress,
 ) -> Result<CharsReport> {
     let depths = if depths.is_empty() { DEPTHS_MM.to_vec() } else { depths.to_vec() };
-    // (key, name, file, arch); the words models go beyond the paper's training protocol
-    let known = [
-        ("raw", "ResNet lite Raw", "resnet-lite-raw"),
-        ("norm", "ResNet lite Norm", "resnet-lite-norm"),
-        ("aug", "ResNet lite Aug", "resnet-lite-aug"),
-        ("normaug", "ResNet lite NormAug", "resnet-lite-normaug"),
-        // the paper's own architecture on its 160x120 input, where it has been trained
-        ("paper-normaug", "ResNet-34 (paper preset) NormAug", "resnet-paper-normaug"),
-        ("snn", "SNN (event-driven engine)", "snn-chars"),
-        ("normaug-words", "ResNet lite NormAug + words", "resnet-lite-normaug-words"),
-        ("snn-words", "SNN + words", "snn-words"),
-    ];
+    // every Table I classifier the registry of shipped models names (the words models last: they
+    // go beyond the paper's training protocol)
+    let known = pipeline::shipped::TABLE_I;
     let dir = models;
     let mut models = Vec::new();
     for (key, name, file) in known {
@@ -99,7 +91,10 @@ pub fn chars_report(
         }
     }
     if models.is_empty() {
-        return Err(Error::Invalid(format!("{}: no character models (run scripts/table1.sh)", dir.display())));
+        return Err(Error::Model {
+            path: dir.to_path_buf(),
+            what: "no character models (run scripts/table1.sh)".into(),
+        });
     }
     let mut entries: Vec<Entry> = models
         .iter()
@@ -439,14 +434,16 @@ pub fn score_all(spec: &CharSetSpec, models: &[&CharModel], progress: &dyn Progr
     let scores: Vec<Score> = models.iter().zip(&w.sets).map(|(m, set)| m.score(set)).collect::<Result<_>>()?;
     let n = scores.first().map_or(0, |s| s.n);
     if scores.iter().any(|s| s.n != n) {
-        return Err(Error::Invalid("the models saw different window counts".into()));
+        return Err(Error::WindowCounts { counts: scores.iter().map(|s| s.n).collect() });
     }
     Ok((scores, w))
 }
 
 /// Windows classified right: the confusion matrix's diagonal.
+/// Windows classified right: the diagonal of the score's confusion matrix
+/// ([`crate::eval::scoring::Confusion::correct`]).
 pub fn right(s: &Score) -> usize {
-    s.confusion.iter().enumerate().map(|(k, row)| row.get(k).copied().unwrap_or(0) as usize).sum()
+    crate::eval::scoring::Confusion { counts: s.confusion.clone() }.correct() as usize
 }
 
 pub fn met(ok: bool) -> &'static str {

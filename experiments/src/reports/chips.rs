@@ -4,12 +4,14 @@
 //! accuracy, work and energy estimates per sample.
 
 use crate::Progress;
-use crate::datasets::{CharSetSpec, Task, World};
 use crate::error::Result;
-use crate::tactile::{SplitChoice, eval_split};
-use crate::words::{WordsSpec, read_scans, score};
+use crate::eval::tactile::{SplitChoice, eval_split};
+use crate::eval::words::{WordsSpec, read_scans, score};
+use corpus::windows::{CharSetSpec, Task};
+use corpus::world::World;
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::{Spell, TimingMode};
+use pipeline::shipped::{ICUB_CHIP, ICUB_DATASETS, Preset, ReaderFiles, Shipped, Variant};
 use serde::Serialize;
 use sim::BoardKind;
 use snn::energy::{CMOS45_ADD, LOIHI_SYNOP, TRUENORTH_SYNOP};
@@ -19,7 +21,7 @@ use snn::nir::{self, ExportOptions, Target};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-pub use crate::datasets::TEST_SEED;
+pub use corpus::world::TEST_SEED;
 
 /// One shipped SNN against its reset-to-zero twin on the same test.
 #[derive(Debug, Clone, Serialize)]
@@ -76,36 +78,26 @@ pub struct ChipReport {
     pub realism: sim::Realism,
 }
 
-/// What to put in the report: the shipped models' folder, the reset-to-zero twins' folder, the
-/// chip models' folder, the iCub data, scans per simulated board row and the simulator's preset.
-/// Models trained on simulated scans sit in each folder's `REALISM/` beyond `clean`
-/// ([`ChipSpec::path`]); those trained on the iCub recordings in the folder itself.
+/// What to put in the report: the shipped models (as trained, their reset-to-zero twins, the
+/// chip models; [`pipeline::shipped`]), the iCub data, scans per simulated board row and the
+/// simulator's preset, whose models the simulated tests read.
 #[derive(Debug, Clone)]
 pub struct ChipSpec {
-    pub models: PathBuf,
-    pub nir_models: PathBuf,
-    pub chip_models: PathBuf,
+    pub models: Shipped,
     pub icub: PathBuf,
     pub trials: u64,
     pub realism: sim::Realism,
 }
 
-/// The models trained on simulated scans.
-pub const SIMULATED: [&str; 4] = ["snn-chars", "snn-words", "snn-segment", "speck-chars"];
-
 impl ChipSpec {
-    /// The folder `dir` holds `name` in at this spec's preset.
-    pub fn folder(&self, dir: &Path, name: &str) -> PathBuf {
-        if SIMULATED.contains(&name) && self.realism != sim::Realism::Clean {
-            dir.join(self.realism.to_string())
-        } else {
-            dir.to_path_buf()
+    /// The file of shipped model `name` in `variant`: the iCub models' folder for the models of
+    /// the iCub recordings, else the preset's.
+    pub fn path(&self, variant: Variant, name: &str) -> Result<PathBuf> {
+        let file = format!("{name}.safetensors");
+        if ICUB_DATASETS.iter().any(|d| name == format!("snn-{d}")) || name == ICUB_CHIP {
+            return Ok(self.models.icub_dir(variant).join(file));
         }
-    }
-
-    /// The file of model `name` in `dir` at this spec's preset.
-    pub fn path(&self, dir: &Path, name: &str) -> PathBuf {
-        self.folder(dir, name).join(format!("{name}.safetensors"))
+        Ok(self.models.variant_dir(Preset::of_name(&self.realism.to_string())?, variant).join(file))
     }
 }
 
@@ -140,10 +132,14 @@ struct Scored {
 fn score_model(path: &Path, spec: &ChipSpec, progress: &dyn Progress) -> Result<Scored> {
     let (icub, trials) = (&spec.icub, spec.trials);
     let model = pipeline::models::load_snn(path)?;
-    if let Ok(enc) = crate::tactile::encoding_of(&model, path) {
+    // what the model reads, by its typed header: a bad header is an error, not a character model
+    if let pipeline::models::Preprocessing::Tactile(enc) =
+        pipeline::models::Preprocessing::of_header(&model.preprocess, path)?
+    {
         // the dataset folder the model was trained on, as its provenance names it
-        let set = model.provenance["data"].as_str().ok_or_else(|| {
-            crate::Error::Invalid(format!("{}: the provenance names no dataset folder", path.display()))
+        let set = model.provenance["data"].as_str().ok_or_else(|| crate::Error::Model {
+            path: path.to_path_buf(),
+            what: "the provenance names no dataset folder".into(),
         })?;
         let (e, _) = eval_split(path, &icub.join(set), SplitChoice::Test, Mode::Stepped)?;
         let classes = enc.classes.as_ref().map_or(String::new(), |c| format!(", {} classes", c.len()));
@@ -158,7 +154,7 @@ fn score_model(path: &Path, spec: &ChipSpec, progress: &dyn Progress) -> Result<
             spikes: e.spikes_per_sample,
         });
     }
-    let e = crate::chars::eval(path, &chars_spec(trials, spec.realism), progress)?;
+    let e = crate::eval::chars::eval(path, &chars_spec(trials, spec.realism), progress)?;
     Ok(Scored {
         reads: "RAB characters at 1.5 mm, of all printed".into(),
         data: "SIMULATED",
@@ -186,8 +182,8 @@ pub const CHIP_MODELS: [&str; 2] = ["speck-chars", "xylo-braille7"];
 pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
     let mut faithful = Vec::new();
     for name in SHIPPED {
-        let a = score_model(&spec.path(&spec.models, name), spec, progress)?;
-        let b = score_model(&spec.path(&spec.nir_models, name), spec, progress)?;
+        let a = score_model(&spec.path(Variant::Trained, name)?, spec, progress)?;
+        let b = score_model(&spec.path(Variant::NirTwin, name)?, spec, progress)?;
         progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
         faithful.push(FaithfulRow {
             model: name.into(),
@@ -209,10 +205,12 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         seed: TEST_SEED,
         world: World::test(spec.realism),
     };
-    let readers = [&spec.models, &spec.nir_models]
-        .map(|dir| {
-            let (s, c) = crate::words::default_models(Arch::Snn, &spec.folder(dir, "snn-words"));
-            ReaderModels::load(&s, &c, SnnRunner::Sliding).map_err(crate::Error::from)
+    let readers = [Variant::Trained, Variant::NirTwin]
+        .map(|variant| {
+            let words = spec.path(variant, "snn-words")?;
+            let dir = words.parent().unwrap_or(Path::new("."));
+            let ReaderFiles { segmenter, classifier } = pipeline::shipped::reader_in(dir, Arch::Snn);
+            ReaderModels::load(&segmenter, &classifier, SnnRunner::Sliding).map_err(crate::Error::from)
         })
         .into_iter()
         .collect::<Result<Vec<_>>>()?;
@@ -236,9 +234,9 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
     let mut chips = Vec::new();
     let candidates: Vec<PathBuf> = CHIP_MODELS
         .iter()
-        .map(|n| spec.path(&spec.chip_models, n))
-        .chain(["snn-raw1350", "snn-th10", "snn-chars"].iter().map(|n| spec.path(&spec.nir_models, n)))
-        .collect();
+        .map(|n| spec.path(Variant::Chip, n))
+        .chain(["snn-raw1350", "snn-th10", "snn-chars"].iter().map(|n| spec.path(Variant::NirTwin, n)))
+        .collect::<Result<_>>()?;
     for path in candidates {
         let model = pipeline::models::load_snn(&path)?;
         let s = score_model(&path, spec, progress)?;
@@ -288,7 +286,7 @@ pub fn markdown(r: &ChipReport) -> String {
     let _ = writeln!(s, "## What the faithful export costs\n");
     let _ = writeln!(
         s,
-        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into `models/nir/` (those trained on simulated scans beyond `clean` into `models/nir/REALISM/`); nothing else was chosen. Accuracy on the same test:\n"
+        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into a `nir/` folder beside it (`models/icub/nir/`, `models/REALISM/nir/`); nothing else was chosen. Accuracy on the same test:\n"
     );
     let _ = writeln!(
         s,

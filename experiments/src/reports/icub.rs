@@ -2,7 +2,7 @@
 //! event-driven engine, beside the published and measured baselines.
 
 use crate::error::Result;
-use crate::tactile::{SplitChoice, async_capable, encoding_of, load_split, snn_accuracy};
+use crate::eval::tactile::{SplitChoice, async_capable, encoding_of, load_split, snn_accuracy};
 use serde::Serialize;
 use snn::engine::Mode;
 use std::fmt::Write as _;

@@ -1,7 +1,9 @@
-//! Each report part as a function that returns data, and its Markdown: the binary writes the
-//! files and draws the figures.
+//! Each report part as a function that returns data, its Markdown, and its files and figures
+//! ([`figures`]), which the part's own command and `braille report` both write.
 
+pub mod all;
 pub mod chars;
 pub mod chips;
+pub mod figures;
 pub mod icub;
 pub mod words;

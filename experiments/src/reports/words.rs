@@ -2,7 +2,7 @@
 
 use crate::Progress;
 use crate::error::Result;
-use crate::words::{WordsScore, WordsSpec, default_models, read_scans, score};
+use crate::eval::words::{WordsScore, WordsSpec, read_scans, score};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::{Spell, TimingMode};
 use serde::Serialize;
@@ -58,7 +58,7 @@ pub struct WordsReportSpec {
     pub depth_mm: f64,
     pub trials: u64,
     pub seed: u64,
-    pub world: crate::datasets::World,
+    pub world: corpus::world::World,
     /// Rows of unseen words (none: 0), and scans per row of them.
     pub unseen_rows: usize,
     pub unseen_trials: u64,
@@ -71,7 +71,8 @@ pub fn words_report(models: &Path, spec: &WordsReportSpec, progress: &dyn Progre
     let readers = archs
         .iter()
         .map(|&a| {
-            let (s, c) = default_models(a, models);
+            let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
+                pipeline::shipped::reader_in(models, a);
             Ok(ReaderModels::load(&s, &c, SnnRunner::Sliding)?)
         })
         .collect::<Result<Vec<_>>>()?;
@@ -100,7 +101,7 @@ pub fn words_report(models: &Path, spec: &WordsReportSpec, progress: &dyn Progre
         }
     }
     let unseen_text = if spec.unseen_rows > 0 {
-        crate::datasets::unseen_word_rows(spec.seed, spec.unseen_rows, 25)
+        corpus::boards::unseen_word_rows(spec.seed, spec.unseen_rows, 25)
     } else {
         String::new()
     };
@@ -218,9 +219,9 @@ pub fn markdown(r: &WordsReport) -> String {
             m,
             "## Unseen words (estimated timing)\n\nA text board of {} rows of words that no training row holds (TextBlob's words ranked {}-{} by frequency; training rows draw from the first {}): `{}`, {} scans per row.\n\n| speed | architecture | spelling | **word accuracy** | **WER** | **CER** | correct words (conditional) |\n| --- | --- | --- | --- | --- | --- | --- |",
             r.unseen_board.split('/').count(),
-            crate::datasets::TRAINING_WORDS + 1,
-            2 * crate::datasets::TRAINING_WORDS,
-            crate::datasets::TRAINING_WORDS,
+            corpus::boards::TRAINING_WORDS + 1,
+            2 * corpus::boards::TRAINING_WORDS,
+            corpus::boards::TRAINING_WORDS,
             r.unseen_board.replace('/', " / "),
             r.unseen_trials
         );

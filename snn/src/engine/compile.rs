@@ -137,8 +137,8 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         && let Some(p) = p
     {
         if p.kind == NeuronKind::CubaLif || l.recurrent.is_some() || l.op.bias().is_some() {
-            return Err(Error::Network(
-                "async mode runs LIF and IF layers without bias or recurrence; use stepped mode".into(),
+            return Err(Error::network(
+                "async mode runs LIF and IF layers without bias or recurrence; use stepped mode",
             ));
         }
         ln_beta_per_us = if p.beta > 0.0 { (p.beta as f64).ln() / dt_us as f64 } else { f64::NEG_INFINITY };

@@ -121,7 +121,7 @@ impl Engine {
     pub fn new(net: &Network, dt_us: i64, mode: Mode) -> Result<Engine> {
         net.validate()?;
         if dt_us <= 0 {
-            return Err(Error::Network(format!("dt must be positive, got {dt_us} us")));
+            return Err(Error::network(format!("dt must be positive, got {dt_us} us")));
         }
         let layers = net.layers.iter().map(|l| compile(l, dt_us, mode)).collect::<Result<Vec<_>>>()?;
         Ok(Engine { layers, n_inputs: net.n_inputs(), dt_us, mode })
@@ -214,17 +214,17 @@ impl Engine {
     pub fn push(&self, st: &mut EngineState, t_us: i64, input: u32, value: f32) -> Result<()> {
         let i = input as usize;
         if i >= self.n_inputs {
-            return Err(Error::Input(format!("input {input} outside 0..{}", self.n_inputs)));
+            return Err(Error::input(format!("input {input} outside 0..{}", self.n_inputs)));
         }
         if t_us < st.t0_us {
-            return Err(Error::Input(format!("event at {t_us} us before the stream's start {} us", st.t0_us)));
+            return Err(Error::input(format!("event at {t_us} us before the stream's start {} us", st.t0_us)));
         }
         st.stats.input_events += 1;
         match self.mode {
             Mode::Stepped => {
                 let step = (t_us - st.t0_us) / self.dt_us;
                 if step < st.step {
-                    return Err(Error::Input(format!("event at {t_us} us goes back to step {step} (now {})", st.step)));
+                    return Err(Error::input(format!("event at {t_us} us goes back to step {step} (now {})", st.step)));
                 }
                 if step > st.step || !st.started {
                     self.advance_to(st, step);
@@ -235,7 +235,7 @@ impl Engine {
             }
             Mode::Async => {
                 if st.started && t_us < st.step {
-                    return Err(Error::Input(format!("event at {t_us} us goes backwards (last {} us)", st.step)));
+                    return Err(Error::input(format!("event at {t_us} us goes backwards (last {} us)", st.step)));
                 }
                 st.started = true;
                 st.step = t_us;
@@ -249,7 +249,7 @@ impl Engine {
     /// train's start, and completes its last step.
     pub fn run_train(&self, st: &mut EngineState, train: &encoders::spike_train::SpikeTrain) -> Result<()> {
         if train.dt_us != self.dt_us || train.n_inputs != self.n_inputs {
-            return Err(Error::Input(format!(
+            return Err(Error::input(format!(
                 "a spike train of {} inputs at dt {} us does not fit a network of {} inputs at dt {} us",
                 train.n_inputs, train.dt_us, self.n_inputs, self.dt_us
             )));

@@ -55,11 +55,14 @@ impl<W: Write> Encoder<W> {
         options: EncoderOptions,
     ) -> Result<Self> {
         if options.packet_events == 0 {
-            return Err(Error::Config("packet_events must be at least 1".into()));
+            return Err(Error::config("packet_events", "must be at least 1"));
         }
         let resolution = resolution.unwrap_or(Resolution::DVXPLORER);
         if resolution.width > i16::MAX as u16 || resolution.height > i16::MAX as u16 {
-            return Err(Error::Config(format!("AEDAT4 stores coordinates as i16; {resolution} is too large")));
+            return Err(Error::config(
+                "resolution",
+                format!("AEDAT4 stores coordinates as i16; {resolution} is too large"),
+            ));
         }
         let mut encoder = Self {
             writer,

@@ -1,0 +1,229 @@
+//! Simulated scans written as event files with their ground truth (`braille simulate`):
+//! SIMULATED data, for any board, speed, depth, trial count and seed.
+
+use crate::Progress;
+use crate::error::{Error, Result};
+use encoders::formats::aedat4::{self, EncoderOptions};
+use encoders::formats::{self, AtomicFile, EventSink, Format};
+use encoders::stats::StreamStats;
+use encoders::{Event, Resolution};
+use rayon::prelude::*;
+use serde::Serialize;
+use sim::{Board, BoardKind, Direction, ScanConfig};
+use std::path::{Path, PathBuf};
+
+/// Which scans to simulate and where to write them.
+#[derive(Debug, Clone)]
+pub struct ScanSpec {
+    pub board: BoardKind,
+    pub speed: f64,
+    pub depth: f64,
+    /// One row, or every row.
+    pub row: Option<usize>,
+    pub trials: u64,
+    pub seed: u64,
+    /// The printed board's tolerances (None: derived from the board's name).
+    pub board_seed: Option<u64>,
+    pub sensor_seed: u64,
+    /// The simulator's nuisances.
+    pub realism: sim::Realism,
+    pub direction: Direction,
+    /// Stick-slip through the mount's compliance, beyond the preset's (None: the preset's).
+    pub stick_slip: Option<sim::StickSlip>,
+    pub resolution: Resolution,
+    /// An event file for one scan, or a folder for several.
+    pub out: PathBuf,
+    pub force: bool,
+}
+
+/// One scan written.
+#[derive(Debug, Clone, Serialize)]
+pub struct FileSummary {
+    pub events: PathBuf,
+    pub truth: PathBuf,
+    pub row: usize,
+    pub trial: u64,
+    pub events_count: u64,
+    pub duration_s: f64,
+}
+
+/// What was simulated.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    pub data: &'static str,
+    pub board: String,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub scans: usize,
+    pub events: u64,
+    pub duration_s: f64,
+    pub on_off_ratio: Option<f64>,
+    pub files: Vec<FileSummary>,
+}
+
+/// A board, a sensor and a scan setting, built once; each scan of a row and trial is simulated
+/// from them (what `braille simulate` writes, and what the Python package returns).
+#[derive(Debug, Clone)]
+pub struct Scanner {
+    pub setup: sim::Setup,
+    pub board: Board,
+    pub sensor: sim::Sensor,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub direction: Direction,
+    pub seed: u64,
+}
+
+impl Scanner {
+    /// The board (its tolerances from `board_seed`, or derived from its name), the sensor built
+    /// from `sensor_seed` at `resolution`, under `realism`'s nuisances.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        board: BoardKind,
+        board_seed: Option<u64>,
+        sensor_seed: u64,
+        realism: sim::Realism,
+        resolution: Resolution,
+        speed_mm_s: f64,
+        depth_mm: f64,
+        direction: Direction,
+        seed: u64,
+    ) -> Result<Scanner> {
+        let board_seed = board_seed.unwrap_or_else(|| Board::default_seed(&board));
+        let setup = realism.setup();
+        let board = Board::new(board, setup.geometry.clone(), board_seed)?;
+        let sensor = setup.sensor(resolution, sensor_seed)?;
+        Ok(Scanner { setup, board, sensor, speed_mm_s, depth_mm, direction, seed })
+    }
+
+    /// The scanner of `spec`.
+    pub fn of(spec: &ScanSpec) -> Result<Scanner> {
+        let mut scanner = Scanner::new(
+            spec.board.clone(),
+            spec.board_seed,
+            spec.sensor_seed,
+            spec.realism,
+            spec.resolution,
+            spec.speed,
+            spec.depth,
+            spec.direction,
+            spec.seed,
+        )?;
+        if spec.stick_slip.is_some() {
+            scanner.setup.scan.stick_slip = spec.stick_slip;
+        }
+        Ok(scanner)
+    }
+
+    /// Trial `trial` of row `row`: its events and ground truth. The same arguments give the same
+    /// scan.
+    pub fn scan(&self, row: usize, trial: u64) -> Result<sim::Scan> {
+        if row >= self.board.rows.len() {
+            return Err(Error::NoSuchRow { row, rows: self.board.rows.len() });
+        }
+        let scan = ScanConfig {
+            direction: self.direction,
+            ..self.setup.scan(self.speed_mm_s, self.depth_mm, row, crate::world::trial_seed(self.seed, row, trial))
+        };
+        Ok(sim::simulate(&self.board, &self.sensor, &scan)?)
+    }
+}
+
+/// Simulates the scans of `spec` in parallel, each written as it is done (AEDAT 4.0 in a folder,
+/// or the format of `out`'s extension), its ground truth beside it.
+pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summary> {
+    let scanner = Scanner::of(spec)?;
+    let board = &scanner.board;
+    let rows: Vec<usize> = match spec.row {
+        Some(r) if r >= board.rows.len() => {
+            return Err(Error::NoSuchRow { row: r, rows: board.rows.len() });
+        }
+        Some(r) => vec![r],
+        None => (0..board.rows.len()).collect(),
+    };
+    let jobs: Vec<(usize, u64)> = rows.iter().flat_map(|&r| (0..spec.trials).map(move |t| (r, t))).collect();
+    let single = Format::from_path(&spec.out).is_some();
+    if single && jobs.len() != 1 {
+        return Err(Error::NotAFolder { path: spec.out.clone(), scans: jobs.len() });
+    }
+    if !single {
+        std::fs::create_dir_all(&spec.out).map_err(|source| Error::Io { path: spec.out.clone(), source })?;
+    }
+    if jobs.len() > 1 {
+        progress.start("simulating scans", jobs.len() as u64);
+    }
+    let name = board.kind.name().replace(['/', ' ', ':', '"'], "_");
+    let results: Vec<Result<(FileSummary, StreamStats)>> = jobs
+        .par_iter()
+        .map(|&(row, trial)| {
+            let s = scanner.scan(row, trial)?;
+            let events_path = if single {
+                spec.out.clone()
+            } else {
+                spec.out.join(format!("{name}_row{row}_v{}_d{}_trial{trial}.aedat4", spec.speed, spec.depth))
+            };
+            let truth_path = truth_path(&events_path);
+            write_events(&events_path, &s.events, spec.resolution, spec.force)?;
+            crate::write_json(&truth_path, &s.truth, spec.force)?;
+            let mut stats = StreamStats::default();
+            stats.add(&s.events);
+            progress.inc();
+            Ok((
+                FileSummary {
+                    events: events_path,
+                    truth: truth_path,
+                    row,
+                    trial,
+                    events_count: stats.events,
+                    duration_s: s.truth.timeline.end_s,
+                },
+                stats,
+            ))
+        })
+        .collect();
+    progress.finish();
+    let mut files = Vec::new();
+    let (mut events, mut on, mut off, mut duration) = (0u64, 0u64, 0u64, 0.0);
+    for r in results {
+        let (f, s) = r?;
+        events += s.events;
+        on += s.on;
+        off += s.off;
+        duration += f.duration_s;
+        files.push(f);
+    }
+    let summary = Summary {
+        data: "simulated (virtual Evetac)",
+        board: board.kind.name(),
+        speed_mm_s: spec.speed,
+        depth_mm: spec.depth,
+        scans: files.len(),
+        events,
+        duration_s: duration,
+        on_off_ratio: (off > 0).then(|| on as f64 / off as f64),
+        files,
+    };
+    Ok(summary)
+}
+
+/// Writes events to `path` in the format of its extension.
+pub fn write_events(path: &Path, events: &[Event], resolution: Resolution, force: bool) -> Result<()> {
+    let mut sink: Box<dyn EventSink> = match Format::for_output(path)? {
+        Format::Aedat4 => {
+            let file = AtomicFile::create(path, force)?;
+            let opts =
+                EncoderOptions { source: "braille simulate (virtual Evetac)".into(), ..EncoderOptions::default() };
+            Box::new(aedat4::Encoder::new(file, Some(resolution), opts)?)
+        }
+        _ => formats::create(path, Some(resolution), force)?,
+    };
+    sink.write(events)?;
+    sink.finish()?;
+    Ok(())
+}
+
+/// Where a scan's ground truth is written beside its event file: `STEM.truth.json`.
+pub fn truth_path(events: &Path) -> PathBuf {
+    let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    events.with_file_name(format!("{stem}.truth.json"))
+}

@@ -1,0 +1,167 @@
+//! The simulated world of a protocol's scans: a realism preset and the sensor builds that scan,
+//! and the seeds that make each scan (SIMULATED data). Training scans use the training builds,
+//! test scans builds never trained on, as a model moved to a new Evetac would meet.
+
+use crate::error::Result;
+use serde::{Deserialize, Serialize};
+use sim::sensor::Sensor;
+use sim::{Board, BoardKind, CameraConfig, GelConfig, Realism, Setup};
+
+/// The clean simulated sensor: the DVXplorer's resolution behind the default gel, pixel seed
+/// `seed` (the `clean` world's one build).
+pub fn sensor(resolution: encoders::Resolution, seed: u64) -> Result<Sensor> {
+    let camera = CameraConfig { resolution, ..CameraConfig::default() };
+    Ok(Sensor::new(camera, GelConfig::default(), seed)?)
+}
+
+/// Sensor builds that training scans are made with, and builds kept for testing: a model is
+/// tested on sensors it never saw, as a model moved to a new Evetac would be.
+pub const TRAIN_SENSORS: [u64; 4] = [1, 2, 3, 4];
+pub const TEST_SENSORS: [u64; 2] = [101, 102];
+
+/// The simulated world a protocol's scans come from: a realism preset (the print of the boards,
+/// the gel, the camera, the kinematics) and the builds of the sensor, trial `t` being scanned by
+/// `sensors[t % len]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct World {
+    pub realism: Realism,
+    pub sensors: Vec<u64>,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        World::clean()
+    }
+}
+
+/// Which sensor builds scan an evaluation's boards (beyond `clean`, which has one build).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum SensorBuilds {
+    /// The test builds, never trained on: every reported figure.
+    #[default]
+    Test,
+    /// The training builds: with a validation board (VAL, VAL-WORDS), for choices made on
+    /// validation data.
+    Training,
+}
+
+impl World {
+    /// The world of `builds` at `realism`.
+    pub fn of(realism: Realism, builds: SensorBuilds) -> World {
+        match builds {
+            SensorBuilds::Test => World::test(realism),
+            SensorBuilds::Training => World::train(realism),
+        }
+    }
+
+    /// The simulator before its nuisances: one sensor build (seed 1) for training and test, and
+    /// the scan seeds of then. The shipped models and tables were made in it.
+    pub fn clean() -> World {
+        World { realism: Realism::Clean, sensors: vec![1] }
+    }
+
+    /// Training scans at `realism`: the training builds ([`TRAIN_SENSORS`]; `clean` has one).
+    pub fn train(realism: Realism) -> World {
+        match realism {
+            Realism::Clean => World::clean(),
+            _ => World { realism, sensors: TRAIN_SENSORS.to_vec() },
+        }
+    }
+
+    /// Test scans at `realism`: builds never trained on ([`TEST_SENSORS`]; `clean` has one).
+    pub fn test(realism: Realism) -> World {
+        match realism {
+            Realism::Clean => World::clean(),
+            _ => World { realism, sensors: TEST_SENSORS.to_vec() },
+        }
+    }
+
+    pub fn setup(&self) -> Setup {
+        self.realism.setup()
+    }
+
+    /// The sensor build that scans trial `trial`.
+    pub fn sensor_seed(&self, trial: u64) -> u64 {
+        if self.sensors.is_empty() { 1 } else { self.sensors[(trial % self.sensors.len() as u64) as usize] }
+    }
+
+    /// Every build of this world at `resolution`, in the order of `sensors`.
+    pub fn sensors_at(&self, setup: &Setup, resolution: encoders::Resolution) -> Result<Vec<Sensor>> {
+        let seeds = if self.sensors.is_empty() { vec![1] } else { self.sensors.clone() };
+        seeds.iter().map(|&s| Ok(setup.sensor(resolution, s)?)).collect()
+    }
+
+    /// A board printed as this world prints (its tolerances from the board's own seed).
+    pub fn board(&self, setup: &Setup, kind: &BoardKind) -> Result<Board> {
+        Ok(Board::new(kind.clone(), setup.geometry.clone(), Board::default_seed(kind))?)
+    }
+
+    /// The seed of one scan. Beyond `clean` (which keeps its old seeds for regression) it depends
+    /// on everything that makes a scan: board, row, trial, speed, depth, sensor and preset, so no
+    /// two conditions share a scan.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scan_seed(
+        &self,
+        seed: u64,
+        board: &BoardKind,
+        row: usize,
+        trial: u64,
+        speed_mm_s: f64,
+        depth_mm: f64,
+    ) -> u64 {
+        match self.realism {
+            Realism::Clean => scan_seed(seed, board, row, trial),
+            r => sim::board::stable_hash(&format!(
+                "scan/{r}/{seed}/{}/{row}/{trial}/{speed_mm_s}/{depth_mm}/{}",
+                board.name(),
+                self.sensor_seed(trial)
+            )),
+        }
+    }
+}
+
+/// The seed of one trial of one row (`braille simulate`, `braille label-check`).
+pub fn trial_seed(seed: u64, row: usize, trial: u64) -> u64 {
+    sim::board::stable_hash(&format!("{seed}/{row}/{trial}"))
+}
+
+/// A stable seed per scan.
+pub fn scan_seed(seed: u64, board: &BoardKind, row: usize, trial: u64) -> u64 {
+    sim::board::stable_hash(&format!("chars/{seed}/{}/{row}/{trial}", board.name()))
+}
+
+/// The validation seed: the VAL board's print and the validation scans (docs/protocol.md).
+pub const VALIDATION_SEED: u64 = 2_000_003;
+
+/// The scans of the simulated tests (the seed Table I, the depth curve and the words table test on).
+pub const TEST_SEED: u64 = 1_000_003;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clean_keeps_its_seeds_and_other_worlds_seed_every_condition_apart() {
+        let clean = World::clean();
+        assert_eq!(clean.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5), scan_seed(5, &BoardKind::Rab, 1, 2));
+        assert_eq!(clean.scan_seed(5, &BoardKind::Rab, 1, 2, 32.0, 0.2), scan_seed(5, &BoardKind::Rab, 1, 2));
+        let test = World::test(Realism::Nominal);
+        let base = test.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5);
+        for other in [
+            test.scan_seed(5, &BoardKind::Rab, 1, 2, 32.0, 1.5),
+            test.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.0),
+            test.scan_seed(5, &BoardKind::Rab, 1, 3, 8.0, 1.5),
+            test.scan_seed(5, &BoardKind::Sab, 1, 2, 8.0, 1.5),
+            World::train(Realism::Nominal).scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5),
+            World::test(Realism::Harsh).scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5),
+        ] {
+            assert_ne!(base, other);
+        }
+        // Training and test builds never meet.
+        let (train, test) = (World::train(Realism::Nominal), World::test(Realism::Nominal));
+        assert!((0..8).all(|t| !test.sensors.contains(&train.sensor_seed(t))));
+        assert_eq!(World::train(Realism::Clean), World::test(Realism::Clean));
+    }
+}

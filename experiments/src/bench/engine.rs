@@ -1,0 +1,386 @@
+//! The engine's benchmark on the peer benchmark's network and input statistics (2x60x80 ON/OFF
+//! input, 20 steps of 1 ms, 1.5% of inputs active per step), batch 1, one core; and a BPTT
+//! training step of that network on burn (`braille bench`). Peer figures are those of the shared
+//! peer benchmark (`scripts/peers/compare.sh` measures them side by side in one run).
+
+use crate::error::Result;
+use serde::Serialize;
+use snn::engine::{Engine, Mode};
+use snn::network::peers_conv;
+use std::time::Instant;
+
+/// One trainer's training step: time and memory.
+#[derive(Debug, Clone, Serialize)]
+pub struct StepTiming {
+    pub trainer: String,
+    pub ms_per_train_step: f64,
+    pub ms_per_train_step_min: f64,
+    /// Peak RSS while this trainer ran (the process's peak restarted before it), MB.
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// A training step of the peer network with each trainer.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrainReport {
+    pub network: &'static str,
+    pub batch: usize,
+    pub steps: usize,
+    /// Share of the 60x80 pixels with an event per step (one polarity each), as the peers'.
+    pub input_density: f64,
+    /// burn flex, dense tensors (`--trainer dense`).
+    pub dense: StepTiming,
+    /// Ours, truncated at `gradient_cutoff` (the default `--trainer sparse`).
+    pub sparse: StepTiming,
+    /// Ours, exact (cutoff 0).
+    pub sparse_exact: StepTiming,
+    pub gradient_cutoff: f32,
+    /// The truncated gradient against the exact one, on the first batch: cosine and relative L2
+    /// error.
+    pub truncation_cosine: f64,
+    pub truncation_relative_error: f64,
+    /// Share of neuron-steps of the spiking layers that keep a surrogate (the truncated backward
+    /// works on these), first batch.
+    pub kept_fraction: f64,
+    /// Spikes per sample in each layer, first batch.
+    pub spikes_per_sample: Vec<f64>,
+    /// Spikes per neuron and step in each layer, first batch (the peers report theirs).
+    pub spike_rate_per_layer: Vec<f64>,
+    pub peer_pytorch_ms: f64,
+    pub peer_snntorch_ms: f64,
+    pub peer_norse_ms: f64,
+}
+
+/// The peers' training input: per step, `density` of the pixels have one event of a random
+/// polarity; `(step, input, 1)` entries of each of `batch` samples (C order).
+fn peer_train_batch(seed: u64, batch: usize, density: f64) -> Vec<learn::sparse::Entries> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let plane = 60 * 80;
+    (0..batch)
+        .map(|_| {
+            let mut e = Vec::new();
+            for t in 0..STEPS as u32 {
+                for p in 0..plane as u32 {
+                    if rng.random_bool(density) {
+                        let pol = rng.random_bool(0.5) as u32;
+                        e.push((t, pol * plane as u32 + p, 1.0));
+                    }
+                }
+            }
+            e
+        })
+        .collect()
+}
+
+/// The peers' learning rate in their timing: tiny, so that activity does not drift while timed
+/// (Adam's cost does not depend on it).
+const PEER_LR: f64 = 1e-6;
+
+/// A training step of the peer network (forward over 20 steps, BPTT, Adam; spike-count
+/// cross-entropy, fast-sigmoid surrogate of slope 25), weights at the peers' activity
+/// ([`PEER_GAIN`]), input at their density: the median of `repeats` after two warm-ups, with
+/// burn (dense) and with the sparse trainer at `cutoff` and exact.
+pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainReport> {
+    use learn::sparse::{Adam, SparseSnn, StepEvents};
+    use snn::model_file::Readout;
+    use snn::neuron::Surrogate;
+    let net = peers_conv(1, PEER_GAIN);
+    let spec = net.spec();
+    let surrogate = Surrogate::FastSigmoid { slope: 25.0 };
+    let b = batch.max(1);
+    let density = 0.015;
+    let batches: Vec<Vec<learn::sparse::Entries>> =
+        (0..repeats.max(1) + 2).map(|rep| peer_train_batch(7 + rep as u64, b, density)).collect();
+    let labels: Vec<usize> = (0..b).map(|i| i % 26).collect();
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        (t[t.len() / 2], t[0])
+    };
+    // ours
+    let sparse_run = |cutoff: f32| -> Result<(StepTiming, learn::sparse::BatchGradient)> {
+        crate::reset_peak_rss();
+        let trainer = SparseSnn::new(spec.clone(), surrogate, Readout::SpikeCount, cutoff)?;
+        let mut params = trainer.params(&net.weights())?;
+        let mut adam = Adam::new(&params, 0.0, 0.0);
+        let mut times = Vec::new();
+        let mut first = None;
+        for (rep, batch) in batches.iter().enumerate() {
+            let start = Instant::now();
+            let events: Vec<StepEvents> =
+                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect();
+            let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
+            let g = trainer.batch_gradient(&params, &samples, &[]);
+            adam.step(&mut params, &g.grads, PEER_LR);
+            if rep >= 2 {
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+            }
+            if rep == 0 {
+                first = Some(g);
+            }
+        }
+        let (ms, min) = median(times);
+        let name = if cutoff > 0.0 { format!("sparse, cutoff {cutoff}") } else { "sparse, exact".into() };
+        let timing = StepTiming {
+            trainer: name,
+            ms_per_train_step: ms,
+            ms_per_train_step_min: min,
+            peak_rss_mb: crate::peak_rss_mb(),
+        };
+        Ok((timing, first.expect("a first batch")))
+    };
+    let (sparse, cut_grad) = sparse_run(cutoff)?;
+    let (sparse_exact, exact_grad) = sparse_run(0.0)?;
+    let (a, e): (Vec<f32>, Vec<f32>) = (
+        cut_grad.grads.tensors().flatten().copied().collect(),
+        exact_grad.grads.tensors().flatten().copied().collect(),
+    );
+    let dot: f64 = a.iter().zip(&e).map(|(x, y)| (x * y) as f64).sum();
+    let norm = |v: &[f32]| v.iter().map(|x| (x * x) as f64).sum::<f64>().sqrt();
+    let diff: f64 = a.iter().zip(&e).map(|(x, y)| ((x - y) * (x - y)) as f64).sum::<f64>().sqrt();
+    let neuron_steps: usize = net.layers.iter().map(|l| l.op.n_out()).sum::<usize>() * STEPS * b;
+    let spikes_per_sample: Vec<f64> = exact_grad.spikes.iter().map(|s| s / b as f64).collect();
+    let spike_rate_per_layer =
+        spikes_per_sample.iter().zip(&net.layers).map(|(s, l)| s / (l.op.n_out() * STEPS) as f64).collect();
+    // burn
+    let dense = dense_train_step(&spec, &net.weights(), &batches, &labels)?;
+    Ok(TrainReport {
+        network: "peers conv SNN (as `braille bench`), rate-coded cross-entropy, fast-sigmoid surrogate",
+        batch: b,
+        steps: STEPS,
+        input_density: density,
+        dense,
+        sparse,
+        sparse_exact,
+        gradient_cutoff: cutoff,
+        truncation_cosine: dot / (norm(&a) * norm(&e)),
+        truncation_relative_error: diff / norm(&e),
+        kept_fraction: cut_grad.kept_surrogates as f64 / neuron_steps as f64,
+        spikes_per_sample,
+        spike_rate_per_layer,
+        peer_pytorch_ms: 59.6,
+        peer_snntorch_ms: 97.1,
+        peer_norse_ms: 78.1,
+    })
+}
+
+/// The same steps with burn's autodiff on dense tensors.
+fn dense_train_step(
+    spec: &snn::spec::NetworkSpec,
+    weights: &[snn::spec::LayerWeights],
+    batches: &[Vec<learn::sparse::Entries>],
+    labels: &[usize],
+) -> Result<StepTiming> {
+    use burn::optim::{AdamConfig, GradientsParams};
+    use burn::tensor::{Device, Int, Tensor, TensorData};
+    use learn::snn::{SnnParams, SnnTwin};
+    use snn::model_file::Readout;
+    use snn::neuron::Surrogate;
+    crate::reset_peak_rss();
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 25.0 }, Readout::SpikeCount)?;
+    let device = Device::flex().autodiff();
+    let mut params = SnnParams::from_weights(spec, weights, &device)?;
+    let mut optim = AdamConfig::new().init();
+    let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
+    let n: usize = spec.input_shape.iter().product();
+    let mut times = Vec::new();
+    for (rep, batch) in batches.iter().enumerate() {
+        let b = batch.len();
+        let start = Instant::now();
+        let input = learn::train::dense_input(batch, STEPS, n, &device);
+        let y: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
+        let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
+        let out = twin.forward(&params, &input);
+        let loss = loss_fn.forward(out.logits, y);
+        let grads = GradientsParams::from_grads(loss.backward(), &params);
+        params = optim.step(PEER_LR, params, grads);
+        if rep >= 2 {
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(StepTiming {
+        trainer: "dense (burn flex, autodiff)".into(),
+        ms_per_train_step: times[times.len() / 2],
+        ms_per_train_step_min: times[0],
+        peak_rss_mb: crate::peak_rss_mb(),
+    })
+}
+
+pub use snn::network::{PEER_DT_US as DT_US, PEER_GAIN, PEER_STEPS as STEPS};
+
+/// The engine on the peer benchmark.
+#[derive(Debug, Clone, Serialize)]
+pub struct EngineReport {
+    pub network: &'static str,
+    pub mode: &'static str,
+    pub samples: u64,
+    pub input_events_per_sample: f64,
+    pub synops_per_sample: f64,
+    pub spikes_per_sample: f64,
+    /// Neuron state updates, the steps caught up lazily included.
+    pub neuron_updates_per_sample: f64,
+    pub ms_per_sample: f64,
+    pub us_per_input_event: f64,
+    pub ns_per_synop: f64,
+    pub peer_pytorch_ms_per_sample: f64,
+    pub speedup_vs_pytorch: f64,
+    pub speedup_vs_snntorch: f64,
+    /// Async mode (a neuron fires the moment its membrane crosses threshold): the time from an
+    /// input event handed in to all its effects done (every spike it causes, through every
+    /// layer), per event, timed one by one (the clock's own cost, about 20 ns, included).
+    pub async_event_latency_ns_p50: Option<f64>,
+    pub async_event_latency_ns_p99: Option<f64>,
+    pub async_event_latency_ns_max: Option<f64>,
+    pub async_input_events_per_s: f64,
+}
+
+/// Per-event latency in async mode over the samples: (histogram, events per second untimed).
+fn async_latency(
+    net: &snn::network::Network,
+    samples: &[Vec<(i64, u32)>],
+) -> Result<(pipeline::classify::Histogram, f64, u64)> {
+    let engine = Engine::new(net, DT_US, Mode::Async)?;
+    let mut st = engine.state(0);
+    let mut h = pipeline::classify::Histogram::default();
+    let mut max = 0u64;
+    for s in samples {
+        engine.reset(&mut st, 0);
+        for &(t, i) in s {
+            let t0 = Instant::now();
+            engine.push(&mut st, t, i, 1.0)?;
+            let ns = t0.elapsed().as_nanos() as u64;
+            max = max.max(ns);
+            h.add(ns);
+        }
+    }
+    // throughput without the per-event clock
+    let start = Instant::now();
+    let mut n = 0u64;
+    for s in samples {
+        engine.reset(&mut st, 0);
+        for &(t, i) in s {
+            engine.push(&mut st, t, i, 1.0)?;
+        }
+        n += s.len() as u64;
+    }
+    Ok((h, n as f64 / start.elapsed().as_secs_f64(), max))
+}
+
+pub use snn::network::peer_sample as sample_events;
+
+/// The event-driven engine on the peer benchmark's network: `samples` random inputs, the median
+/// of `repeats` passes (stepped mode), and per-event latency in async mode.
+pub fn engine(samples: u64, repeats: usize) -> Result<EngineReport> {
+    let net = peers_conv(1, PEER_GAIN);
+    let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
+    let samples: Vec<Vec<(i64, u32)>> = (0..samples.max(1)).map(|s| sample_events(1000 + s, net.n_inputs())).collect();
+    let (mut events, mut synops, mut spikes, mut updates) = (0u64, 0u64, 0u64, 0u64);
+    let mut times = Vec::new();
+    let mut st = engine.state(0);
+    for rep in 0..repeats.max(1) + 1 {
+        let start = Instant::now();
+        for s in &samples {
+            engine.reset(&mut st, 0);
+            for &(t, i) in s {
+                engine.push(&mut st, t, i, 1.0)?;
+            }
+            engine.finish(&mut st, STEPS as i64 * DT_US);
+            if rep == 0 {
+                events += st.stats.input_events;
+                synops += st.stats.synops;
+                spikes += st.stats.spikes.iter().sum::<u64>();
+                updates += st.stats.neuron_updates;
+            }
+        }
+        if rep > 0 {
+            times.push(start.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let n = samples.len() as f64;
+    let per_sample = times[times.len() / 2] / n;
+    let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
+    Ok(EngineReport {
+        network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
+        mode: "event-driven, stepped (exactly the time-stepped network)",
+        samples: samples.len() as u64,
+        input_events_per_sample: events as f64 / n,
+        synops_per_sample: synops as f64 / n,
+        spikes_per_sample: spikes as f64 / n,
+        neuron_updates_per_sample: updates as f64 / n,
+        ms_per_sample: per_sample * 1e3,
+        us_per_input_event: per_sample * 1e6 / (events as f64 / n),
+        ns_per_synop: per_sample * 1e9 / (synops as f64 / n),
+        peer_pytorch_ms_per_sample: 3.45,
+        speedup_vs_pytorch: 3.45 / (per_sample * 1e3),
+        speedup_vs_snntorch: 7.96 / (per_sample * 1e3),
+        async_event_latency_ns_p50: latency.quantile_ns(0.5),
+        async_event_latency_ns_p99: latency.quantile_ns(0.99),
+        async_event_latency_ns_max: Some(async_max as f64),
+        async_input_events_per_s: async_rate,
+    })
+}
+
+/// The text `braille bench` prints.
+impl std::fmt::Display for TrainReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "training step of the peer conv SNN (batch {}, {} steps, forward, BPTT, Adam; {:.0} spikes per sample by layer {:?}):",
+            self.batch,
+            self.steps,
+            self.spikes_per_sample.iter().sum::<f64>(),
+            self.spikes_per_sample.iter().map(|s| s.round()).collect::<Vec<_>>()
+        )?;
+        for t in [&self.sparse, &self.sparse_exact, &self.dense] {
+            writeln!(
+                f,
+                "  {:<28} {:>8.1} ms median, {:>8.1} ms best; peak RSS {:.0} MB",
+                t.trainer,
+                t.ms_per_train_step,
+                t.ms_per_train_step_min,
+                t.peak_rss_mb.unwrap_or(f64::NAN)
+            )?;
+        }
+        writeln!(
+            f,
+            "  truncation at {} of the surrogate's peak: gradient cosine {:.4}, relative error {:.3}; {:.2}% of neuron-steps kept",
+            self.gradient_cutoff,
+            self.truncation_cosine,
+            self.truncation_relative_error,
+            100.0 * self.kept_fraction
+        )?;
+        writeln!(
+            f,
+            "  peers (the shared benchmark's figures): PyTorch 59.6, snnTorch 97.1, Norse 78.1 ms; scripts/peers/compare.sh measures them beside ours"
+        )?;
+        Ok(())
+    }
+}
+
+/// The text `braille bench` prints.
+impl std::fmt::Display for EngineReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{:.3} ms per sample, {:.3} us per input event, {:.3} ns per synaptic event ({:.0} input events, {:.0} synops, {:.0} spikes per sample); {:.1}x PyTorch's 3.45 ms, {:.1}x snnTorch's 7.96 ms (their figures from the shared peer benchmark)",
+            self.ms_per_sample,
+            self.us_per_input_event,
+            self.ns_per_synop,
+            self.input_events_per_sample,
+            self.synops_per_sample,
+            self.spikes_per_sample,
+            self.speedup_vs_pytorch,
+            self.speedup_vs_snntorch
+        )?;
+        writeln!(
+            f,
+            "async mode: an input event's effects done in {:.0} ns (p50), {:.0} ns (p99), {:.0} ns at most; {:.2} M input events/s",
+            self.async_event_latency_ns_p50.unwrap_or(f64::NAN),
+            self.async_event_latency_ns_p99.unwrap_or(f64::NAN),
+            self.async_event_latency_ns_max.unwrap_or(f64::NAN),
+            self.async_input_events_per_s / 1e6
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,5 @@
+//! Benchmarks: the event-driven engine and both trainers on the peer benchmark's network
+//! ([`engine`]), and any model or NIR graph on any events ([`models`]).
+
+pub mod engine;
+pub mod models;

@@ -1,0 +1,450 @@
+//! A reader's operating point, chosen on validation data (`braille calibrate-reader`): the
+//! segmentation network's threshold and the temporal filter's shortest segment
+//! ([`OperatingPoint`]), swept over a grid on SIMULATED scans of the validation words with the
+//! training sensor builds and the validation seed, never a test board (docs/protocol.md).
+//!
+//! Every point of the grid reads the same scans with the real streaming reader, speed estimated
+//! from the events. The networks' outputs do not depend on the point (the reader's frames come
+//! from the events and its speed estimate alone), so each scan's outputs are computed once and
+//! looked up by window for the other points ([`Memo`]): the grid costs about one reading.
+//!
+//! The rule, fixed before any run: the highest mean word accuracy without spelling over the
+//! speeds (every printed word counts; the reading itself, which a speller can hide), ties to the
+//! higher mean with the lexicon, then to the point nearer the paper's.
+
+use crate::Progress;
+use crate::Result;
+use crate::eval::scoring::WordMetrics;
+use corpus::boards::validation_words_board;
+use corpus::world::{VALIDATION_SEED, World};
+use pipeline::classify::{ReaderModels, WindowModel, WindowState};
+use pipeline::reader::{
+    CalibrationGrid, OperatingPoint, PointCalibration, ReaderConfig, Spell, Speller, Timing, Window, WindowClassifier,
+    f32_as_printed, read_all,
+};
+use rayon::prelude::*;
+use serde::Serialize;
+use sim::{BoardKind, Realism};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Which scans and which grid.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationSpec {
+    pub board: BoardKind,
+    pub world: World,
+    pub seed: u64,
+    /// Scans per board row and speed.
+    pub trials: u64,
+    pub speeds_mm_s: Vec<f64>,
+    pub depth_mm: f64,
+    pub thresholds: Vec<f32>,
+    pub min_frames: Vec<usize>,
+}
+
+impl CalibrationSpec {
+    /// The validation words (`VAL-WORDS`) at `realism` with the training sensor builds and the
+    /// validation seed, 12 scans per row at 8, 16, 32 and 64 mm/s, 1.5 mm; thresholds 0.3-0.95
+    /// and shortest segments of 2-12 frames (the paper's 0.5 and 4 among them).
+    pub fn validation(realism: Realism) -> CalibrationSpec {
+        CalibrationSpec {
+            board: validation_words_board(),
+            world: World::train(realism),
+            seed: VALIDATION_SEED,
+            trials: 12,
+            speeds_mm_s: vec![8.0, 16.0, 32.0, 64.0],
+            depth_mm: 1.5,
+            thresholds: vec![0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95],
+            min_frames: vec![2, 3, 4, 5, 6, 8, 10, 12],
+        }
+    }
+}
+
+/// One point of the grid, scored.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationRow {
+    pub present_threshold: f32,
+    pub min_frames: usize,
+    /// Word accuracy over every printed word per speed, without spelling and with the lexicon.
+    pub none: Vec<f64>,
+    pub lexicon: Vec<f64>,
+    pub mean_none: f64,
+    pub mean_lexicon: f64,
+}
+
+/// The grid's scores and the point chosen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Calibration {
+    pub data: &'static str,
+    pub segmenter: String,
+    pub classifier: String,
+    pub spec: CalibrationSpec,
+    /// Printed words per speed (over all scans).
+    pub words: Vec<usize>,
+    pub rows: Vec<CalibrationRow>,
+    pub chosen: OperatingPoint,
+    pub rule: &'static str,
+}
+
+pub const RULE: &str = "the highest mean word accuracy without spelling over the speeds (all printed words), ties to the higher mean with the lexicon, then to the point nearer the paper's (0.5, 4)";
+
+/// A network whose output for each window is computed once and looked up after: the reader's
+/// windows (known by their end, bin length and bin count) are the same at every operating point.
+/// One per scan (not shared between threads).
+pub struct Memo<'m> {
+    inner: &'m WindowModel,
+    cache: RefCell<HashMap<(i64, i64, usize), Vec<f32>>>,
+}
+
+impl<'m> Memo<'m> {
+    pub fn new(inner: &'m WindowModel) -> Memo<'m> {
+        Memo { inner, cache: RefCell::new(HashMap::new()) }
+    }
+}
+
+impl WindowClassifier for Memo<'_> {
+    type State = WindowState;
+
+    fn new_state(&self) -> WindowState {
+        self.inner.new_state()
+    }
+
+    fn classify(&self, state: &mut WindowState, window: &Window) -> pipeline::Result<Vec<f32>> {
+        let key = (window.t_end_us, window.bin_us, window.n_bins());
+        if let Some(p) = self.cache.borrow().get(&key) {
+            return Ok(p.clone());
+        }
+        let p = self.inner.classify(state, window)?;
+        self.cache.borrow_mut().insert(key, p.clone());
+        Ok(p)
+    }
+}
+
+/// Sweeps the grid of `spec` for the pair `models` (named `segmenter` and `classifier` in the
+/// record) and chooses by [`RULE`].
+pub fn calibrate(
+    models: &ReaderModels,
+    segmenter: &str,
+    classifier: &str,
+    spec: &CalibrationSpec,
+    progress: &dyn Progress,
+) -> Result<Calibration> {
+    if spec.thresholds.is_empty() || spec.min_frames.is_empty() || spec.speeds_mm_s.is_empty() || spec.trials == 0 {
+        return Err(crate::Error::Setting {
+            name: "calibration grid",
+            value: format!(
+                "{} thresholds, {} frame counts, {} speeds, {} scans",
+                spec.thresholds.len(),
+                spec.min_frames.len(),
+                spec.speeds_mm_s.len(),
+                spec.trials
+            ),
+            expected: "at least one of each",
+        });
+    }
+    let grid: Vec<OperatingPoint> = spec
+        .thresholds
+        .iter()
+        .flat_map(|&t| {
+            spec.min_frames.iter().map(move |&m| OperatingPoint {
+                present_threshold: t,
+                min_frames: m,
+                calibration: None,
+            })
+        })
+        .collect();
+    for p in &grid {
+        p.validate()?;
+    }
+    let setup = spec.world.setup();
+    let board = spec.world.board(&setup, &spec.board)?;
+    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    let speller = Speller::new(Spell::Lexicon);
+    let jobs: Vec<(usize, usize, u64)> = (0..spec.speeds_mm_s.len())
+        .flat_map(|s| (0..board.rows.len()).flat_map(move |r| (0..spec.trials).map(move |t| (s, r, t))))
+        .collect();
+    progress.start("reading validation scans at every operating point", jobs.len() as u64);
+    // per job: the printed words, then per grid point the words read (raw, lexicon)
+    type Lines = (Vec<String>, Vec<(Vec<String>, Vec<String>)>);
+    let reads: Vec<(usize, Lines)> = jobs
+        .par_iter()
+        .map(|&(s, row, trial)| -> Result<(usize, Lines)> {
+            let speed = spec.speeds_mm_s[s];
+            let seed = spec.world.scan_seed(spec.seed, &spec.board, row, trial, speed, spec.depth_mm);
+            let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+            let scan = sim::simulate(&board, sensor, &setup.scan(speed, spec.depth_mm, row, seed))?;
+            let truth: Vec<String> = scan.truth.row_text.split_whitespace().map(str::to_string).collect();
+            let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
+            let mut out = Vec::with_capacity(grid.len());
+            for p in &grid {
+                let cfg: ReaderConfig = models.config(Timing::ESTIMATED).with_operating_point(p);
+                let r = read_all(&scan.events, cfg, sensor.camera.resolution, &seg, &cls, &speller)
+                    .map_err(crate::Error::from)?;
+                out.push((
+                    r.words.iter().map(|w| w.raw.clone()).collect(),
+                    r.words.iter().map(|w| w.text.clone()).collect(),
+                ));
+            }
+            progress.inc();
+            Ok((s, (truth, out)))
+        })
+        .collect::<Result<_>>()?;
+    progress.finish();
+    let n_speeds = spec.speeds_mm_s.len();
+    let mut metrics = vec![vec![(WordMetrics::default(), WordMetrics::default()); n_speeds]; grid.len()];
+    let mut words = vec![0usize; n_speeds];
+    for (s, (truth, per_point)) in &reads {
+        words[*s] += truth.len();
+        for (g, (raw, lex)) in per_point.iter().enumerate() {
+            metrics[g][*s].0.add_line(truth, raw);
+            metrics[g][*s].1.add_line(truth, lex);
+        }
+    }
+    let rows: Vec<CalibrationRow> = grid
+        .iter()
+        .zip(&metrics)
+        .map(|(p, m)| {
+            let none: Vec<f64> = m.iter().map(|x| x.0.word_accuracy()).collect();
+            let lexicon: Vec<f64> = m.iter().map(|x| x.1.word_accuracy()).collect();
+            CalibrationRow {
+                present_threshold: p.present_threshold,
+                min_frames: p.min_frames,
+                mean_none: none.iter().sum::<f64>() / n_speeds as f64,
+                mean_lexicon: lexicon.iter().sum::<f64>() / n_speeds as f64,
+                none,
+                lexicon,
+            }
+        })
+        .collect();
+    let best = choose(&rows);
+    let b = &rows[best];
+    let chosen = OperatingPoint {
+        present_threshold: b.present_threshold,
+        min_frames: b.min_frames,
+        calibration: Some(PointCalibration {
+            command: "braille calibrate-reader".into(),
+            data: format!(
+                "SIMULATED validation words ({}), {} world, sensor builds {:?}, seed {}, {} scans per row at {:?} mm/s, {} mm, speed estimated",
+                spec.board.name(),
+                spec.world.realism,
+                spec.world.sensors,
+                spec.seed,
+                spec.trials,
+                spec.speeds_mm_s,
+                spec.depth_mm
+            ),
+            classifier: classifier.to_string(),
+            rule: RULE.to_string(),
+            mean_word_accuracy_none: b.mean_none,
+            mean_word_accuracy_lexicon: b.mean_lexicon,
+            grid: CalibrationGrid {
+                thresholds: spec.thresholds.iter().map(|&t| f32_as_printed(t)).collect(),
+                min_frames: spec.min_frames.clone(),
+            },
+        }),
+    };
+    Ok(Calibration {
+        data: "simulated (virtual Evetac)",
+        segmenter: segmenter.to_string(),
+        classifier: classifier.to_string(),
+        spec: spec.clone(),
+        words,
+        rows,
+        chosen,
+        rule: RULE,
+    })
+}
+
+/// The row [`RULE`] picks.
+pub fn choose(rows: &[CalibrationRow]) -> usize {
+    let distance = |r: &CalibrationRow| {
+        (r.present_threshold as f64 - 0.5).abs() / 0.1
+            + (r.min_frames as f64 - OperatingPoint::PAPER.min_frames as f64).abs()
+    };
+    (0..rows.len())
+        .max_by(|&a, &b| {
+            let (x, y) = (&rows[a], &rows[b]);
+            x.mean_none
+                .total_cmp(&y.mean_none)
+                .then(x.mean_lexicon.total_cmp(&y.mean_lexicon))
+                .then(distance(y).total_cmp(&distance(x)))
+        })
+        .unwrap_or(0)
+}
+
+/// The grid as Markdown.
+pub fn markdown(c: &Calibration) -> String {
+    let s = &c.spec;
+    let best = choose(&c.rows);
+    let speeds: Vec<String> = s.speeds_mm_s.iter().map(|v| format!("{v} mm/s")).collect();
+    let mut md = format!(
+        "# The reader's operating point: {} (SIMULATED)\n\nSegmentation network `{}`, character classifier `{}`. Scans: `VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board. Each cell: word accuracy over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
+        c.segmenter,
+        c.segmenter,
+        c.classifier,
+        s.board.name(),
+        s.world.realism,
+        s.world.sensors,
+        s.seed,
+        s.trials,
+        speeds.join(", "),
+        c.words.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(" / "),
+        s.depth_mm,
+        c.rule,
+        c.chosen.present_threshold,
+        c.chosen.min_frames,
+        c.rows[best].mean_none,
+        c.rows[best].mean_lexicon,
+    );
+    md += &format!("| threshold | min frames | {} | mean, none | mean, lexicon |\n", speeds.join(" | "));
+    md += &format!("|{}\n", " --- |".repeat(4 + speeds.len()));
+    for (k, r) in c.rows.iter().enumerate() {
+        let cells: Vec<String> = r.none.iter().zip(&r.lexicon).map(|(a, b)| format!("{a:.3} / {b:.3}")).collect();
+        let mark = if k == best {
+            " **chosen**"
+        } else if r.present_threshold == 0.5 && r.min_frames == 4 {
+            " *paper*"
+        } else {
+            ""
+        };
+        md += &format!(
+            "| {}{mark} | {} | {} | {:.3} | {:.3} |\n",
+            r.present_threshold,
+            r.min_frames,
+            cells.join(" | "),
+            r.mean_none,
+            r.mean_lexicon
+        );
+    }
+    md
+}
+
+/// The point an earlier calibration chose: `chosen` of its `operating_point_ARCH.json`, checked.
+pub fn chosen_in(json: &Path) -> Result<OperatingPoint> {
+    #[derive(serde::Deserialize)]
+    struct Written {
+        chosen: OperatingPoint,
+    }
+    let text = std::fs::read_to_string(json).map_err(|source| crate::Error::Io { path: json.to_path_buf(), source })?;
+    let w: Written =
+        serde_json::from_str(&text).map_err(|source| crate::Error::Json { path: json.to_path_buf(), source })?;
+    w.chosen.validate().map_err(|e| crate::Error::Chosen { path: json.to_path_buf(), source: Box::new(e) })?;
+    Ok(w.chosen)
+}
+
+/// Records `point` in the model file at `path` (its header only; the weights are written back as
+/// they were read).
+pub fn record(path: &Path, point: &OperatingPoint) -> Result<()> {
+    let mut m = pipeline::models::load(path)?;
+    let value =
+        serde_json::to_value(point).map_err(|source| crate::Error::Json { path: path.to_path_buf(), source })?;
+    m.set_operating_point(Some(value));
+    m.save(path, true)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t: f32, m: usize, none: f64, lexicon: f64) -> CalibrationRow {
+        CalibrationRow {
+            present_threshold: t,
+            min_frames: m,
+            none: vec![none],
+            lexicon: vec![lexicon],
+            mean_none: none,
+            mean_lexicon: lexicon,
+        }
+    }
+
+    #[test]
+    fn the_rule_prefers_the_reading_then_the_lexicon_then_the_papers_point() {
+        let rows = vec![row(0.5, 4, 0.80, 0.95), row(0.8, 6, 0.85, 0.97), row(0.9, 10, 0.85, 0.99)];
+        assert_eq!(choose(&rows), 2);
+        let rows = vec![row(0.9, 10, 0.85, 0.97), row(0.6, 5, 0.85, 0.97), row(0.5, 4, 0.84, 0.99)];
+        assert_eq!(choose(&rows), 1);
+    }
+
+    #[test]
+    fn a_point_recorded_in_the_model_file_is_where_readers_read_and_a_bad_one_is_named() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/clean");
+        let tmp = tempfile::tempdir().unwrap();
+        let seg = tmp.path().join("seg.safetensors");
+        let cls = dir.join("snn-words.safetensors");
+        let write = |point: serde_json::Value| {
+            let mut m = pipeline::models::load(&dir.join("snn-segment.safetensors")).unwrap();
+            m.set_operating_point(Some(point));
+            m.save(&seg, true).unwrap();
+        };
+        let load = || ReaderModels::load(&seg, &cls, pipeline::classify::SnnRunner::Sliding).map_err(|e| e.to_string());
+        // never calibrated: the paper's point
+        let plain =
+            ReaderModels::load(&dir.join("snn-segment.safetensors"), &cls, pipeline::classify::SnnRunner::Sliding)
+                .unwrap();
+        let cfg = plain.config(Timing::ESTIMATED);
+        assert_eq!((cfg.present_threshold, cfg.filter.min_frames), (0.5, 4));
+        // a calibration is typed: one without its fields is an error naming the file and the key
+        write(serde_json::json!({"present_threshold": 0.9, "min_frames": 7, "calibration": {"rule": "test"}}));
+        let e = load().err().unwrap();
+        assert!(e.contains("seg.safetensors") && e.contains("operating_point") && e.contains("command"), "{e}");
+        let calibration = serde_json::json!({
+            "command": "test", "data": "none", "classifier": "snn-words.safetensors", "rule": "test",
+            "mean_word_accuracy_none": 0.5, "mean_word_accuracy_lexicon": 0.75,
+            "grid": {"thresholds": [0.9], "min_frames": [7]},
+        });
+        write(serde_json::json!({"present_threshold": 0.9, "min_frames": 7, "calibration": calibration}));
+        let m = load().unwrap();
+        let cfg = m.config(Timing::Paper);
+        assert_eq!((cfg.present_threshold, cfg.filter.min_frames), (0.9, 7));
+        assert_eq!(m.operating_point().calibration.as_ref().map(|c| c.rule.as_str()), Some("test"));
+        write(serde_json::json!({"present_threshold": 1.5, "min_frames": 7}));
+        let e = load().err().unwrap();
+        assert!(e.contains("seg.safetensors") && e.contains("operating_point") && e.contains("1.5"), "{e}");
+        write(serde_json::json!({"threshold": 0.9}));
+        let e = load().err().unwrap();
+        assert!(e.contains("seg.safetensors") && e.contains("present_threshold"), "{e}");
+    }
+
+    #[test]
+    fn a_memoised_reader_reads_as_the_plain_one_at_every_point() {
+        // the shipped `clean` SNN pair on one short scan: the grid read through the memo gives
+        // what a reader without it gives, point by point (the memo only saves work)
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/clean");
+        let models = ReaderModels::load(
+            &dir.join("snn-segment.safetensors"),
+            &dir.join("snn-words.safetensors"),
+            pipeline::classify::SnnRunner::Sliding,
+        )
+        .unwrap();
+        let world = World::clean();
+        let setup = world.setup();
+        let kind = BoardKind::Text("HELP OPEN".into());
+        let board = world.board(&setup, &kind).unwrap();
+        let sensor = &world.sensors_at(&setup, encoders::Resolution::DVXPLORER).unwrap()[0];
+        let scan = sim::simulate(&board, sensor, &setup.scan(32.0, 1.5, 0, 7)).unwrap();
+        let speller = Speller::new(Spell::None);
+        let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
+        let mut distinct = std::collections::HashSet::new();
+        for (t, m) in [(0.3, 2), (0.5, 4), (0.9, 8), (0.5, 12)] {
+            let p = OperatingPoint { present_threshold: t, min_frames: m, calibration: None };
+            let cfg = || models.config(Timing::ESTIMATED).with_operating_point(&p);
+            let memo = read_all(&scan.events, cfg(), sensor.camera.resolution, &seg, &cls, &speller).unwrap();
+            let plain = read_all(
+                &scan.events,
+                cfg(),
+                sensor.camera.resolution,
+                &models.segmenter,
+                &models.classifier,
+                &speller,
+            )
+            .unwrap();
+            assert_eq!(memo.words, plain.words, "at ({t}, {m})");
+            assert!(plain.stats.classifier_calls > 0);
+            distinct.insert(plain.words.iter().map(|w| w.chars.len()).sum::<usize>());
+        }
+        // the points do read differently (the sweep can tell them apart)
+        assert!(distinct.len() > 1, "{distinct:?}");
+    }
+}

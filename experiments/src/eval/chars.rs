@@ -1,0 +1,187 @@
+//! The character classifiers on SIMULATED windows: scoring a model of either architecture on a
+//! set of windows (`braille eval chars`, Table I) and the ResNet's training protocol
+//! (`braille train --arch resnet`).
+
+use crate::Progress;
+use crate::error::Result;
+use crate::eval::scoring::Confusion;
+use crate::eval::tactile::{async_capable, snn_accuracy};
+use corpus::windows::{CharSetSpec, Task, build, snn_set};
+use learn::resnet::ImageSet;
+use learn::snn::{SnnParams, SnnTwin};
+use pipeline::input::CharInput;
+use pipeline::models::Model;
+use rayon::prelude::*;
+use serde::Serialize;
+use snn::engine::Mode;
+use snn::model_file::Arch;
+use snn::neuron::Surrogate;
+use std::path::Path;
+
+/// A character classifier of either architecture, with how its input is made.
+pub struct CharModel {
+    pub model: Model,
+    pub input: CharInput,
+}
+
+/// How a classifier did on a set of windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Score {
+    pub n: usize,
+    pub accuracy: f64,
+    pub macro_f1: f64,
+    /// Cross-entropy of the network's outputs (the SNN's: of its time-stepped twin, which the
+    /// stepped engine reproduces spike for spike).
+    pub loss: f64,
+    /// `[truth][predicted]`.
+    pub confusion: Vec<Vec<u32>>,
+    /// SNN only: the event-driven engine's work per window (stepped mode), and its accuracy in
+    /// async mode where the network allows it (LIF/IF layers without bias or recurrence).
+    pub synops_per_sample: Option<f64>,
+    pub spikes_per_sample: Option<f64>,
+    pub input_events_per_sample: Option<f64>,
+    pub accuracy_async: Option<f64>,
+}
+
+impl CharModel {
+    /// A model file of either architecture (its header says which) that reads character windows.
+    pub fn load(path: &Path) -> Result<CharModel> {
+        let model = pipeline::models::load(path)?;
+        let input = model.char_input(path)?;
+        Ok(CharModel { model, input })
+    }
+
+    pub fn arch(&self) -> Arch {
+        self.model.arch()
+    }
+
+    /// ResNet: multiply-accumulates per window.
+    pub fn macs(&self) -> Option<u64> {
+        match &self.model {
+            Model::Resnet(r) => Some(r.config.macs()),
+            Model::Snn(_) => None,
+        }
+    }
+
+    /// Scores the windows of `raw` (crops as [`build`] makes them for this model).
+    pub fn score(&self, raw: &ImageSet) -> Result<Score> {
+        match &self.model {
+            Model::Resnet(m) => {
+                let set = ImageSet {
+                    shape: raw.shape,
+                    data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
+                    labels: raw.labels.clone(),
+                };
+                let (loss, accuracy, preds) = learn::resnet::evaluate(&m.model, &set, 32);
+                let confusion = Confusion::from_pairs(26, set.labels.iter().copied().zip(preds));
+                Ok(Score {
+                    n: set.len(),
+                    accuracy,
+                    macro_f1: confusion.macro_f1(),
+                    loss,
+                    confusion: confusion.counts,
+                    synops_per_sample: None,
+                    spikes_per_sample: None,
+                    input_events_per_sample: None,
+                    accuracy_async: None,
+                })
+            }
+            Model::Snn(model) => {
+                let set =
+                    snn_set(&self.input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, Task::Chars);
+                let stepped = snn_accuracy(&model.network, &model.config, &set, Mode::Stepped)?;
+                let accuracy_async = if async_capable(&model.network, model.config.dt_us) {
+                    Some(snn_accuracy(&model.network, &model.config, &set, Mode::Async)?.accuracy)
+                } else {
+                    None
+                };
+                let twin = SnnTwin::new(
+                    model.config.network.clone(),
+                    Surrogate::FastSigmoid { slope: 1.0 },
+                    model.config.readout,
+                )?;
+                let params = SnnParams::from_weights(
+                    &model.config.network,
+                    &model.network.weights(),
+                    &burn::tensor::Device::flex(),
+                )?;
+                let (loss, _, _) = learn::train::evaluate(&twin, &params, &set, 64);
+                Ok(Score {
+                    n: stepped.n,
+                    accuracy: stepped.accuracy,
+                    macro_f1: crate::eval::scoring::macro_f1(&stepped.confusion),
+                    loss,
+                    confusion: stepped.confusion,
+                    synops_per_sample: Some(stepped.synops_per_sample),
+                    spikes_per_sample: Some(stepped.spikes_per_sample),
+                    input_events_per_sample: Some(stepped.input_events_per_sample),
+                    accuracy_async,
+                })
+            }
+        }
+    }
+}
+
+/// A classifier scored on fresh SIMULATED scans (`braille eval chars`).
+#[derive(Debug, Clone, Serialize)]
+pub struct CharEval {
+    pub data: &'static str,
+    pub arch: Arch,
+    pub model: String,
+    pub board: String,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub scans: usize,
+    pub skipped_scans: usize,
+    /// Characters printed on every scan, and the share read right of them (the characters of
+    /// scans the labeler miscounted count as errors); `accuracy` is over the windows found.
+    pub printed: usize,
+    pub accuracy_all: f64,
+    #[serde(flatten)]
+    pub score: Score,
+}
+
+/// Scores the model at `path` on the windows of `spec`.
+pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<CharEval> {
+    let m = CharModel::load(path)?;
+    let (raw, w) = build(spec, &m.input, progress)?;
+    let score = m.score(&raw)?;
+    let right = crate::reports::chars::right(&score);
+    Ok(CharEval {
+        data: "simulated (virtual Evetac)",
+        arch: m.arch(),
+        model: path.display().to_string(),
+        board: spec.boards.iter().map(|b| b.name()).collect::<Vec<_>>().join(","),
+        speed_mm_s: spec.speed_mm_s,
+        depth_mm: spec.depth_mm,
+        scans: w.scans,
+        skipped_scans: w.skipped_scans,
+        printed: w.printed,
+        accuracy_all: w.accuracy_all(right),
+        score,
+    })
+}
+
+/// The line `braille eval chars` prints.
+impl std::fmt::Display for CharEval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.score;
+        writeln!(
+            f,
+            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped), {} printed characters: {} accuracy {:.2}% of the windows, {:.2}% of all printed, macro F1 {:.3}, loss {:.3}{}",
+            self.board,
+            self.speed_mm_s,
+            self.depth_mm,
+            s.n,
+            self.scans,
+            self.skipped_scans,
+            self.printed,
+            self.arch,
+            100.0 * s.accuracy,
+            100.0 * self.accuracy_all,
+            s.macro_f1,
+            s.loss,
+            s.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a))
+        )
+    }
+}

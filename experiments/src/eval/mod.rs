@@ -1,0 +1,13 @@
+//! Evaluation: one scoring module used by every protocol ([`scoring`]), character classifiers on
+//! simulated windows ([`chars`]), word reading on simulated scans ([`words`]), SNNs on tactile
+//! dataset folders ([`tactile`]), the labeler against the truth ([`labeling`]), the reader's
+//! operating point chosen on validation words ([`calibrate`]) and one nuisance at a time
+//! ([`robustness`]).
+
+pub mod calibrate;
+pub mod chars;
+pub mod labeling;
+pub mod robustness;
+pub mod scoring;
+pub mod tactile;
+pub mod words;

@@ -1,0 +1,397 @@
+//! Word reading on SIMULATED scans: each architecture reads every scan of a board from its raw
+//! event stream, and the lines are scored with the paper's four conditional metrics
+//! (`braille eval words`, the speed table).
+
+use crate::Progress;
+use crate::error::Result;
+use crate::eval::scoring::WordMetrics;
+use pipeline::classify::ReaderModels;
+use pipeline::reader::{ReadWord, ReaderStats, Spell, Speller, Timing, TimingMode};
+use rayon::prelude::*;
+use serde::Serialize;
+use sim::BoardKind;
+use snn::model_file::Arch;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The three spellings, in the order reports give them.
+pub const SPELLS: [Spell; 3] = [Spell::None, Spell::Textblob, Spell::Lexicon];
+
+/// What one architecture read on a set of scans.
+#[derive(Debug, Clone, Serialize)]
+pub struct WordsScore {
+    pub arch: Arch,
+    /// Where the reader's speed came from (`given` is the simulator's truth: an oracle).
+    pub timing: TimingMode,
+    pub speed_mm_s: f64,
+    /// Hand-held swings of the speed along the row (relative amplitude; 0 for the arm).
+    pub speed_variation: f64,
+    pub depth_mm: f64,
+    pub lines: usize,
+    /// The speed each character was read at against the true speed under the sensor then
+    /// (relative error, over every character read).
+    pub speed_error: SpeedError,
+    /// Per spelling (none, textblob, lexicon): the paper's four metrics.
+    pub by_spell: Vec<SpellScore>,
+    /// Seconds of stream read, and the wall time reading took (segmentation, classifier,
+    /// filter; not the simulation).
+    pub stream_s: f64,
+    pub read_s: f64,
+    /// Stream time from the last event a character's detections used to its registration.
+    pub registration_delay_ms_mean: f64,
+    pub registration_delay_ms_max: f64,
+    pub frames: u64,
+    pub segmenter_calls: u64,
+    pub classifier_calls: u64,
+    pub segmenter_ms: f64,
+    pub classifier_ms: f64,
+    pub synops: u64,
+    /// Every line: truth and what was read (raw letters; spelled by the lexicon decoder).
+    pub examples: Vec<(String, String, String)>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct SpellScore {
+    pub spell: Spell,
+    /// Unconditional, over every printed word: words read right (aligned to the line), and the
+    /// word and character error rates.
+    pub word_accuracy: f64,
+    pub word_error_rate: f64,
+    pub char_error_rate: f64,
+    /// The paper's four conditional metrics.
+    pub words_per_line: f64,
+    pub letters_per_word: f64,
+    pub correct_words: f64,
+    pub correct_letters: f64,
+    pub counts: WordMetrics,
+}
+
+/// The relative error of the speed the reader read at, over the characters read.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SpeedError {
+    pub chars: usize,
+    /// Signed median, and the mean and 90th percentile of the absolute error.
+    pub median: f64,
+    pub mean_abs: f64,
+    pub p90_abs: f64,
+    pub max_abs: f64,
+}
+
+impl SpeedError {
+    pub fn of(errors: &[f64]) -> SpeedError {
+        if errors.is_empty() {
+            return SpeedError::default();
+        }
+        let mut e = errors.to_vec();
+        e.sort_by(f64::total_cmp);
+        let mut a: Vec<f64> = e.iter().map(|x| x.abs()).collect();
+        a.sort_by(f64::total_cmp);
+        let q = |v: &[f64], p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+        SpeedError {
+            chars: e.len(),
+            median: q(&e, 0.5),
+            mean_abs: a.iter().sum::<f64>() / a.len() as f64,
+            p90_abs: q(&a, 0.9),
+            max_abs: a[a.len() - 1],
+        }
+    }
+}
+
+/// The true speed under the sensor at stream time `t_s`: the motion's speed then
+/// ([`sim::ScanTruth::speed_at_mm_s`]). Truth files without the motion's swings (written before
+/// 2026-11-25) give the mean speed between the two dot columns that passed the sensor's centre
+/// nearest before and after `t_s` (a whole row's mean speed when fewer than two did).
+pub fn truth_speed_at(truth: &sim::ScanTruth, t_s: f64) -> f64 {
+    if !truth.speed_swings.is_empty() {
+        return truth.speed_at_mm_s(t_s);
+    }
+    let mut c: Vec<(f64, f64)> = truth
+        .characters
+        .iter()
+        .flat_map(|c| c.columns.iter().filter_map(|k| k.t_center_s.map(|t| (t, k.x_mm))))
+        .collect();
+    c.sort_by(|a, b| a.0.total_cmp(&b.0));
+    c.dedup_by(|b, a| b.0 <= a.0);
+    if c.len() < 2 {
+        return truth.scan.speed_mm_s;
+    }
+    let k = c.partition_point(|p| p.0 < t_s).clamp(1, c.len() - 1);
+    let (a, b) = (c[k - 1], c[k]);
+    ((b.1 - a.1) / (b.0 - a.0)).abs()
+}
+
+/// One simulated scan, read.
+pub struct LineRead {
+    /// The row's words as printed.
+    pub truth: Vec<String>,
+    pub words: Vec<ReadWord>,
+    pub stats: ReaderStats,
+    /// Seconds of stream, and the wall time reading took.
+    pub stream_s: f64,
+    pub read_s: f64,
+    /// Time in the segmentation network and in the classifier, and synaptic operations (SNN).
+    pub seg_ns: u64,
+    pub cls_ns: u64,
+    pub synops: u64,
+    /// Per character read: the speed it was read at over the true speed then, minus one.
+    pub speed_errors: Vec<f64>,
+}
+
+/// Which scans to read.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WordsSpec {
+    pub board: BoardKind,
+    pub speed_mm_s: f64,
+    /// Hand-held swings of the speed along the row (relative amplitude; 0 for the arm).
+    pub speed_variation: f64,
+    pub depth_mm: f64,
+    /// Scans per board row.
+    pub trials: u64,
+    pub seed: u64,
+    /// The simulated world of the scans.
+    pub world: corpus::world::World,
+}
+
+/// The scans of every row of the board, `trials` each, read by each of `readers` with each of
+/// `timings` (each scan simulated once for all; the models are shared by the threads);
+/// `[scan][timing * readers.len() + reader]`. The readers get the events only; with
+/// [`TimingMode::Given`] they are told the scan's mean speed (an oracle).
+pub fn read_scans(
+    spec: &WordsSpec,
+    readers: &[&ReaderModels],
+    timings: &[TimingMode],
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<LineRead>>> {
+    let (board, speed_mm_s, depth_mm) = (&spec.board, spec.speed_mm_s, spec.depth_mm);
+    let setup = spec.world.setup();
+    let b = spec.world.board(&setup, board)?;
+    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    let jobs: Vec<(usize, u64)> = (0..b.rows.len()).flat_map(|r| (0..spec.trials).map(move |t| (r, t))).collect();
+    progress.start("reading simulated scans", jobs.len() as u64);
+    let speller = Speller::new(Spell::None);
+    let lines: Vec<Vec<LineRead>> = jobs
+        .par_iter()
+        .map(|&(row, trial)| -> Result<Vec<LineRead>> {
+            let scan_seed = spec.world.scan_seed(spec.seed, board, row, trial, speed_mm_s, depth_mm);
+            let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+            let scan = sim::ScanConfig {
+                speed_variation: spec.speed_variation,
+                ..setup.scan(speed_mm_s, depth_mm, row, scan_seed)
+            };
+            let s = sim::simulate(&b, sensor, &scan)?;
+
+            let truth: Vec<String> = s.truth.row_text.split_whitespace().map(str::to_string).collect();
+            let stream_s = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+            let mut out = Vec::new();
+            for (&mode, r) in timings.iter().flat_map(|m| readers.iter().map(move |r| (m, r))) {
+                let timing = match mode {
+                    TimingMode::Estimated => Timing::ESTIMATED,
+                    TimingMode::Paper => Timing::Paper,
+                    TimingMode::Given => Timing::Given { speed_mm_s },
+                };
+                let t = Instant::now();
+                let read = r.read(&s.events, sensor.camera.resolution, timing, &speller)?;
+                let speed_errors = read
+                    .words
+                    .iter()
+                    .flat_map(|w| &w.chars)
+                    .filter_map(|c| {
+                        let t_s = 0.5 * (c.t_start_us + c.t_end_us) as f64 / 1e6;
+                        c.speed_mm_s.map(|v| v / truth_speed_at(&s.truth, t_s) - 1.0)
+                    })
+                    .collect();
+                out.push(LineRead {
+                    speed_errors,
+                    truth: truth.clone(),
+                    words: read.words,
+                    stats: read.stats,
+                    stream_s,
+                    read_s: t.elapsed().as_secs_f64(),
+                    seg_ns: read.segmenter.stats.nanos,
+                    cls_ns: read.classifier.stats.nanos,
+                    synops: read.segmenter.stats.synops + read.classifier.stats.synops,
+                });
+            }
+            progress.inc();
+            Ok(out)
+        })
+        .collect::<Result<_>>()?;
+    progress.finish();
+    Ok(lines)
+}
+
+/// Scores the lines of reader `k` (`lines[scan][k]`), an `arch` reader with `timing`.
+pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], spec: &WordsSpec) -> WordsScore {
+    let spellers: Vec<Speller> = SPELLS.iter().map(|&s| Speller::new(s)).collect();
+    let mut metrics = vec![WordMetrics::default(); SPELLS.len()];
+    let (mut delays, mut examples) = (Vec::new(), Vec::new());
+    let mut s = WordsScore {
+        arch,
+        timing,
+        speed_mm_s: spec.speed_mm_s,
+        speed_variation: spec.speed_variation,
+        depth_mm: spec.depth_mm,
+        lines: lines.len(),
+        speed_error: SpeedError::of(
+            &lines.iter().flat_map(|scan| scan[k].speed_errors.iter().copied()).collect::<Vec<_>>(),
+        ),
+        by_spell: Vec::new(),
+        stream_s: 0.0,
+        read_s: 0.0,
+        registration_delay_ms_mean: 0.0,
+        registration_delay_ms_max: 0.0,
+        frames: 0,
+        segmenter_calls: 0,
+        classifier_calls: 0,
+        segmenter_ms: 0.0,
+        classifier_ms: 0.0,
+        synops: 0,
+        examples: Vec::new(),
+    };
+    for scan in lines {
+        let l = &scan[k];
+        for (m, sp) in metrics.iter_mut().zip(&spellers) {
+            let read: Vec<String> = l.words.iter().map(|w| sp.correct(&w.chars)).collect();
+            m.add_line(&l.truth, &read);
+        }
+        let raw: Vec<String> = l.words.iter().map(|w| w.raw.clone()).collect();
+        let lex: Vec<String> = l.words.iter().map(|w| spellers[2].correct(&w.chars)).collect();
+        examples.push((l.truth.join(" "), raw.join(" "), lex.join(" ")));
+        delays
+            .extend(l.words.iter().flat_map(|w| w.chars.iter().map(|c| (c.t_registered_us - c.t_end_us) as f64 / 1e3)));
+        s.stream_s += l.stream_s;
+        s.read_s += l.read_s;
+        s.frames += l.stats.frames;
+        s.segmenter_calls += l.stats.segmenter_calls;
+        s.classifier_calls += l.stats.classifier_calls;
+        s.segmenter_ms += l.seg_ns as f64 / 1e6;
+        s.classifier_ms += l.cls_ns as f64 / 1e6;
+        s.synops += l.synops;
+    }
+    s.registration_delay_ms_mean = delays.iter().sum::<f64>() / delays.len().max(1) as f64;
+    s.registration_delay_ms_max = delays.iter().copied().fold(0.0, f64::max);
+    s.by_spell = SPELLS
+        .iter()
+        .zip(metrics)
+        .map(|(&spell, m)| SpellScore {
+            spell,
+            word_accuracy: m.word_accuracy(),
+            word_error_rate: m.word_error_rate(),
+            char_error_rate: m.char_error_rate(),
+            words_per_line: m.words_per_line(),
+            letters_per_word: m.letters_per_word(),
+            correct_words: m.correct_words_rate(),
+            correct_letters: m.correct_letters_rate(),
+            counts: m,
+        })
+        .collect();
+    s.examples = examples;
+    s
+}
+
+/// A reader's words on a board's SIMULATED scans (`braille eval words`): the paper's four metrics
+/// with the spelling asked for, and the score with every spelling.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalWords {
+    pub data: &'static str,
+    pub board: String,
+    /// The networks that read (a mixed pair, or a validation run, names itself), where the
+    /// segmentation network was read, and the sensor builds that scanned.
+    pub segmenter: PathBuf,
+    pub classifier: PathBuf,
+    pub operating_point: pipeline::reader::OperatingPoint,
+    pub sensor_builds: corpus::world::SensorBuilds,
+    pub spell: Spell,
+    /// Unconditional, over every printed word: words read right, and the word and character
+    /// error rates (edit distance over the line).
+    pub word_accuracy: f64,
+    #[serde(rename = "wer")]
+    pub word_error_rate: f64,
+    #[serde(rename = "cer")]
+    pub char_error_rate: f64,
+    /// The paper's conditional metrics.
+    pub words_per_line: f64,
+    pub letters_per_word: f64,
+    pub correct_words: f64,
+    pub correct_letters: f64,
+    #[serde(flatten)]
+    pub score: WordsScore,
+}
+
+/// Reads every scan of `spec` with `readers` (loaded from `files`) and `timing`, and scores it;
+/// `builds` names the sensor builds of `spec`'s world.
+pub fn eval_words(
+    spec: &WordsSpec,
+    readers: &ReaderModels,
+    files: &pipeline::shipped::ReaderFiles,
+    builds: corpus::world::SensorBuilds,
+    timing: TimingMode,
+    spell: Spell,
+    progress: &dyn Progress,
+) -> Result<EvalWords> {
+    let lines = read_scans(spec, &[readers], &[timing], progress)?;
+    let score = score(readers.classifier.arch(), timing, 0, &lines, spec);
+    let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
+    Ok(EvalWords {
+        data: "simulated (virtual Evetac)",
+        board: spec.board.name(),
+        segmenter: files.segmenter.clone(),
+        classifier: files.classifier.clone(),
+        operating_point: readers.operating_point().clone(),
+        sensor_builds: builds,
+        spell,
+        word_accuracy: m.word_accuracy,
+        word_error_rate: m.word_error_rate,
+        char_error_rate: m.char_error_rate,
+        words_per_line: m.words_per_line,
+        letters_per_word: m.letters_per_word,
+        correct_words: m.correct_words,
+        correct_letters: m.correct_letters,
+        score,
+    })
+}
+
+/// The lines `braille eval words` prints.
+impl std::fmt::Display for EvalWords {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (s, p) = (&self.score, &self.operating_point);
+        writeln!(
+            f,
+            "models: {} + {} (segmentation read above {}, characters from {} frames{}); {:?} sensor builds",
+            self.segmenter.display(),
+            self.classifier.display(),
+            p.present_threshold,
+            p.min_frames,
+            if p.calibration.is_none() { ", the paper's point" } else { ", calibrated" },
+            self.sensor_builds
+        )?;
+        writeln!(
+            f,
+            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            self.board,
+            s.speed_mm_s,
+            if s.speed_variation > 0.0 {
+                format!(" hand-held ±{:.0}%", 100.0 * s.speed_variation)
+            } else {
+                String::new()
+            },
+            s.depth_mm,
+            s.lines,
+            s.arch,
+            s.timing,
+            100.0 * s.speed_error.median,
+            100.0 * s.speed_error.mean_abs,
+            s.speed_error.chars,
+            self.spell,
+            self.word_accuracy,
+            self.word_error_rate,
+            self.char_error_rate,
+            self.words_per_line,
+            self.letters_per_word,
+            self.correct_words,
+            self.correct_letters,
+            s.stream_s,
+            s.read_s
+        )
+    }
+}

@@ -1,0 +1,523 @@
+//! Training an SNN from a recipe ([`crate::train::recipe::SnnRecipe`]): on a tactile dataset folder
+//! (real recordings) or on the SIMULATED character windows. The best checkpoint (or the averaged
+//! weights) leaves as a model file for the event-driven engine, its recipe in the provenance.
+
+use crate::Progress;
+use crate::error::{Error, Result};
+use crate::eval::tactile::snn_accuracy;
+use crate::train::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe};
+use corpus::windows::{snn_set, training_windows};
+use encoders::dataset::{Dataset, Split};
+use encoders::sigma_delta::SigmaDeltaConfig;
+use learn::data::{SpikeSet, TactileEncoding};
+use learn::snn::SnnTwin;
+use learn::train::{EpochReport, Observer, Outcome, TrainConfig};
+use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
+use serde::Serialize;
+use snn::engine::Mode;
+use snn::model_file::{Readout, SnnConfig, SnnModel};
+use snn::network::PoolKind;
+use snn::neuron::{Discretisation, LifConfig, NeuronKind};
+use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
+use std::path::Path;
+
+/// The recipe's network for an input of `input_shape` (`[n]`, or `[polarity, row, column]` for
+/// simulated windows, which convolutional layers need) and `n_classes` classes.
+pub fn network_spec(r: &SnnRecipe, input_shape: &[usize], n_classes: usize) -> Result<NetworkSpec> {
+    let dt = r.dt_us as f64;
+    let hidden = match r.neuron {
+        NeuronChoice::Lif => LifConfig::lif(r.tau_mem_us),
+        NeuronChoice::CubaLif => LifConfig::cuba_lif(r.tau_mem_us, r.tau_syn_us),
+        NeuronChoice::If => LifConfig::integrate_and_fire(),
+    }
+    .with_reset(r.reset)
+    .discretise(dt, Discretisation::Exact);
+    if (r.hidden.is_empty() && r.conv.is_empty()) || r.hidden.contains(&0) {
+        return Err(Error::Setting {
+            name: "hidden",
+            value: format!("{:?}", r.hidden),
+            expected: "positive layer sizes (or the recipe's convolutional layers)",
+        });
+    }
+    if r.recurrent_init_gain.is_some() && !r.recurrent {
+        return Err(Error::Setting {
+            name: "--recurrent-init-gain",
+            value: r.recurrent_init_gain.unwrap_or_default().to_string(),
+            expected: "--recurrent with it (a recurrent scale needs recurrent layers)",
+        });
+    }
+    if !r.conv.is_empty() && input_shape.len() != 3 {
+        return Err(Error::Setting {
+            name: "input shape",
+            value: format!("{input_shape:?}"),
+            expected: "[channels, rows, columns] for convolutional layers",
+        });
+    }
+    let mut layers: Vec<LayerSpec> = Vec::new();
+    for c in &r.conv {
+        if c.channels == 0 || c.kernel == 0 || c.stride == 0 || c.pool == 0 {
+            return Err(Error::Setting {
+                name: "convolutional layer",
+                value: format!("{c:?}"),
+                expected: "positive channels, kernel and stride",
+            });
+        }
+        layers.push(LayerSpec {
+            op: OpSpec::Conv2d {
+                out_channels: c.channels,
+                kernel: [c.kernel; 2],
+                stride: [c.stride; 2],
+                padding: c.padding,
+            },
+            neurons: Some(hidden),
+            recurrent: false,
+            bias: r.bias,
+            recurrent_bias: false,
+        });
+        if c.pool > 1 {
+            layers.push(LayerSpec {
+                op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [c.pool; 2], stride: [c.pool; 2] },
+                neurons: None,
+                recurrent: false,
+                bias: false,
+                recurrent_bias: false,
+            });
+        }
+    }
+    layers.extend(r.hidden.iter().map(|&n| LayerSpec {
+        op: OpSpec::Dense { n_out: n },
+        neurons: Some(hidden),
+        recurrent: r.recurrent,
+        bias: r.bias,
+        recurrent_bias: false,
+    }));
+    let out = match r.readout {
+        Readout::MaxMembrane => {
+            let mut p = LifConfig::lif(r.tau_out_us).discretise(dt, Discretisation::Exact);
+            p.kind = NeuronKind::Li;
+            p
+        }
+        Readout::SpikeCount => hidden,
+    };
+    layers.push(LayerSpec {
+        op: OpSpec::Dense { n_out: n_classes },
+        neurons: Some(out),
+        recurrent: false,
+        bias: false,
+        recurrent_bias: false,
+    });
+    let spec = NetworkSpec { input_shape: input_shape.to_vec(), layers };
+    spec.shapes()?;
+    Ok(spec)
+}
+
+/// What the data gave to train on.
+#[derive(Debug, Clone, Serialize)]
+pub struct DataSummary {
+    /// The dataset folder's name, or what the simulated windows were.
+    pub data: String,
+    pub classes: usize,
+    pub inputs: usize,
+    pub steps: usize,
+    pub dt_us: i64,
+    pub train: usize,
+    pub validation: usize,
+    /// Tactile datasets: the test split's size (it is not scored by training).
+    pub test: Option<usize>,
+    pub input_events_per_sample: f64,
+    /// Simulated windows: scans simulated, and those skipped (window count off).
+    pub scans: Option<usize>,
+    pub skipped_scans: Option<usize>,
+}
+
+/// A trained SNN with how it went.
+pub struct TrainedSnn {
+    pub model: SnnModel,
+    pub history: Vec<EpochReport>,
+    pub best_epoch: usize,
+    pub best_val_accuracy: f64,
+    /// The averaged weights' validation accuracy and whether they were chosen.
+    pub average: Option<(f64, bool)>,
+    /// Over how many last epochs the weights were averaged.
+    pub averaged_epochs: usize,
+    pub data: DataSummary,
+    /// Accuracy on the event-driven engine: tactile datasets, the test split, only when asked
+    /// ([`EvalTest`]); simulated windows, the validation windows.
+    pub engine_accuracy: Option<f64>,
+    pub engine_n: usize,
+    /// Seconds of training (without loading and scoring).
+    pub seconds: f64,
+}
+
+fn events_per_sample(s: &SpikeSet) -> f64 {
+    s.trains.iter().map(|t| t.total()).sum::<u64>() as f64 / s.len().max(1) as f64
+}
+
+/// Whether training scores the test split. Test hygiene: nothing is chosen on it, and it is
+/// looked at only when asked (`braille train --eval-test`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EvalTest {
+    No,
+    Yes,
+}
+
+/// A tactile dataset folder encoded by a recipe: the training split, the folder's own
+/// validation split if it has one, and the test split (kept aside).
+pub struct TactileData {
+    pub dir: std::path::PathBuf,
+    pub classes: Vec<String>,
+    pub encoding: TactileEncoding,
+    pub train: SpikeSet,
+    /// The folder's own validation split (`split.csv` rows marked `val`), if any.
+    pub validation: Option<SpikeSet>,
+    pub test: SpikeSet,
+}
+
+impl TactileData {
+    /// Loads and encodes `data_dir` with the recipe's sampling period, sigma-delta threshold and
+    /// step.
+    pub fn load(data_dir: &Path, r: &SnnRecipe) -> Result<TactileData> {
+        let data = Dataset::load(data_dir, r.period_us)?;
+        TactileData::encode(&data, r)
+    }
+
+    /// Encodes a loaded dataset with the recipe's sigma-delta threshold and step.
+    pub fn encode(data: &Dataset, r: &SnnRecipe) -> Result<TactileData> {
+        let sd = SigmaDeltaConfig { threshold: r.sigma_delta, interpolate: r.interpolate };
+        let encoding = TactileEncoding {
+            merge_polarities: r.merge_polarities,
+            binary: r.binary_input,
+            classes: r.classes.clone(),
+            channel_pool: r.channel_pool,
+            ..TactileEncoding::fit(data, sd, r.dt_us)?
+        };
+        let validation = encoding.encode(data, Some(Split::Validation))?;
+        Ok(TactileData {
+            dir: data.dir.clone(),
+            classes: encoding.select(data)?.classes.clone(),
+            train: encoding.encode(data, Some(Split::Train))?,
+            validation: (!validation.is_empty()).then_some(validation),
+            test: encoding.encode(data, Some(Split::Test))?,
+            encoding,
+        })
+    }
+
+    /// The recipe's training and validation sets: the folder's validation split if it has one
+    /// (and the recipe validates at all), else a stratified hold-out of `val_fraction` of the
+    /// training split with `val_seed`.
+    pub fn train_val(&self, r: &SnnRecipe) -> (SpikeSet, SpikeSet) {
+        match &self.validation {
+            _ if r.val_fraction <= 0.0 => (self.train.clone(), self.train.subset(&[])),
+            Some(v) => (self.train.clone(), v.clone()),
+            None => self.train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed)),
+        }
+    }
+}
+
+/// Trains the recipe on a tactile dataset folder (iCub layout: any channel and class count).
+pub fn train_tactile(
+    r: &SnnRecipe,
+    data_dir: &Path,
+    eval_test: EvalTest,
+    observer: &mut dyn Observer,
+) -> Result<TrainedSnn> {
+    train_on(r, &TactileData::load(data_dir, r)?, eval_test, observer)
+}
+
+/// Trains the recipe on an encoded tactile dataset (its encoding must be the recipe's).
+pub fn train_on(
+    r: &SnnRecipe,
+    data: &TactileData,
+    eval_test: EvalTest,
+    observer: &mut dyn Observer,
+) -> Result<TrainedSnn> {
+    if data.encoding.dt_us != r.dt_us {
+        return Err(Error::Data {
+            path: data.dir.clone(),
+            what: format!("encoded with {} us steps, the recipe steps {} us", data.encoding.dt_us, r.dt_us),
+        });
+    }
+    let (train, val) = data.train_val(r);
+    let summary = DataSummary {
+        data: data.dir.display().to_string(),
+        classes: data.classes.len(),
+        inputs: data.encoding.n_inputs(),
+        steps: data.encoding.steps,
+        dt_us: data.encoding.dt_us,
+        train: train.len(),
+        validation: val.len(),
+        test: Some(data.test.len()),
+        input_events_per_sample: events_per_sample(&data.train),
+        scans: None,
+        skipped_scans: None,
+    };
+    let spec = network_spec(r, &[data.encoding.n_inputs()], data.classes.len())?;
+    let fit = fit(r, spec, &train, &val, observer)?;
+    let scored = match eval_test {
+        EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
+        EvalTest::No => None,
+    };
+    let mut extra = serde_json::json!({
+        "data": data.dir.file_name().map(|n| n.to_string_lossy().into_owned()),
+    });
+    if let Some(s) = &scored {
+        extra["test_accuracy"] = s.accuracy.into();
+    }
+    if let Some(v) = r.val_seed {
+        extra["val_seed"] = v.into();
+    }
+    let model = SnnModel {
+        preprocess: serde_json::to_value(&data.encoding).map_err(|source| Error::Json { path: out_name(), source })?,
+        classes: data.classes.clone(),
+        provenance: provenance(r, &fit, extra),
+        config: fit.config.clone(),
+        network: fit.network.clone(),
+        operating_point: None,
+    };
+    let n = scored.as_ref().map_or(0, |s| s.n);
+    Ok(fit.into_trained(model, summary, scored.map(|s| s.accuracy), n))
+}
+
+/// Trains the recipe on the SIMULATED character windows (SAB and UN, 8 mm/s, 1.5 mm, the same
+/// scans and validation split as the ResNet with the same trials and seed), the windows' events
+/// fed as input spikes, one step per 10 ms frame.
+pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn Progress) -> Result<TrainedSnn> {
+    let pool = crate::train::resnet::check_pool(r.pool)?;
+    let input = CharInput {
+        labeler: pipeline::labeling::LabelerConfig::default(),
+        rows: LITE_ROWS,
+        cols: LITE_COLS,
+        pool,
+        preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
+        augment: pipeline::augment::AugmentConfig::default(),
+    };
+    let world = corpus::world::World::train(r.realism);
+    let tw =
+        training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, r.blank_cells, &world, progress)?;
+    let train = snn_set(&input, &tw.all, &tw.train, r.dt_us, r.task);
+    let val = snn_set(&input, &tw.all, &tw.val, r.dt_us, r.task);
+    let summary = DataSummary {
+        data: format!(
+            "SIMULATED training windows ({} realism, sensor builds {:?}): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words",
+            r.realism, world.sensors, r.word_rows
+        ),
+        classes: train.classes.len(),
+        inputs: train.n_inputs,
+        steps: train.steps,
+        dt_us: r.dt_us,
+        train: train.len(),
+        validation: val.len(),
+        test: None,
+        input_events_per_sample: events_per_sample(&train),
+        scans: Some(tw.scans),
+        skipped_scans: Some(tw.skipped_scans),
+    };
+    let [_, h, w] = input.shape();
+    let shape = if r.conv.is_empty() { vec![train.n_inputs] } else { vec![2, h, w] };
+    let spec = network_spec(r, &shape, train.classes.len())?;
+    let fit = fit(r, spec, &train, &val, observer)?;
+    let scored = snn_accuracy(&fit.network, &fit.config, &val, Mode::Stepped)?;
+    let model = SnnModel {
+        preprocess: serde_json::to_value(&input).map_err(|source| Error::Json { path: out_name(), source })?,
+        classes: r.task.classes(),
+        provenance: provenance(
+            r,
+            &fit,
+            serde_json::json!({
+                "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "task": r.task,
+                "jitter_ms": r.jitter_ms,
+                "blank_cells": r.blank_cells,
+                "word_rows": r.word_rows,
+                "scans": tw.scans,
+                "train_windows": train.len(),
+                "val_windows": val.len(),
+            }),
+        ),
+        config: fit.config.clone(),
+        network: fit.network.clone(),
+        // set by `braille calibrate-reader` on the validation words, for a segmentation network
+        operating_point: None,
+    };
+    Ok(fit.into_trained(model, summary, Some(scored.accuracy), scored.n))
+}
+
+/// A finished fit: the chosen weights as an engine network.
+struct Fit {
+    outcome: Outcome,
+    network: snn::network::Network,
+    config: SnnConfig,
+    train: TrainConfig,
+    seconds: f64,
+}
+
+impl Fit {
+    fn into_trained(
+        self,
+        model: SnnModel,
+        data: DataSummary,
+        engine_accuracy: Option<f64>,
+        engine_n: usize,
+    ) -> TrainedSnn {
+        TrainedSnn {
+            seconds: self.seconds,
+            model,
+            best_epoch: self.outcome.best_epoch,
+            best_val_accuracy: self.outcome.best_val_accuracy,
+            average: self.outcome.average,
+            averaged_epochs: self.train.average_epochs,
+            history: self.outcome.history,
+            data,
+            engine_accuracy,
+            engine_n,
+        }
+    }
+}
+
+/// Trains `spec` from the recipe's seeded initialisation.
+fn fit(r: &SnnRecipe, spec: NetworkSpec, train: &SpikeSet, val: &SpikeSet, observer: &mut dyn Observer) -> Result<Fit> {
+    let cfg = r.train_config();
+    let mut twin = SnnTwin::new(spec.clone(), r.surrogate(), r.readout)?;
+    twin.clamped_readout_gradient = r.readout_gradient == ReadoutGradient::Clamped;
+    let init = spec.init_with_recurrent_gain(r.seed, r.init_gain, r.recurrent_init_gain.unwrap_or(r.init_gain))?;
+    let started = std::time::Instant::now();
+    let outcome = learn::train::train(&twin, &init, train, val, &cfg, observer)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let network = spec.build(outcome.weights.clone())?;
+    Ok(Fit {
+        outcome,
+        network,
+        config: SnnConfig { network: spec, dt_us: r.dt_us, readout: r.readout },
+        train: cfg,
+        seconds,
+    })
+}
+
+/// How a model was trained, with `extra` (an object) merged in; the recipe in full.
+fn provenance(r: &SnnRecipe, fit: &Fit, extra: serde_json::Value) -> serde_json::Value {
+    let mut p = serde_json::json!({
+        "recipe": r,
+        "train": fit.train,
+        "surrogate": format!("{:?}", r.surrogate()),
+        "readout_gradient": format!("{:?}", r.readout_gradient),
+        "init_gain": r.init_gain,
+        "recurrent_init_gain": r.recurrent_init_gain.unwrap_or(r.init_gain),
+        "best_epoch": fit.outcome.best_epoch,
+        "val_accuracy": fit.outcome.best_val_accuracy,
+        "train_seconds": fit.seconds,
+        "peak_rss_mb": crate::peak_rss_mb(),
+    });
+    if let (Some(p), serde_json::Value::Object(extra)) = (p.as_object_mut(), extra) {
+        p.extend(extra);
+    }
+    p
+}
+
+/// Writes an SNN model file, creating its folder; an existing file is kept unless `force`.
+pub fn save_model(model: &SnnModel, out: &Path, force: bool) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    }
+    Ok(model.save(out, force)?)
+}
+
+/// Trained SNNs of one architecture merged into one network (`braille ensemble`): the members
+/// side by side, their readouts summed, which the engine runs and NIR exports like any other. All
+/// must share the architecture, step, readout, input encoding and classes; the provenance lists
+/// each member's file and provenance.
+pub fn ensemble(paths: &[std::path::PathBuf]) -> Result<SnnModel> {
+    if paths.len() < 2 {
+        return Err(Error::Setting {
+            name: "ensemble members",
+            value: paths.len().to_string(),
+            expected: "two or more",
+        });
+    }
+    let members: Vec<SnnModel> = paths.iter().map(|p| SnnModel::load(p)).collect::<snn::Result<_>>()?;
+    let first = &members[0];
+    for (path, m) in paths.iter().zip(&members).skip(1) {
+        let differs = [
+            (m.config.network != first.config.network, "architecture"),
+            (m.config.dt_us != first.config.dt_us, "step"),
+            (m.config.readout != first.config.readout, "readout"),
+            (m.preprocess != first.preprocess, "input encoding"),
+            (m.classes != first.classes, "classes"),
+        ];
+        if let Some((_, what)) = differs.iter().find(|(d, _)| *d) {
+            return Err(Error::EnsembleMember { path: path.clone(), first: paths[0].clone(), what });
+        }
+    }
+    let weights: Vec<_> = members.iter().map(|m| m.network.weights()).collect();
+    let (spec, merged) = snn::spec::ensemble(&first.config.network, &weights)?;
+    let network = spec.build(merged)?;
+    let provenance = serde_json::json!({
+        "ensemble": paths.iter().zip(&members).map(|(p, m)| serde_json::json!({
+            "file": p.file_name().map(|n| n.to_string_lossy().into_owned()),
+            "provenance": m.provenance,
+        })).collect::<Vec<_>>(),
+    });
+    Ok(SnnModel {
+        config: snn::model_file::SnnConfig { network: spec, dt_us: first.config.dt_us, readout: first.config.readout },
+        network,
+        preprocess: first.preprocess.clone(),
+        classes: first.classes.clone(),
+        provenance,
+        // a segmentation network's operating point was calibrated for one member, not the sum
+        operating_point: None,
+    })
+}
+
+/// What a header that would not serialise is named by in its error (the model is not written yet).
+fn out_name() -> std::path::PathBuf {
+    "the model's `preprocess` header".into()
+}
+
+/// The summary `braille train` prints: the data, the chosen weights, and the engine's accuracy
+/// (the test split only when it was asked for).
+impl std::fmt::Display for TrainedSnn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = &self.data;
+        writeln!(
+            f,
+            "{}: {} classes, {} inputs, {} steps of {} us; train {} / validation {}{} samples, {:.1} input events per sample{}",
+            d.data,
+            d.classes,
+            d.inputs,
+            d.steps,
+            d.dt_us,
+            d.train,
+            d.validation,
+            d.test.map_or(String::new(), |t| format!(" / test {t}")),
+            d.input_events_per_sample,
+            d.scans.map_or(String::new(), |s| format!(
+                "; {s} scans ({} skipped: window count off)",
+                d.skipped_scans.unwrap_or(0)
+            ))
+        )?;
+        if let Some((accuracy, chosen)) = self.average {
+            let verdict = if chosen { "chosen" } else { "not chosen" };
+            writeln!(
+                f,
+                "weights averaged over the last {} epochs: validation {:.1}%, {verdict}",
+                self.averaged_epochs,
+                100.0 * accuracy
+            )?;
+        }
+        let kept = if d.validation == 0 {
+            format!("kept epoch {} (no validation set)", self.best_epoch)
+        } else {
+            format!("best epoch {} (validation {:.1}%)", self.best_epoch, 100.0 * self.best_val_accuracy)
+        };
+        match (d.test, self.engine_accuracy) {
+            (Some(_), Some(a)) => {
+                writeln!(f, "{kept}; test accuracy on the event-driven engine: {:.2}% of {}", 100.0 * a, self.engine_n)
+            }
+            (Some(_), None) => writeln!(f, "{kept}; the test split was not looked at (--eval-test scores it)"),
+            (None, a) => writeln!(
+                f,
+                "{kept}: {:.1}% of the validation windows on the event-driven engine (SIMULATED)",
+                100.0 * a.unwrap_or(f64::NAN)
+            ),
+        }
+    }
+}

@@ -1,0 +1,9 @@
+//! Training: SNN recipes ([`recipe`]), fitting an SNN on simulated windows or a tactile dataset
+//! ([`fit`]), the validation-driven search on any dataset folder ([`search`], run whole by
+//! [`search::run`]), the linear floors ([`baselines`]) and the ResNet's training ([`resnet`]).
+
+pub mod baselines;
+pub mod fit;
+pub mod recipe;
+pub mod resnet;
+pub mod search;

@@ -1,0 +1,129 @@
+//! A whole event source read with bounded memory (a file, or standard input as it arrives): the
+//! words as they complete, then what reading gave ([`read_source`], `braille read` and the
+//! Python reader).
+
+use crate::classify::ReaderModels;
+use crate::error::{Error, Result};
+use crate::reader::{ReadWord, ReaderStats, Spell, Speller, Timing};
+use serde::Serialize;
+use snn::model_file::Arch;
+use std::time::Instant;
+
+/// What reading a whole event source gave: the text, the counters, each network's time, work and
+/// per-call latency, and the process's peak memory.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReadSummary {
+    pub summary: bool,
+    pub data: String,
+    pub arch: Arch,
+    pub spell: Spell,
+    pub timing: Timing,
+    /// Where the segmentation network was read (its model file's calibrated point, or the
+    /// paper's).
+    pub operating_point: crate::reader::OperatingPoint,
+    /// The speed the reader was reading at when the stream ended (its estimate, with estimated
+    /// timing).
+    pub speed_mm_s: Option<f64>,
+    /// The last thousand words read (an endless stream keeps no more).
+    pub text: String,
+    pub stream_s: f64,
+    pub read_s: f64,
+    #[serde(flatten)]
+    pub stats: ReaderStats,
+    /// Time and synaptic operations (SNN) of each network.
+    pub segmenter_ms: f64,
+    pub classifier_ms: f64,
+    pub segmenter_synops: u64,
+    pub classifier_synops: u64,
+    /// Per call, in microseconds: the segmentation network on every frame, the classifier where
+    /// a character is present.
+    pub segmenter_us_p50: Option<f64>,
+    pub segmenter_us_p99: Option<f64>,
+    pub classifier_us_p50: Option<f64>,
+    pub classifier_us_p99: Option<f64>,
+    pub segmenter_latency: crate::classify::Histogram,
+    pub classifier_latency: crate::classify::Histogram,
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// Reads `source` chunk by chunk with bounded memory (a file, or standard input as it arrives),
+/// handing each word to `on_word` as it completes. `name` names the source in errors.
+pub fn read_source(
+    source: &mut dyn encoders::EventSource,
+    name: &str,
+    readers: &ReaderModels,
+    timing: Timing,
+    resolution: encoders::Resolution,
+    spell: Spell,
+    on_word: &mut dyn FnMut(&ReadWord) -> Result<()>,
+) -> Result<ReadSummary> {
+    use crate::reader::ReadOutput;
+    let speller = Speller::new(spell);
+    let started = Instant::now();
+    let mut reader = readers.stream(timing, resolution, &speller)?;
+    let (mut out, mut text) = (Vec::new(), std::collections::VecDeque::<String>::new());
+    let (mut first, mut last) = (None, 0i64);
+    let mut emit = |out: &mut Vec<ReadOutput>, text: &mut std::collections::VecDeque<String>| -> Result<()> {
+        for o in out.drain(..) {
+            if let ReadOutput::Word(w) = o {
+                on_word(&w)?;
+                text.push_back(w.text);
+                if text.len() > 1000 {
+                    text.pop_front();
+                }
+            }
+        }
+        Ok(())
+    };
+    let at = |e: Error| Error::Source { name: name.to_string(), source: Box::new(e) };
+    while let Some(chunk) =
+        source.next_chunk().map_err(|e| Error::Read { name: name.to_string(), source: Box::new(e) })?
+    {
+        first.get_or_insert(chunk[0].t_us);
+        last = chunk[chunk.len() - 1].t_us;
+        reader.push_all(chunk, &mut out).map_err(at)?;
+        emit(&mut out, &mut text)?;
+    }
+    reader.finish(&mut out).map_err(at)?;
+    emit(&mut out, &mut text)?;
+    let stats = reader.stats.clone();
+    let (seg, cls) = reader.into_states();
+    let us = |h: &crate::classify::Histogram, q: f64| h.quantile_ns(q).map(|n| n / 1e3);
+    Ok(ReadSummary {
+        summary: true,
+        data: name.to_string(),
+        arch: readers.classifier.arch(),
+        spell,
+        timing,
+        operating_point: readers.operating_point().clone(),
+        speed_mm_s: stats.speed_mm_s,
+        text: text.into_iter().collect::<Vec<_>>().join(" "),
+        stream_s: first.map_or(0.0, |f| (last - f) as f64 / 1e6),
+        read_s: started.elapsed().as_secs_f64(),
+        stats,
+        segmenter_ms: seg.stats.nanos as f64 / 1e6,
+        classifier_ms: cls.stats.nanos as f64 / 1e6,
+        segmenter_synops: seg.stats.synops,
+        classifier_synops: cls.stats.synops,
+        segmenter_us_p50: us(&seg.stats.latency, 0.5),
+        segmenter_us_p99: us(&seg.stats.latency, 0.99),
+        classifier_us_p50: us(&cls.stats.latency, 0.5),
+        classifier_us_p99: us(&cls.stats.latency, 0.99),
+        segmenter_latency: seg.stats.latency,
+        classifier_latency: cls.stats.latency,
+        peak_rss_mb: peak_rss_mb(),
+    })
+}
+
+/// Starts a new peak for [`peak_rss_mb`] (Linux: `/proc/self/clear_refs`); whether it could.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// Peak resident memory of this process (Linux), in MB.
+pub fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
