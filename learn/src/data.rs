@@ -125,7 +125,9 @@ fn sample_events(
 }
 
 impl TactileEncoding {
-    /// The encoding for `data` with step `dt_us`, sized to its longest sample.
+    /// The encoding for `data` with step `dt_us`, sized to the longest sample of its training
+    /// split: validation and test samples choose nothing (a longer one is cut at the last step,
+    /// as a stream longer than a model's window would be). Before 2026-11-26 every split sized it.
     pub fn fit(data: &Dataset, sigma_delta: SigmaDeltaConfig, dt_us: i64) -> encoders::Result<TactileEncoding> {
         let mut enc = TactileEncoding {
             channels: data.channels,
@@ -139,7 +141,7 @@ impl TactileEncoding {
             channel_pool: 1,
         };
         let mut end = 0i64;
-        for s in &data.samples {
+        for s in data.samples.iter().filter(|s| s.split == Split::Train) {
             end = end.max(match &s.data {
                 SampleData::Events(ev) => ev.last().map_or(0, |e| e.t_us + 1),
                 SampleData::Analog { frames } => (frames.len() / data.channels.max(1)) as i64 * data.period_us,
@@ -229,5 +231,41 @@ impl TactileEncoding {
             set.labels.push(s.label);
         }
         Ok(set)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use encoders::dataset::{DatasetKind, Sample};
+    use encoders::{Event, Polarity};
+
+    #[test]
+    fn the_encoding_is_fitted_on_the_training_split_alone() {
+        let sample = |id, split, end_us: i64| Sample {
+            id,
+            label: 0,
+            split,
+            data: SampleData::Events(vec![Event::new(0, 0, 0, Polarity::On), Event::new(end_us, 1, 0, Polarity::Off)]),
+        };
+        let mut data = Dataset {
+            dir: "in-memory".into(),
+            kind: DatasetKind::Events,
+            classes: vec!["A".into()],
+            channels: 2,
+            period_us: 0,
+            samples: vec![sample(0, Split::Train, 49_999), sample(1, Split::Train, 99_999)],
+        };
+        let fitted = |d: &Dataset| TactileEncoding::fit(d, SigmaDeltaConfig::default(), 10_000).unwrap().steps;
+        // the longest training sample ends at 99 999 us: ten steps of 10 ms
+        assert_eq!(fitted(&data), 10);
+        // a test sample ten times as long, and a validation one, change nothing
+        data.samples.push(sample(2, Split::Test, 999_999));
+        data.samples.push(sample(3, Split::Validation, 499_999));
+        assert_eq!(fitted(&data), 10);
+        // and the long test sample is encoded within those steps, cut at their end
+        let enc = TactileEncoding::fit(&data, SigmaDeltaConfig::default(), 10_000).unwrap();
+        let test = enc.encode(&data, Some(Split::Test)).unwrap();
+        assert_eq!((test.steps, test.len()), (10, 1));
     }
 }
