@@ -208,14 +208,10 @@ pub struct WordsArgs {
 }
 
 fn words(args: WordsArgs) -> Result<()> {
-    let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
-        pipeline::shipped::reader_in(&args.realism.models_dir(), args.arch);
-    let files = pipeline::shipped::ReaderFiles {
-        segmenter: args.segmenter.clone().unwrap_or(s),
-        classifier: args.classifier.clone().unwrap_or(c),
-    };
-    let (s_path, c_path) = (&files.segmenter, &files.classifier);
-    let readers = ReaderModels::load(s_path, c_path, args.snn_runner)?;
+    let mut files = pipeline::shipped::reader_in(&args.realism.models_dir(), args.arch);
+    files.segmenter = args.segmenter.clone().unwrap_or(files.segmenter);
+    files.classifier = args.classifier.clone().unwrap_or(files.classifier);
+    let readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
     let spec = WordsSpec {
         board: args.board.clone(),
         speed_mm_s: args.speed,

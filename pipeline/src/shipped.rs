@@ -64,11 +64,12 @@ pub enum Variant {
 }
 
 impl Variant {
-    fn folder(self) -> Option<&'static str> {
+    /// Where the variant sits beside the models it follows (in `dir` itself, or a subfolder).
+    fn under(self, dir: PathBuf) -> PathBuf {
         match self {
-            Variant::Trained => None,
-            Variant::NirTwin => Some("nir"),
-            Variant::Chip => Some("chip"),
+            Variant::Trained => dir,
+            Variant::NirTwin => dir.join("nir"),
+            Variant::Chip => dir.join("chip"),
         }
     }
 }
@@ -166,8 +167,7 @@ impl Shipped {
 
     /// The folder of a variant of the models trained at `preset`.
     pub fn variant_dir(&self, preset: Preset, variant: Variant) -> PathBuf {
-        let dir = self.dir(preset);
-        variant.folder().map_or(dir.clone(), |v| dir.join(v))
+        variant.under(self.dir(preset))
     }
 
     /// Model `name` (a file stem) trained at `preset`, as trained or a variant.
@@ -187,8 +187,7 @@ impl Shipped {
 
     /// The folder of the models trained on the iCub recordings.
     pub fn icub_dir(&self, variant: Variant) -> PathBuf {
-        let dir = self.root.join("icub");
-        variant.folder().map_or(dir.clone(), |v| dir.join(v))
+        variant.under(self.root.join("icub"))
     }
 
     /// The SNN trained on iCub dataset `name` (`raw1350`, `th10`), as trained or its NIR twin.

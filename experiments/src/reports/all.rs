@@ -57,7 +57,6 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
     // the simulated tables read with the models trained at the preset
     let models = spec.models.dir(Preset::of_name(&spec.realism.to_string())?);
     let test_world = corpus::world::World::test(spec.realism);
-    let bar = progress;
     let started = Instant::now();
     let mut times = Vec::new();
     let write = |file: &str, text: &str| -> Result<()> {
@@ -132,7 +131,7 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
                 if q { 1 } else { 30 },
                 corpus::world::TEST_SEED,
                 &test_world,
-                bar,
+                progress,
             )?;
             crate::reports::figures::write_chars_report(&r, out)
         },
@@ -151,7 +150,7 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
             unseen_rows: if q { 1 } else { 4 },
             unseen_trials: if q { 1 } else { 10 },
         };
-        let r = crate::reports::words::words_report(&models, &spec, bar)?;
+        let r = crate::reports::words::words_report(&models, &spec, progress)?;
         crate::reports::figures::write_words_report(&r, out)
     })?;
     let runs = step(

@@ -93,11 +93,10 @@ impl ChipSpec {
     /// The file of shipped model `name` in `variant`: the iCub models' folder for the models of
     /// the iCub recordings, else the preset's.
     pub fn path(&self, variant: Variant, name: &str) -> Result<PathBuf> {
-        let file = format!("{name}.safetensors");
         if ICUB_DATASETS.iter().any(|d| name == format!("snn-{d}")) || name == ICUB_CHIP {
-            return Ok(self.models.icub_dir(variant).join(file));
+            return Ok(self.models.icub_dir(variant).join(format!("{name}.safetensors")));
         }
-        Ok(self.models.variant_dir(Preset::of_name(&self.realism.to_string())?, variant).join(file))
+        Ok(self.models.model(Preset::of_name(&self.realism.to_string())?, variant, name))
     }
 }
 
