@@ -28,14 +28,25 @@ pub struct Args {
     /// Depths to test, in mm [default: the paper's 0.2-1.5 mm].
     #[arg(long, value_delimiter = ',')]
     depths: Vec<f64>,
+    /// The sensor builds that scan RAB: `test` (builds no model was trained on, the headline) or
+    /// `training` (the builds the training scans came from, on RAB, which no training scan shows:
+    /// the paper's protocol, which tested with the sensor it trained on).
+    #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
+    sensor_builds: crate::common::SensorBuilds,
     #[command(flatten)]
     realism: crate::common::RealismArg,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let models = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
-    let report =
-        chars_report(&models, &args.depths, args.trials, args.seed, &args.realism.test_world(), &Bar::default())?;
+    let report = chars_report(
+        &models,
+        &args.depths,
+        args.trials,
+        args.seed,
+        &args.realism.world(args.sensor_builds),
+        &Bar::default(),
+    )?;
     let md = experiments::reports::figures::write_chars_report(
         &report,
         &args.out.clone().unwrap_or_else(|| args.realism.results_dir()),

@@ -95,6 +95,12 @@ impl Observer for Epochs {
             r.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect::<Vec<_>>(),
             r.seconds
         );
+        if let Some(t) = &r.truncation {
+            eprintln!(
+                "epoch {:>3}: truncated against exact gradient over {} batches: cosine mean {:.4}, lowest {:.4}; relative error mean {:.3}",
+                r.epoch, t.batches, t.cosine_mean, t.cosine_min, t.relative_error_mean
+            );
+        }
     }
 }
 

@@ -14,6 +14,11 @@ pub struct Args {
     /// ones, `models/icub/`].
     #[arg(long)]
     models: Option<PathBuf>,
+    /// Folder holding the search's final models (`raw1350-warmup.safetensors`,
+    /// `raw1350-warmup.seed2.safetensors`, ...), whose seed mean heads the table [default: the
+    /// shipped ones, `models/search/`].
+    #[arg(long)]
+    search: Option<PathBuf>,
     /// Where to write `icub.md`, `icub.json` and `icub.png`.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
@@ -21,7 +26,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let models = args.models.unwrap_or_else(|| crate::common::shipped().icub_dir(pipeline::shipped::Variant::Trained));
-    let md = experiments::reports::figures::write_icub_report(&args.data, &models, &args.out)?;
+    let search = args.search.unwrap_or_else(|| crate::common::shipped().search_dir());
+    let md = experiments::reports::figures::write_icub_report(&args.data, &models, Some(&search), &args.out)?;
     print!("{md}");
     Ok(())
 }

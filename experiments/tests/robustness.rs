@@ -24,7 +24,16 @@ fn a_sweep_scores_every_level_and_repeats() {
     let c = &r.curves[0];
     assert_eq!(c.levels, Nuisance::Misalignment.levels());
     assert_eq!(c.accuracy[0].len(), c.levels.len());
-    assert!(c.accuracy[0].iter().chain(&c.accuracy_all_windows[0]).all(|a| (0.0..=1.0).contains(a)));
+    // one scan of four characters per level: every figure over all printed is a share of 4
+    for a in &c.accuracy_all_windows[0] {
+        assert_eq!((a * 4.0).round() / 4.0, *a, "{a} is not k/4");
+    }
+    // Measured with these seeds (the sweep repeats exactly, below): the labeler finds all four
+    // windows at every level and the clean ResNet, trained at 8 mm/s, reads two of the four at
+    // 16 mm/s whatever the misalignment. A change of the simulator, the labeler or the model
+    // that moves a level shows here.
+    assert_eq!(c.windows, [4; 5]);
+    assert_eq!(c.accuracy_all_windows, [[0.5; 5]], "{c:?}");
     // Over every printed character the accuracy cannot exceed the accuracy over found windows.
     for (a, all) in c.accuracy[0].iter().zip(&c.accuracy_all_windows[0]) {
         assert!(all <= a || c.windows.iter().all(|&w| w == 0), "{all} > {a}");

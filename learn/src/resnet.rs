@@ -383,6 +383,7 @@ pub fn train(
             val_accuracy,
             val_spikes_per_sample: Vec::new(),
             seconds: start.elapsed().as_secs_f64(),
+            truncation: None,
         };
         observer.epoch_end(&report);
         let score = if val.is_empty() { epoch as f64 } else { val_accuracy };

@@ -55,6 +55,50 @@ pub struct TrainConfig {
     /// count as zero (0: exact gradients).
     #[serde(default)]
     pub gradient_cutoff: f32,
+    /// A diagnostic, not part of the recipe (never recorded): with the sparse trainer truncated
+    /// (`gradient_cutoff` > 0), every batch of the first and the last epoch also computes the
+    /// exact gradient on the same samples and dropout masks (not applied; the run's weights are
+    /// unchanged) and the epoch reports how far the truncated one is from it
+    /// ([`EpochReport::truncation`]).
+    #[serde(skip)]
+    pub check_truncation: bool,
+}
+
+/// The truncated gradient against the exact one over every batch of an epoch.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TruncationCheck {
+    pub batches: usize,
+    /// Cosine between the truncated and the exact gradient (all parameters flattened), per
+    /// batch: mean and lowest.
+    pub cosine_mean: f64,
+    pub cosine_min: f64,
+    /// `|g_truncated - g_exact| / |g_exact|`, mean over the batches.
+    pub relative_error_mean: f64,
+}
+
+impl TruncationCheck {
+    /// Cosine and relative error of each batch's pair of gradients.
+    pub fn of(pairs: &[(f64, f64)]) -> Option<TruncationCheck> {
+        (!pairs.is_empty()).then(|| TruncationCheck {
+            batches: pairs.len(),
+            cosine_mean: pairs.iter().map(|p| p.0).sum::<f64>() / pairs.len() as f64,
+            cosine_min: pairs.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
+            relative_error_mean: pairs.iter().map(|p| p.1).sum::<f64>() / pairs.len() as f64,
+        })
+    }
+}
+
+/// Cosine and relative L2 error of gradient `a` against `exact`, all tensors flattened.
+pub fn gradient_agreement(a: &crate::sparse::Params, exact: &crate::sparse::Params) -> (f64, f64) {
+    let (mut dot, mut aa, mut ee, mut diff) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (x, y) in a.tensors().flatten().zip(exact.tensors().flatten()) {
+        let (x, y) = (*x as f64, *y as f64);
+        dot += x * y;
+        aa += x * x;
+        ee += y * y;
+        diff += (x - y) * (x - y);
+    }
+    (dot / (aa.sqrt() * ee.sqrt()), diff.sqrt() / ee.sqrt())
 }
 
 /// Which trainer computes an SNN's gradients.
@@ -120,6 +164,7 @@ impl Default for TrainConfig {
             dropout: 0.0,
             trainer: Trainer::Sparse,
             gradient_cutoff: crate::sparse::DEFAULT_CUTOFF,
+            check_truncation: false,
         }
     }
 }
@@ -136,6 +181,9 @@ pub struct EpochReport {
     /// Mean spikes per sample in each spiking layer (validation).
     pub val_spikes_per_sample: Vec<f64>,
     pub seconds: f64,
+    /// With [`TrainConfig::check_truncation`], on the first and the last epoch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truncation: Option<TruncationCheck>,
 }
 
 /// Hears about training as it goes (the command line draws progress bars).
@@ -279,6 +327,11 @@ trait Fitter {
     fn weights(&self) -> snn::Result<Vec<LayerWeights>>;
     /// Validation loss, accuracy and spikes per sample (per spiking layer) of `weights`.
     fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)>;
+    /// Whether the coming steps also compare their gradient with the exact one (a truncated
+    /// sparse trainer only); the steps' (cosine, relative error) since the last call.
+    fn check_truncation(&mut self, _on: bool) -> snn::Result<Vec<(f64, f64)>> {
+        Ok(Vec::new())
+    }
 }
 
 /// burn's autodiff on the dense twin.
@@ -323,6 +376,10 @@ struct SparseFitter {
     augment: Augment,
     /// Dropout masks' generator (the augmentation draws from the loop's).
     masks: ChaCha8Rng,
+    /// The same network with exact gradients, while the truncation is checked; each checked
+    /// step's (cosine, relative error).
+    exact: Option<SparseSnn>,
+    checked: Vec<(f64, f64)>,
 }
 
 impl SparseFitter {
@@ -338,6 +395,10 @@ impl Fitter for SparseFitter {
         let masks: Vec<_> = idx.iter().map(|_| self.net.dropout_masks(self.dropout, &mut self.masks)).collect();
         let samples: Vec<(&StepEvents, usize)> = events.iter().zip(idx.iter().map(|&s| set.labels[s])).collect();
         let g = self.net.batch_gradient(&self.params, &samples, &masks);
+        if let Some(exact) = &self.exact {
+            let e = exact.batch_gradient(&self.params, &samples, &masks);
+            self.checked.push(gradient_agreement(&g.grads, &e.grads));
+        }
         self.adam.step(&mut self.params, &g.grads, lr);
         Ok((g.loss_sum / idx.len().max(1) as f64, g.hits))
     }
@@ -360,6 +421,16 @@ impl Fitter for SparseFitter {
         }
         let n = set.len().max(1) as f64;
         Ok((loss / n, hits as f64 / n, spikes.into_iter().map(|s| s / n).collect()))
+    }
+
+    fn check_truncation(&mut self, on: bool) -> snn::Result<Vec<(f64, f64)>> {
+        self.exact = None;
+        if on && self.net.cutoff() > 0.0 {
+            let mut exact = SparseSnn::new(self.net.spec.clone(), self.net.surrogate, self.net.readout, 0.0)?;
+            exact.clamped_readout_gradient = self.net.clamped_readout_gradient;
+            self.exact = Some(exact);
+        }
+        Ok(std::mem::take(&mut self.checked))
     }
 }
 
@@ -412,7 +483,16 @@ pub fn train(
             let params = net.params(init)?;
             let adam = Adam::new(&params, cfg.weight_decay as f32, cfg.clip_norm as f32);
             let masks = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x6d61_736b);
-            let mut fitter = SparseFitter { net, params, adam, dropout: cfg.dropout, augment: cfg.augment, masks };
+            let mut fitter = SparseFitter {
+                net,
+                params,
+                adam,
+                dropout: cfg.dropout,
+                augment: cfg.augment,
+                masks,
+                exact: None,
+                checked: Vec::new(),
+            };
             fit(&mut fitter, init, train, val, cfg, observer)
         }
     }
@@ -441,6 +521,7 @@ fn fit(
         order.shuffle(&mut rng);
         let batches: Vec<&[usize]> = order.chunks(cfg.batch_size).collect();
         observer.epoch_begin(epoch, batches.len());
+        fitter.check_truncation(cfg.check_truncation && (epoch == 1 || epoch == cfg.epochs))?;
         let (mut loss_sum, mut hits) = (0.0, 0usize);
         for idx in batches {
             steps += 1;
@@ -449,6 +530,7 @@ fn fit(
             hits += h;
             observer.batch(l, h as f64 / idx.len() as f64);
         }
+        let truncation = TruncationCheck::of(&fitter.check_truncation(false)?);
         let w = fitter.weights()?;
         let (val_loss, val_accuracy, val_spikes) =
             if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { fitter.evaluate(&w, val)? };
@@ -461,6 +543,7 @@ fn fit(
             val_accuracy,
             val_spikes_per_sample: val_spikes,
             seconds: start.elapsed().as_secs_f64(),
+            truncation,
         };
         observer.epoch_end(&report);
         // The best validation accuracy, ties going to the lower validation loss; without a

@@ -195,7 +195,8 @@ pub struct PointCalibration {
     pub classifier: String,
     pub rule: String,
     /// The chosen point's mean word accuracy over the validation speeds, without spelling and
-    /// with the lexicon.
+    /// with the lexicon, as `rule` measures it (1 - WER since 2026-11-26; percent correct,
+    /// blind to inserted words, in files calibrated before).
     pub mean_word_accuracy_none: f64,
     pub mean_word_accuracy_lexicon: f64,
     pub grid: CalibrationGrid,

@@ -10,7 +10,12 @@ ours_infer = next(r for r in rows if "ms_per_sample" in r)
 ours_train = next(r for r in rows if "sparse_exact" in r)
 names = {"torch": "plain PyTorch", "snntorch": "snnTorch", "norse": "Norse"}
 cpu = next((r["cpu"] for r in rows if "cpu" in r), "?")
-print(f"Measured {stamp} on {cpu}, {rows[0].get('threads', '?')} threads (peers).\n")
+infer_threads = next((r["threads"] for r in rows if r.get("mode") == "infer" and "threads" in r), "?")
+train_threads = next((r["threads"] for r in rows if r.get("mode") == "train" and "threads" in r), "?")
+bias = any(r.get("bias") for r in rows if "fw" in r)
+print(f"Measured {stamp} on {cpu}. Inference: every side on {infer_threads} thread(s); training: the peers on "
+      f"{train_threads} threads, ours on {ours_train.get('threads', '?')}. The peers' layers {'had' if bias else 'had no'} "
+      "bias (ours have none).\n")
 print("| conv SNN, batch 1 | ms / sample | us / input event | ours faster by |")
 print("| --- | --- | --- | --- |")
 print(f"| braille engine (event-driven, stepped) | {ours_infer['ms_per_sample']:.3f} | {ours_infer['us_per_input_event']:.3f} | |")
@@ -27,9 +32,14 @@ def against(ms):
     r = torch_train["median_ms"] / ms
     return f"{r:.1f}x faster" if r >= 1 else f"{1 / r:.1f}x slower"
 rates = lambda rs: " / ".join(f"{100 * r:.1f}%" for r in rs)
-for key in ("sparse", "sparse_exact", "dense"):
+labels = {
+    "sparse_exact": "braille, sparse trainer, exact gradients (like for like)",
+    "sparse": "braille, sparse trainer truncated (an approximate gradient)",
+    "dense": "braille on burn (dense, autodiff)",
+}
+for key in ("sparse_exact", "sparse", "dense"):
     t = ours_train[key]
-    print(f"| braille, {t['trainer']} | {t['ms_per_train_step']:.1f} | {rates(ours_train['spike_rate_per_layer'])} | {against(t['ms_per_train_step'])} |")
+    print(f"| {labels[key]}: {t['trainer']} | {t['ms_per_train_step']:.1f} | {rates(ours_train['spike_rate_per_layer'])} | {against(t['ms_per_train_step'])} |")
 for fw in ("torch", "snntorch", "norse"):
     r = peers.get(("train", fw))
     if r:
@@ -40,6 +50,6 @@ if torch_train:
     print(f"; the peers' process (all three frameworks): {torch_train['process_peak_rss_mb']:.0f} MB, {torch_train['rss_before_build_mb']:.0f} MB before building the networks")
 else:
     print()
-print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train['truncation_cosine']:.4f} against the exact one "
+print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train["truncation_cosine"]:.4f} against the exact one on the first batch (whole epochs of the shipped recipes: docs/results/trainers.md) "
       f"(relative error {ours_train['truncation_relative_error']:.3f}), {100 * ours_train['kept_fraction']:.1f}% of neuron-steps kept")
 print(f"\nsynaptic events per sample (ours): {ours_infer['synops_per_sample']:.0f}; input events per sample: {ours_infer['input_events_per_sample']:.0f}")

@@ -2,10 +2,12 @@
 # The peer benchmark side by side with this project's engine and trainer, in one run on one
 # machine: the conv SNN of the shared peer benchmark (2x60x80 ON/OFF input, conv 5x5 s2 to 8, LIF,
 # conv 3x3 s2 to 16, LIF, dense to 26, LIF; 20 steps; 1.5% of pixels active per step) in plain
-# PyTorch, snnTorch and Norse (bench.py, interleaved so machine noise hits all alike), then in
-# `braille bench` (the event-driven engine, batch 1) and `braille bench --train` (BPTT + Adam,
-# batch 32, with the sparse trainer, truncated and exact, and with burn); prints the ratios as
-# Markdown.
+# PyTorch, snnTorch and Norse (bench.py, interleaved so machine noise hits all alike; its layers
+# without bias, as ours, since 2026-11-26), then in `braille bench` (the event-driven engine,
+# batch 1) and `braille bench --train` (BPTT + Adam, batch 32, with the sparse trainer, exact and
+# truncated, and with burn), every side on the same THREADS (torch.set_num_threads for the
+# peers, RAYON_NUM_THREADS for ours); prints the ratios as Markdown, the like-for-like one
+# (exact gradients) first.
 #
 # Setup once (several GB; PyPI's torch is a CUDA build that runs on the CPU):
 #     python3 -m venv venv && ./venv/bin/pip install torch snntorch norse
@@ -18,11 +20,12 @@ THREADS=${THREADS:-2}
 (cd ../.. && cargo build --release --quiet)
 : > "$OUT"
 echo "# $(date -u +%Y-%m-%dT%H:%MZ) threads=$THREADS loadavg at start: $(cat /proc/loadavg)" >> "$OUT"
-"$PY" bench.py --threads "$THREADS" --model conv --mode infer --batch 1 --runs 100 --warmup 10 >> "$OUT"
+# inference, batch 1: our engine runs a sample on one thread, so the peers get one too
+"$PY" bench.py --threads 1 --model conv --mode infer --batch 1 --runs 100 --warmup 10 >> "$OUT"
 "$PY" bench.py --threads "$THREADS" --model conv --mode train --batch 32 --runs 12 --warmup 2 >> "$OUT"
-../../target/release/braille bench --json | tr -d '\n' >> "$OUT"
+RAYON_NUM_THREADS=1 ../../target/release/braille bench --json | tr -d '\n' >> "$OUT"
 echo >> "$OUT"
-../../target/release/braille bench --train --json | tr -d '\n' >> "$OUT"
+RAYON_NUM_THREADS="$THREADS" ../../target/release/braille bench --train --json | tr -d '\n' >> "$OUT"
 echo >> "$OUT"
 echo "# loadavg at end: $(cat /proc/loadavg)" >> "$OUT"
 "$PY" compare.py "$OUT"

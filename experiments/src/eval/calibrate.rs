@@ -8,9 +8,11 @@
 //! from the events and its speed estimate alone), so each scan's outputs are computed once and
 //! looked up by window for the other points ([`Memo`]): the grid costs about one reading.
 //!
-//! The rule, fixed before any run: the highest mean word accuracy without spelling over the
-//! speeds (every printed word counts; the reading itself, which a speller can hide), ties to the
-//! higher mean with the lexicon, then to the point nearer the paper's.
+//! The rule, fixed before any run: the highest mean word accuracy (1 - WER, so an inserted word
+//! counts against a point) without spelling over the speeds (every printed word counts; the
+//! reading itself, which a speller can hide), ties to the higher mean with the lexicon, then to
+//! the point nearer the paper's. Before 2026-11-26 the rule measured percent correct (blind to
+//! inserted words); a model file's recorded `rule` says which.
 
 use crate::Progress;
 use crate::Result;
@@ -66,7 +68,8 @@ impl CalibrationSpec {
 pub struct CalibrationRow {
     pub present_threshold: f32,
     pub min_frames: usize,
-    /// Word accuracy over every printed word per speed, without spelling and with the lexicon.
+    /// Word accuracy (1 - WER) over every printed word per speed, without spelling and with the
+    /// lexicon.
     pub none: Vec<f64>,
     pub lexicon: Vec<f64>,
     pub mean_none: f64,
@@ -87,7 +90,7 @@ pub struct Calibration {
     pub rule: &'static str,
 }
 
-pub const RULE: &str = "the highest mean word accuracy without spelling over the speeds (all printed words), ties to the higher mean with the lexicon, then to the point nearer the paper's (0.5, 4)";
+pub const RULE: &str = "the highest mean word accuracy (1 - WER, all printed words, inserted words counted) without spelling over the speeds, ties to the higher mean with the lexicon, then to the point nearer the paper's (0.5, 4)";
 
 /// A network whose output for each window is computed once and looked up after: the reader's
 /// windows (known by their end, bin length and bin count) are the same at every operating point.
@@ -279,7 +282,7 @@ pub fn markdown(c: &Calibration) -> String {
     let best = choose(&c.rows);
     let speeds: Vec<String> = s.speeds_mm_s.iter().map(|v| format!("{v} mm/s")).collect();
     let mut md = format!(
-        "# The reader's operating point: {} (SIMULATED)\n\nSegmentation network `{}`, character classifier `{}`. Scans: `VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board. Each cell: word accuracy over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
+        "# The reader's operating point: {} (SIMULATED)\n\nSegmentation network `{}`, character classifier `{}`. Scans: `VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board. Each cell: word accuracy (1 - WER) over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
         c.segmenter,
         c.segmenter,
         c.classifier,

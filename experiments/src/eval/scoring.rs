@@ -7,11 +7,13 @@
 //! 4. correct letters: of the letters of those words, the ones read right.
 //!
 //! Beside them, the unconditional figures over every printed word ([`EditCounts`], as speech
-//! recognition reports them): word accuracy (words of the truth matched in an optimal alignment
-//! of the line read to the line printed, over all printed words), and the word and character
-//! error rates (substitutions, deletions and insertions over the printed words, or the printed
-//! characters of the line with its spaces). A word read as two, or a line read with a word
-//! missing, counts here, where the paper's metrics drop it from their denominators.
+//! recognition reports them, e.g. HTK's `HResults`): the word and character error rates
+//! (substitutions, deletions and insertions over the printed words, or the printed characters of
+//! the line with its spaces), word accuracy `1 - WER` (HTK's "Acc", which counts inserted words
+//! against the reader and can fall below 0), and percent correct (HTK's "Corr": words of the truth
+//! matched in an optimal alignment, over all printed words, blind to insertions). A word read as
+//! two, or a line read with a word missing, counts here, where the paper's metrics drop it from
+//! their denominators.
 
 use serde::Serialize;
 
@@ -148,9 +150,16 @@ impl EditCounts {
         self.insertions += o.insertions;
     }
 
-    /// Matches over the items printed; NaN when nothing was printed.
-    pub fn accuracy(&self) -> f64 {
+    /// Matches over the items printed (percent correct, as a fraction: blind to insertions); NaN
+    /// when nothing was printed.
+    pub fn percent_correct(&self) -> f64 {
         if self.reference == 0 { f64::NAN } else { self.hits as f64 / self.reference as f64 }
+    }
+
+    /// `1 - error_rate`: matches less insertions over the items printed (below 0 when the reader
+    /// inserts more than it reads right); NaN when nothing was printed.
+    pub fn accuracy(&self) -> f64 {
+        1.0 - self.error_rate()
     }
 
     /// Edits over the items printed (can exceed 1); NaN when nothing was printed.
@@ -213,9 +222,14 @@ impl WordMetrics {
     pub fn correct_letters_rate(&self) -> f64 {
         Self::ratio(self.correct_letters, self.letters)
     }
-    /// Printed words read right, over all printed words (unconditional).
+    /// `1 - WER` over all printed words (unconditional; inserted words count against it).
     pub fn word_accuracy(&self) -> f64 {
         self.word_edits.accuracy()
+    }
+    /// Printed words read right (aligned to the line), over all printed words: blind to inserted
+    /// words.
+    pub fn percent_correct(&self) -> f64 {
+        self.word_edits.percent_correct()
     }
     pub fn word_error_rate(&self) -> f64 {
         self.word_edits.error_rate()
@@ -272,8 +286,10 @@ mod tests {
         // substitution and one deletion); line 3 misses STOB and HEL
         assert_eq!(m.word_edits.reference, 13);
         assert_eq!(m.word_edits.hits, 4 + 2 + 3);
-        assert!((m.word_accuracy() - 9.0 / 13.0).abs() < 1e-12);
+        assert!((m.percent_correct() - 9.0 / 13.0).abs() < 1e-12);
         assert!((m.word_error_rate() - 4.0 / 13.0).abs() < 1e-12);
+        // no word inserted: word accuracy (1 - WER) equals percent correct
+        assert!((m.word_accuracy() - 9.0 / 13.0).abs() < 1e-12);
         // characters: line 2 lost one space, line 3 one substitution and one deletion
         assert_eq!(m.char_edits.substitutions + m.char_edits.deletions + m.char_edits.insertions, 3);
     }
@@ -286,8 +302,10 @@ mod tests {
         assert_eq!(m.words_per_line(), 0.0);
         assert!(m.correct_words_rate().is_nan(), "the paper's metric has nothing left to count");
         assert_eq!(m.word_edits, EditCounts { reference: 2, hits: 1, substitutions: 1, deletions: 0, insertions: 1 });
-        assert_eq!(m.word_accuracy(), 0.5);
+        assert_eq!(m.percent_correct(), 0.5);
         assert_eq!(m.word_error_rate(), 1.0);
+        // the inserted word counts: 1 hit less 1 insertion, over 2 printed
+        assert_eq!(m.word_accuracy(), 0.0);
         // "WATER HELP" -> "W TER HELP": one substitution (A -> space)
         assert_eq!(m.char_edits.substitutions + m.char_edits.deletions + m.char_edits.insertions, 1);
     }
@@ -303,5 +321,14 @@ mod tests {
         assert_eq!(c("AB", ""), EditCounts { reference: 2, hits: 0, substitutions: 0, deletions: 2, insertions: 0 });
         assert_eq!(c("ABC", "ABC").error_rate(), 0.0);
         assert!(c("", "").accuracy().is_nan());
+        assert!(c("", "").percent_correct().is_nan());
+        // a reader that inserts more than it reads right scores below 0 (1 - 3/1)
+        let one_read_as_three = c("A", "BCD");
+        assert_eq!(one_read_as_three.percent_correct(), 0.0);
+        assert_eq!(one_read_as_three.accuracy(), -2.0);
+        // HTK's example shape: 6 printed, 4 hits, 2 substitutions, 1 insertion -> Corr 4/6, Acc 3/6
+        let k = c("KITTEN", "SITTING");
+        assert!((k.percent_correct() - 4.0 / 6.0).abs() < 1e-12);
+        assert!((k.accuracy() - 3.0 / 6.0).abs() < 1e-12);
     }
 }

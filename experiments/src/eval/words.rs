@@ -53,9 +53,11 @@ pub struct WordsScore {
 #[derive(Debug, Clone, Serialize)]
 pub struct SpellScore {
     pub spell: Spell,
-    /// Unconditional, over every printed word: words read right (aligned to the line), and the
-    /// word and character error rates.
+    /// Unconditional, over every printed word: word accuracy `1 - WER` (inserted words count),
+    /// percent correct (printed words read right, aligned to the line; blind to insertions, as a
+    /// fraction), and the word and character error rates.
     pub word_accuracy: f64,
+    pub percent_correct: f64,
     pub word_error_rate: f64,
     pub char_error_rate: f64,
     /// The paper's four conditional metrics.
@@ -276,6 +278,7 @@ pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], 
         .map(|(&spell, m)| SpellScore {
             spell,
             word_accuracy: m.word_accuracy(),
+            percent_correct: m.percent_correct(),
             word_error_rate: m.word_error_rate(),
             char_error_rate: m.char_error_rate(),
             words_per_line: m.words_per_line(),
@@ -302,9 +305,11 @@ pub struct EvalWords {
     pub operating_point: pipeline::reader::OperatingPoint,
     pub sensor_builds: corpus::world::SensorBuilds,
     pub spell: Spell,
-    /// Unconditional, over every printed word: words read right, and the word and character
-    /// error rates (edit distance over the line).
+    /// Unconditional, over every printed word: word accuracy `1 - WER` (inserted words count),
+    /// percent correct (printed words read right; blind to insertions, as a fraction), and the word
+    /// and character error rates (edit distance over the line).
     pub word_accuracy: f64,
+    pub percent_correct: f64,
     #[serde(rename = "wer")]
     pub word_error_rate: f64,
     #[serde(rename = "cer")]
@@ -341,6 +346,7 @@ pub fn eval_words(
         sensor_builds: builds,
         spell,
         word_accuracy: m.word_accuracy,
+        percent_correct: m.percent_correct,
         word_error_rate: m.word_error_rate,
         char_error_rate: m.char_error_rate,
         words_per_line: m.words_per_line,
@@ -367,7 +373,7 @@ impl std::fmt::Display for EvalWords {
         )?;
         writeln!(
             f,
-            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy {:.3} over all printed words, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy (1 - WER) {:.3} over all printed words, percent correct {:.3}, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
             self.board,
             s.speed_mm_s,
             if s.speed_variation > 0.0 {
@@ -384,6 +390,7 @@ impl std::fmt::Display for EvalWords {
             s.speed_error.chars,
             self.spell,
             self.word_accuracy,
+            self.percent_correct,
             self.word_error_rate,
             self.char_error_rate,
             self.words_per_line,

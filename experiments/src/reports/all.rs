@@ -166,7 +166,12 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
         },
     )?;
     step(&mut times, progress, "the real iCub results", "[icub.md](icub.md), icub.png", || {
-        crate::reports::figures::write_icub_report(&spec.icub, &spec.models.icub_dir(Variant::Trained), out)
+        crate::reports::figures::write_icub_report(
+            &spec.icub,
+            &spec.models.icub_dir(Variant::Trained),
+            Some(&spec.models.search_dir()),
+            out,
+        )
     })?;
     let bench = step(&mut times, progress, "the engine on the peer benchmark", "bench.json", || {
         let r = crate::bench::engine::engine(64, 7)?;

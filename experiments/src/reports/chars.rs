@@ -201,9 +201,14 @@ pub fn markdown(r: &CharsReport) -> Result<String> {
         r.printed.get(at).copied().unwrap_or(0)
     )?;
     if r.world.realism != sim::Realism::Clean {
+        let which = if r.world.sensors == corpus::world::TRAIN_SENSORS {
+            "the builds the training scans came from (new scans of RAB, a board no training scan shows): the paper's protocol, which tested with the sensor it trained on"
+        } else {
+            "which no model was trained on (the paper tested with the sensor it trained on: the same table on the training builds is `chars-report --sensor-builds training`)"
+        };
         writeln!(
             md,
-            "Simulator preset: `{}`; test scans by sensor builds {:?}, which no model was trained on (docs/simulator.md).\n",
+            "Simulator preset: `{}`; test scans by sensor builds {:?}, {which} (docs/simulator.md).\n",
             r.world.realism, r.world.sensors
         )?;
     }

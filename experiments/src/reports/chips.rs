@@ -222,7 +222,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         let (a, b) = (acc(0, spell), acc(1, spell));
         faithful.push(FaithfulRow {
             model: "snn-segment + snn-words".into(),
-            test: format!("EV board read at 16 mm/s, speed estimated, spelling {spell:?}: words right of all printed"),
+            test: format!("EV board read at 16 mm/s, speed estimated, spelling {spell:?}: word accuracy (1 - WER) over all printed words"),
             data: "SIMULATED",
             subtract: a,
             zero: b,

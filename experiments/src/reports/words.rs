@@ -188,20 +188,21 @@ pub fn markdown(r: &WordsReport) -> String {
         let _ = writeln!(m, "## {title}\n");
         let _ = writeln!(
             m,
-            "| condition | architecture | spelling | **word accuracy** | **WER** | **CER** | words per line | letters per word | correct words | correct letters | paper, correct words (its protocol) |"
+            "| condition | architecture | spelling | **word accuracy (1 - WER)** | percent correct | **WER** | **CER** | words per line | letters per word | correct words | correct letters | paper, correct words (its protocol) |"
         );
-        let _ = writeln!(m, "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+        let _ = writeln!(m, "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
         for s in r.scores.iter().filter(|s| s.timing == timing) {
             for b in &s.by_spell {
                 // a conditional metric whose subset is empty is undefined
                 let f = |x: f64| if x.is_finite() { format!("{x:.3}") } else { "–".into() };
                 let _ = writeln!(
                     m,
-                    "| {} | {} | {:?} | {:.3} | {:.3} | {:.3} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {:?} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {} | {} | {} |",
                     condition(s),
                     s.arch,
                     b.spell,
                     b.word_accuracy,
+                    b.percent_correct,
                     b.word_error_rate,
                     b.char_error_rate,
                     f(b.words_per_line),
@@ -217,7 +218,7 @@ pub fn markdown(r: &WordsReport) -> String {
     if !r.unseen.is_empty() {
         let _ = writeln!(
             m,
-            "## Unseen words (estimated timing)\n\nA text board of {} rows of words that no training row holds (TextBlob's words ranked {}-{} by frequency; training rows draw from the first {}): `{}`, {} scans per row.\n\n| speed | architecture | spelling | **word accuracy** | **WER** | **CER** | correct words (conditional) |\n| --- | --- | --- | --- | --- | --- | --- |",
+            "## Unseen words (estimated timing)\n\nA text board of {} rows of words that no training row holds (TextBlob's words ranked {}-{} by frequency; training rows draw from the first {}): `{}`, {} scans per row.\n\n| speed | architecture | spelling | **word accuracy (1 - WER)** | percent correct | **WER** | **CER** | correct words (conditional) |\n| --- | --- | --- | --- | --- | --- | --- | --- |",
             r.unseen_board.split('/').count(),
             corpus::boards::TRAINING_WORDS + 1,
             2 * corpus::boards::TRAINING_WORDS,
@@ -229,11 +230,12 @@ pub fn markdown(r: &WordsReport) -> String {
             for b in s.by_spell.iter().filter(|b| b.spell != Spell::Textblob) {
                 let _ = writeln!(
                     m,
-                    "| {} mm/s | {} | {:?} | {:.3} | {:.3} | {:.3} | {} |",
+                    "| {} mm/s | {} | {:?} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
                     s.speed_mm_s,
                     s.arch,
                     b.spell,
                     b.word_accuracy,
+                    b.percent_correct,
                     b.word_error_rate,
                     b.char_error_rate,
                     if b.correct_words.is_finite() { format!("{:.3}", b.correct_words) } else { "–".into() }
