@@ -138,13 +138,8 @@ pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainRepo
     };
     let (sparse, cut_grad) = sparse_run(cutoff)?;
     let (sparse_exact, exact_grad) = sparse_run(0.0)?;
-    let (a, e): (Vec<f32>, Vec<f32>) = (
-        cut_grad.grads.tensors().flatten().copied().collect(),
-        exact_grad.grads.tensors().flatten().copied().collect(),
-    );
-    let dot: f64 = a.iter().zip(&e).map(|(x, y)| (x * y) as f64).sum();
-    let norm = |v: &[f32]| v.iter().map(|x| (x * x) as f64).sum::<f64>().sqrt();
-    let diff: f64 = a.iter().zip(&e).map(|(x, y)| ((x - y) * (x - y)) as f64).sum::<f64>().sqrt();
+    let (truncation_cosine, truncation_relative_error) =
+        learn::train::gradient_agreement(&cut_grad.grads, &exact_grad.grads);
     let neuron_steps: usize = net.layers.iter().map(|l| l.op.n_out()).sum::<usize>() * STEPS * b;
     let spikes_per_sample: Vec<f64> = exact_grad.spikes.iter().map(|s| s / b as f64).collect();
     let spike_rate_per_layer =
@@ -164,8 +159,8 @@ pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainRepo
         sparse,
         sparse_exact,
         gradient_cutoff: cutoff,
-        truncation_cosine: dot / (norm(&a) * norm(&e)),
-        truncation_relative_error: diff / norm(&e),
+        truncation_cosine,
+        truncation_relative_error,
         kept_fraction: cut_grad.kept_surrogates as f64 / neuron_steps as f64,
         spikes_per_sample,
         spike_rate_per_layer,

@@ -63,15 +63,9 @@ pub fn search_run(dataset: &str) -> String {
 /// The final models of search run `run` under `search` (`RUN.safetensors`, `RUN.seed2...`) on the
 /// test split of `data`, run by the engine; None when the run's first model is not there.
 pub fn seed_mean(data: &Path, search: &Path, run: &str) -> Result<Option<SeedMean>> {
-    let mut models = Vec::new();
-    for k in 1.. {
-        let file = if k == 1 { format!("{run}.safetensors") } else { format!("{run}.seed{k}.safetensors") };
-        let path = search.join(file);
-        if !path.is_file() {
-            break;
-        }
-        models.push(path);
-    }
+    let first = search.join(format!("{run}.safetensors"));
+    let models: Vec<_> =
+        (1..).map(|seed| crate::train::search::seed_path(&first, seed)).take_while(|p| p.is_file()).collect();
     if models.is_empty() {
         return Ok(None);
     }
