@@ -64,6 +64,20 @@ pub struct Args {
     /// How a NIR graph's neurons reset (NIR's own: to v_reset).
     #[arg(long, value_enum, default_value = "to-v-reset")]
     reset: ImportReset,
+    /// Time the words of a live sensor instead: SIMULATED rows of the EV board (`nominal`, a test
+    /// sensor build) served over TCP at the recorded pace, read by each architecture's shipped
+    /// reader; the latency from a word's last detection arriving to the word printed (p50, p99).
+    #[arg(long, conflicts_with_all = ["train", "model"])]
+    live: bool,
+    /// --live: rows served, one after another.
+    #[arg(long, default_value_t = 6, requires = "live")]
+    live_rows: usize,
+    /// --live: the sliding speed, mm/s.
+    #[arg(long, default_value_t = 16.0, requires = "live")]
+    live_speed: f64,
+    /// --live: the indentation depth, mm.
+    #[arg(long, default_value_t = 1.0, requires = "live")]
+    live_depth: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -100,6 +114,54 @@ fn model(args: &Args, path: &std::path::Path) -> Result<()> {
 pub fn run(args: Args) -> Result<()> {
     if let Some(path) = args.model.clone() {
         return model(&args, &path);
+    }
+    if args.live {
+        let realism = sim::Realism::Nominal;
+        let spec = experiments::bench::live::LiveSpec {
+            board: sim::BoardKind::Ev,
+            rows: args.live_rows,
+            speed_mm_s: args.live_speed,
+            depth_mm: args.live_depth,
+            seed: corpus::world::TEST_SEED,
+            realism,
+            sensor_seed: corpus::World::test(realism).sensor_seed(0),
+            gap_s: 1.0,
+            pace: 1.0,
+        };
+        let models = crate::common::repo_path("models/nominal");
+        let r = experiments::bench::live::live(
+            &spec,
+            &models,
+            &[snn::model_file::Arch::Snn, snn::model_file::Arch::Resnet],
+        )?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            println!(
+                "SIMULATED: {} rows of EV at {} mm/s, {} mm, served over TCP at the recorded pace",
+                spec.rows, spec.speed_mm_s, spec.depth_mm
+            );
+            for run in &r.runs {
+                let s = &run.summary;
+                let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
+                println!(
+                    "{}: {} of {} words timed; word latency p50 {}, p99 {}, max {} (a word's last detection arriving to the word printed, the word gap included); completion p50 {}, p99 {}; word accuracy {:.3} (1 - WER), percent correct {:.3}; {:.1} s of stream in {:.1} s",
+                    run.arch,
+                    s.words_timed,
+                    run.words_printed,
+                    ms(s.word_latency_ms_p50),
+                    ms(s.word_latency_ms_p99),
+                    ms(s.word_latency_ms_max),
+                    ms(s.completion_latency_ms_p50),
+                    ms(s.completion_latency_ms_p99),
+                    run.word_accuracy,
+                    run.percent_correct,
+                    s.stream_s,
+                    s.read_s
+                );
+            }
+        }
+        return Ok(());
     }
     if args.train {
         let r = experiments::bench::engine::train_step(args.batch, args.repeats, args.gradient_cutoff)?;

@@ -151,3 +151,25 @@ impl RealismArg {
 }
 
 pub use corpus::world::SensorBuilds;
+
+/// How long a live stream (`tcp://HOST:PORT`) is waited for.
+#[derive(clap::Args, Debug, Clone)]
+pub struct LiveArgs {
+    /// Live streams: seconds to wait for the sender to accept the connection.
+    #[arg(long, default_value_t = 10.0)]
+    pub connect_timeout_s: f64,
+    /// Live streams: a sender silent for this many seconds has stalled and the read ends with an
+    /// error (the words read until then are kept); 0 waits forever.
+    #[arg(long, default_value_t = 10.0)]
+    pub stall_timeout_s: f64,
+}
+
+impl LiveArgs {
+    pub fn options(&self) -> encoders::formats::net::ConnectOptions {
+        let secs = |s: f64| std::time::Duration::from_secs_f64(s.max(0.0));
+        encoders::formats::net::ConnectOptions {
+            connect_timeout: secs(self.connect_timeout_s).max(std::time::Duration::from_millis(1)),
+            stall_timeout: (self.stall_timeout_s > 0.0).then(|| secs(self.stall_timeout_s)),
+        }
+    }
+}

@@ -13,8 +13,11 @@ enum CompressionArg {
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input event file (.aedat4, .csv, .npy).
+    /// Input event file (.aedat4, .csv, .npy), `-` for standard input, or `tcp://HOST:PORT` to
+    /// record a live AEDAT 4.0 network stream until the sender closes it.
     input: PathBuf,
+    #[command(flatten)]
+    live: crate::common::LiveArgs,
     /// Output event file; its extension (.aedat4, .csv, .npy) chooses the format.
     output: PathBuf,
     /// Replace the output if it exists.
@@ -37,7 +40,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let options = OpenOptions { resolution: args.resolution, stream_id: args.stream };
-    let mut source = formats::open(&args.input, &options)?;
+    let mut source = formats::open_named(&args.input, &options, &args.live.options())?;
     let resolution = source.info().resolution;
     let format = Format::for_output(&args.output)?;
     let mut sink: Box<dyn EventSink> = match format {

@@ -18,6 +18,8 @@ mod label_check;
 mod nir_cli;
 mod plot;
 mod read;
+mod recordings;
+mod replay;
 mod report;
 mod robustness;
 mod run;
@@ -81,9 +83,15 @@ enum Command {
     CharsReport(chars_report::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),
-    /// Read the words in an event stream (a file, or standard input as it arrives): segmentation
-    /// network, character classifier (ResNet or SNN), temporal filter, spelling.
+    /// Read the words in an event stream (a file, standard input or a live sensor's network stream,
+    /// as it arrives): segmentation network, character classifier (ResNet or SNN), temporal
+    /// filter, spelling.
     Read(read::Args),
+    /// Serve an event file as a live sensor: DV's AEDAT 4.0 network stream at the recorded pace,
+    /// for `read tcp://HOST:PORT`, dv-processing or DV.
+    Replay(replay::Args),
+    /// A lab's own recorded scans (a folder of event files and a manifest): `recordings check`.
+    Recordings(recordings::Args),
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
     /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
     WordsReport(words_report::Args),
@@ -133,6 +141,8 @@ fn main() -> ExitCode {
         Command::ChipReport(a) => chip_report::run(a),
         Command::Run(a) => run::run(a),
         Command::Read(a) => read::run(a),
+        Command::Replay(a) => replay::run(a),
+        Command::Recordings(a) => recordings::run(a),
         Command::Report(a) => report::run(a),
         Command::WordsReport(a) => words_report::run(a),
         Command::CalibrateReader(a) => calibrate_reader::run(a),
@@ -143,8 +153,22 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes, each cause once: a cause whose text its error already shows (an
+/// I/O error after the file's name) is not repeated.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
 }

@@ -1,4 +1,5 @@
-//! `braille read`: the words in an event stream (a file, or standard input as it arrives), read
+//! `braille read`: the words in an event stream (a file, standard input or a live AEDAT 4.0
+//! network stream, as it arrives), read
 //! by the segmentation network, a character classifier (the ResNet or the SNN) and the temporal
 //! filter, then spell-corrected.
 
@@ -13,8 +14,12 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Event file (.aedat4, .csv, .npy), or `-` for standard input (read as it arrives).
+    /// Event file (.aedat4, .csv, .npy), `-` for standard input, or `tcp://HOST:PORT` for a live
+    /// sensor's AEDAT 4.0 network stream (DV's TCP output, dv-processing's NetworkWriter,
+    /// `braille replay`); streams are read as they arrive.
     file: PathBuf,
+    #[command(flatten)]
+    live: crate::common::LiveArgs,
     #[arg(long, value_enum, default_value = "snn")]
     arch: Arch,
     #[arg(long, value_enum, default_value = "lexicon")]
@@ -55,11 +60,7 @@ pub fn run(args: Args) -> Result<()> {
         args.snn_runner,
     )?;
     let options = OpenOptions { resolution: args.resolution, stream_id: None };
-    let mut source = if args.file.as_os_str() == "-" {
-        formats::open_stdin(&options)?
-    } else {
-        formats::open(&args.file, &options)?
-    };
+    let mut source = formats::open_named(&args.file, &options, &args.live.options())?;
     let resolution = args.resolution.or(source.info().resolution).unwrap_or(Resolution::DVXPLORER);
     let stdout = std::io::stdout();
     let json = args.json;
@@ -97,6 +98,14 @@ pub fn run(args: Args) -> Result<()> {
             s.stats.classifier_calls,
             s.classifier_ms
         );
+        if let (Some(p50), Some(p99), Some(c50)) =
+            (s.word_latency_ms_p50, s.word_latency_ms_p99, s.completion_latency_ms_p50)
+        {
+            println!(
+                "word latency over {} words: p50 {p50:.1} ms, p99 {p99:.1} ms from a word's last detection arriving to the word printed (the word gap included); {c50:.2} ms p50 from the events that completed it",
+                s.words_timed
+            );
+        }
     }
     Ok(())
 }

@@ -1,5 +1,5 @@
-//! Reading words from event streams (SIMULATED scans): `braille read` on a file and on standard
-//! input, both SNN runners, `braille eval words`, `braille words-report`, and training the
+//! Reading words from event streams (SIMULATED scans): `braille read` on a file, on standard
+//! input and on a live network stream served by `braille replay`, both SNN runners, `braille eval words`, `braille words-report`, and training the
 //! segmentation networks.
 
 use std::io::Write;
@@ -110,6 +110,78 @@ fn read_standard_input_as_it_arrives() {
     let o = child.wait_with_output().unwrap();
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("line 2"), "{err}");
+}
+
+/// `braille replay FILE --listen` as a live sensor and `braille read tcp://HOST:PORT`: the words
+/// read over TCP are the file's, each word's latency is timed, and a sender that stops mid-packet
+/// or stalls ends the read with an error naming it, after the words it had sent.
+#[test]
+fn read_a_live_stream_as_replay_serves_it() {
+    use std::io::{BufRead, BufReader};
+    let dir = tempfile::tempdir().unwrap();
+    let f = scan(dir.path(), "text:HELP WATER", "help.aedat4");
+    let o = braille(&["read", f.to_str().unwrap(), "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (file_words, _) = lines(&out);
+    assert_eq!(file_words.len(), 2);
+    let mut replay = Command::new(env!("CARGO_BIN_EXE_braille"))
+        .args(["replay", f.to_str().unwrap(), "--listen", "127.0.0.1:0", "--pace", "4", "--json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(replay.stderr.take().unwrap()).read_line(&mut first).unwrap();
+    let address = first.trim().rsplit(' ').next().unwrap().to_string();
+    assert!(address.starts_with("tcp://127.0.0.1:"), "{first}");
+    let o = braille(&["read", &address, "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (words, summary) = lines(&out);
+    assert_eq!(words, file_words, "the words over TCP, letter for letter, are the file's");
+    assert_eq!(summary["data"], address.as_str());
+    assert_eq!(summary["words_timed"], 2);
+    let (p50, p99) =
+        (summary["word_latency_ms_p50"].as_f64().unwrap(), summary["word_latency_ms_p99"].as_f64().unwrap());
+    assert!(0.0 < p50 && p50 <= p99, "{summary}");
+    let served = replay.wait_with_output().unwrap();
+    assert!(served.status.success());
+    let sent: serde_json::Value = serde_json::from_slice(&served.stdout).unwrap();
+    // at 4x the recorded pace, the stream's 2.2 s took at least 0.55 s to send
+    assert!(sent["wall_s"].as_f64().unwrap() >= sent["stream_s"].as_f64().unwrap() / 4.0, "{sent}");
+
+    // a sender of the network framing (the file without its 14-byte magic) that stops 30 bytes
+    // into a packet two thirds of the way in, or sends that much and then nothing
+    let bytes = std::fs::read(&f).unwrap()[14..].to_vec();
+    let mut cut = 0;
+    let header = 4 + u32::from_le_bytes(bytes[..4].try_into().unwrap()) as usize;
+    let mut at = header;
+    while at < bytes.len() * 2 / 3 {
+        cut = at + 30;
+        at += 8 + u32::from_le_bytes(bytes[at + 4..at + 8].try_into().unwrap()) as usize;
+    }
+    for stall in [false, true] {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let address = format!("tcp://{}", listener.local_addr().unwrap());
+        let part = bytes[..cut].to_vec();
+        let sender = std::thread::spawn(move || {
+            let (mut s, _) = listener.accept().unwrap();
+            s.write_all(&part).unwrap();
+            if stall {
+                std::thread::sleep(std::time::Duration::from_secs(3));
+            }
+        });
+        let o = braille(&["read", &address, "--json", "--stall-timeout-s", "0.5"]);
+        let (out, err) = text(&o);
+        assert!(!o.status.success(), "{out}");
+        let want = if stall { "the sender stalled" } else { "truncated at byte" };
+        assert!(err.contains(&address) && err.contains(want), "{err}");
+        // the first word, read before the sender failed, was printed
+        let first: serde_json::Value = serde_json::from_str(out.lines().next().unwrap()).unwrap();
+        assert_eq!(first["text"], "HELP", "{out}");
+        sender.join().unwrap();
+    }
 }
 
 #[test]

@@ -9,6 +9,7 @@
 
 pub mod boards;
 pub mod error;
+pub mod recordings;
 pub mod scans;
 pub mod taxels;
 pub mod windows;

@@ -227,3 +227,86 @@ pub fn truth_path(events: &Path) -> PathBuf {
     let stem = events.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     events.with_file_name(format!("{stem}.truth.json"))
 }
+
+/// SIMULATED rows scanned one after another as one stream, as a sensor would send them across a
+/// session: row after row of the board (trial after trial once every row is done), each shifted
+/// to start `gap_us` after the previous one ends. A thread simulates the next row while this one
+/// is sent, so memory holds two rows however long the stream. An [`encoders::EventSource`] like a
+/// file.
+pub struct RowStream {
+    rows: std::sync::mpsc::Receiver<Result<(Vec<Event>, String)>>,
+    events: Vec<Event>,
+    at: usize,
+    info: formats::StreamInfo,
+    /// The text of every row sent, in order.
+    pub texts: Vec<String>,
+}
+
+impl RowStream {
+    /// `rows` rows of `scanner`'s board (cycling through its rows, one trial at a time), or rows
+    /// until `stream_s` seconds of stream have been sent (or both, whichever ends first; neither:
+    /// endless); `gap_us` of silence between rows.
+    pub fn new(scanner: Scanner, rows: Option<usize>, stream_s: Option<f64>, gap_us: i64) -> RowStream {
+        let info = formats::StreamInfo {
+            format: Format::Aedat4,
+            resolution: Some(scanner.sensor.camera.resolution),
+            source: Some("braille (SIMULATED)".into()),
+        };
+        let (send, receive) = std::sync::mpsc::sync_channel(1);
+        std::thread::spawn(move || {
+            let n = scanner.board.rows.len();
+            let (mut sent, mut offset_us) = (0usize, 0i64);
+            while rows.is_none_or(|r| sent < r) && stream_s.is_none_or(|s| (offset_us as f64) < s * 1e6) {
+                let row = scanner.scan(sent % n, (sent / n) as u64).map(|scan| {
+                    let end = scan.events.last().map_or(0, |e| e.t_us);
+                    let mut events = scan.events;
+                    for e in &mut events {
+                        e.t_us += offset_us;
+                    }
+                    offset_us += end + gap_us;
+                    (events, scan.truth.row_text)
+                });
+                let failed = row.is_err();
+                // the stream was dropped: stop
+                if send.send(row).is_err() || failed {
+                    return;
+                }
+                sent += 1;
+            }
+        });
+        RowStream { rows: receive, events: Vec::new(), at: 0, info, texts: Vec::new() }
+    }
+}
+
+impl encoders::EventSource for RowStream {
+    fn info(&self) -> &formats::StreamInfo {
+        &self.info
+    }
+
+    fn next_chunk(&mut self) -> encoders::Result<Option<&[Event]>> {
+        while self.at >= self.events.len() {
+            match self.rows.recv() {
+                Ok(Ok((events, text))) => {
+                    self.events = events;
+                    self.texts.push(text);
+                    self.at = 0;
+                }
+                Ok(Err(e)) => {
+                    return Err(encoders::Error::Unsupported {
+                        path: PathBuf::from("simulated rows"),
+                        what: format!("simulating row {}: {e}", self.texts.len()),
+                    });
+                }
+                Err(_) => return Ok(None),
+            }
+        }
+        let end = (self.at + formats::CHUNK_EVENTS).min(self.events.len());
+        let chunk = &self.events[self.at..end];
+        self.at = end;
+        Ok(Some(chunk))
+    }
+
+    fn path(&self) -> &Path {
+        Path::new("simulated rows")
+    }
+}

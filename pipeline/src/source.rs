@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::reader::{ReadWord, ReaderStats, Spell, Speller, Timing};
 use serde::Serialize;
 use snn::model_file::Arch;
+use std::collections::VecDeque;
 use std::time::Instant;
 
 /// What reading a whole event source gave: the text, the counters, each network's time, work and
@@ -43,11 +44,41 @@ pub struct ReadSummary {
     pub classifier_us_p99: Option<f64>,
     pub segmenter_latency: crate::classify::Histogram,
     pub classifier_latency: crate::classify::Histogram,
+    /// Per word, in ms of wall time: from the arrival of the chunk holding its last character's
+    /// last detection (a live sensor's packet) to the word handed out, which includes the word
+    /// gap the filter waits for (stream time the sensor must slide on); and from the arrival of
+    /// the chunk that completed the word to the word handed out (the reader's own work). Words
+    /// whose last detection arrived more than a minute of stream before are not timed.
+    pub words_timed: u64,
+    pub word_latency_ms_p50: Option<f64>,
+    pub word_latency_ms_p99: Option<f64>,
+    pub word_latency_ms_max: Option<f64>,
+    pub completion_latency_ms_p50: Option<f64>,
+    pub completion_latency_ms_p99: Option<f64>,
     pub peak_rss_mb: Option<f64>,
 }
 
-/// Reads `source` chunk by chunk with bounded memory (a file, or standard input as it arrives),
-/// handing each word to `on_word` as it completes. `name` names the source in errors.
+/// Wall-time latencies in microseconds, 1 us to an hour, three significant digits, in constant
+/// memory.
+fn latency_histogram() -> hdrhistogram::Histogram<u64> {
+    hdrhistogram::Histogram::new_with_bounds(1, 3_600_000_000, 3).expect("valid bounds")
+}
+
+/// How long ago, in us, the chunk holding stream time `t_us` arrived (`arrivals`: each chunk's
+/// last event time and its arrival, in order).
+fn since_arrival_us(arrivals: &VecDeque<(i64, Instant)>, t_us: i64, now: Instant) -> Option<u64> {
+    let k = arrivals.partition_point(|a| a.0 < t_us);
+    arrivals.get(k).map(|a| now.duration_since(a.1).as_micros() as u64)
+}
+
+/// Stream time the arrivals of chunks are kept for ([`ReadSummary::word_latency_ms_p50`]).
+const ARRIVALS_KEPT_US: i64 = 60_000_000;
+
+/// Reads `source` chunk by chunk with bounded memory (a file, standard input or a live stream as
+/// it arrives), handing each word to `on_word` as it completes. `name` names the source in
+/// errors. A source that fails (a stalled sender, a truncated or garbled packet) ends the stream
+/// where it failed: the characters read until then are handed out as the last word, then the
+/// error is returned.
 pub fn read_source(
     source: &mut dyn encoders::EventSource,
     name: &str,
@@ -61,11 +92,22 @@ pub fn read_source(
     let speller = Speller::new(spell);
     let started = Instant::now();
     let mut reader = readers.stream(timing, resolution, &speller)?;
-    let (mut out, mut text) = (Vec::new(), std::collections::VecDeque::<String>::new());
+    let (mut out, mut text) = (Vec::new(), VecDeque::<String>::new());
     let (mut first, mut last) = (None, 0i64);
-    let mut emit = |out: &mut Vec<ReadOutput>, text: &mut std::collections::VecDeque<String>| -> Result<()> {
+    let mut arrivals: VecDeque<(i64, Instant)> = VecDeque::new();
+    let (mut word_latency, mut completion_latency) = (latency_histogram(), latency_histogram());
+    let mut emit = |out: &mut Vec<ReadOutput>,
+                    text: &mut VecDeque<String>,
+                    arrivals: &VecDeque<(i64, Instant)>,
+                    arrived: Instant|
+     -> Result<()> {
         for o in out.drain(..) {
             if let ReadOutput::Word(w) = o {
+                let now = Instant::now();
+                if let Some(us) = w.chars.last().and_then(|c| since_arrival_us(arrivals, c.t_end_us, now)) {
+                    word_latency.saturating_record(us.max(1));
+                    completion_latency.saturating_record((now.duration_since(arrived).as_micros() as u64).max(1));
+                }
                 on_word(&w)?;
                 text.push_back(w.text);
                 if text.len() > 1000 {
@@ -76,19 +118,35 @@ pub fn read_source(
         Ok(())
     };
     let at = |e: Error| Error::Source { name: name.to_string(), source: Box::new(e) };
-    while let Some(chunk) =
-        source.next_chunk().map_err(|e| Error::Read { name: name.to_string(), source: Box::new(e) })?
-    {
+    let mut failed = None;
+    loop {
+        let chunk = match source.next_chunk() {
+            Ok(Some(chunk)) => chunk,
+            Ok(None) => break,
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        };
+        let arrived = Instant::now();
         first.get_or_insert(chunk[0].t_us);
         last = chunk[chunk.len() - 1].t_us;
+        arrivals.push_back((last, arrived));
+        while arrivals.front().is_some_and(|a| a.0 < last - ARRIVALS_KEPT_US) {
+            arrivals.pop_front();
+        }
         reader.push_all(chunk, &mut out).map_err(at)?;
-        emit(&mut out, &mut text)?;
+        emit(&mut out, &mut text, &arrivals, arrived)?;
     }
     reader.finish(&mut out).map_err(at)?;
-    emit(&mut out, &mut text)?;
+    emit(&mut out, &mut text, &arrivals, Instant::now())?;
+    if let Some(e) = failed {
+        return Err(Error::Read { name: name.to_string(), source: Box::new(e) });
+    }
     let stats = reader.stats.clone();
     let (seg, cls) = reader.into_states();
     let us = |h: &crate::classify::Histogram, q: f64| h.quantile_ns(q).map(|n| n / 1e3);
+    let ms = |h: &hdrhistogram::Histogram<u64>, q: f64| (!h.is_empty()).then(|| h.value_at_quantile(q) as f64 / 1e3);
     Ok(ReadSummary {
         summary: true,
         data: name.to_string(),
@@ -111,6 +169,12 @@ pub fn read_source(
         classifier_us_p99: us(&cls.stats.latency, 0.99),
         segmenter_latency: seg.stats.latency,
         classifier_latency: cls.stats.latency,
+        words_timed: word_latency.len(),
+        word_latency_ms_p50: ms(&word_latency, 0.5),
+        word_latency_ms_p99: ms(&word_latency, 0.99),
+        word_latency_ms_max: (!word_latency.is_empty()).then(|| word_latency.max() as f64 / 1e3),
+        completion_latency_ms_p50: ms(&completion_latency, 0.5),
+        completion_latency_ms_p99: ms(&completion_latency, 0.99),
         peak_rss_mb: peak_rss_mb(),
     })
 }

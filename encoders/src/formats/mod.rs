@@ -8,6 +8,7 @@
 pub mod aedat4;
 mod atomic;
 pub mod csv;
+pub mod net;
 pub mod npy;
 
 pub use atomic::AtomicFile;
@@ -152,6 +153,19 @@ pub fn open_stdin(options: &OpenOptions) -> Result<Box<dyn EventSource>> {
         Format::Csv => Box::new(csv::Decoder::from_reader(reader, path, options)?),
         Format::Npy => Box::new(npy::Decoder::from_reader(reader, path, options)?),
     })
+}
+
+/// Opens an event source by the name a user gives it: `-` for standard input ([`open_stdin`]),
+/// `tcp://HOST:PORT` for a live AEDAT 4.0 network stream ([`net::connect`], with `net`'s
+/// timeouts), anything else a file ([`open`]).
+pub fn open_named(name: &Path, options: &OpenOptions, net: &net::ConnectOptions) -> Result<Box<dyn EventSource>> {
+    if name.as_os_str() == "-" {
+        return open_stdin(options);
+    }
+    if let Some(address) = name.to_str().and_then(net::tcp_address) {
+        return Ok(Box::new(net::connect(address, options, net)?));
+    }
+    open(name, options)
 }
 
 /// Creates an event file in the format its extension names. The file appears under its name only

@@ -2,4 +2,5 @@
 //! ([`engine`]), and any model or NIR graph on any events ([`models`]).
 
 pub mod engine;
+pub mod live;
 pub mod models;

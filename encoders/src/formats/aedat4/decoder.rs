@@ -1,7 +1,7 @@
 //! Streaming AEDAT 4.0 decoder: one packet in memory at a time, buffers reused.
 
 use super::flatbuf::{Table, u32_at};
-use super::{Compression, EVENT_BYTES, MAGIC, MAX_HEADER_BYTES, MAX_PACKET_BYTES};
+use super::{Compression, EVENT_BYTES, Framing, MAGIC, MAX_HEADER_BYTES, MAX_PACKET_BYTES};
 use crate::error::{Error, Location, Result, io_at};
 use crate::event::{Event, Polarity, Resolution};
 use crate::formats::{Checker, EventSource, Format, OpenOptions, StreamInfo, io, read_up_to};
@@ -46,7 +46,33 @@ impl Decoder {
 
 impl<R: Read> Decoder<R> {
     /// Reads the header from `reader`; `path` names the input in errors.
-    pub fn from_reader(mut reader: R, path: &Path, options: &OpenOptions) -> Result<Self> {
+    pub fn from_reader(reader: R, path: &Path, options: &OpenOptions) -> Result<Self> {
+        Self::framed(reader, path, options, Framing::File)
+    }
+
+    /// Reads an AEDAT 4.0 network stream from `reader` (what DV and dv-processing's
+    /// `NetworkWriter` send a client: the header without the magic, then packets, no table of
+    /// packets); `name` names the stream in errors.
+    pub fn from_network(reader: R, name: &Path, options: &OpenOptions) -> Result<Self> {
+        Self::framed(reader, name, options, Framing::Network)
+    }
+
+    fn framed(mut reader: R, path: &Path, options: &OpenOptions, framing: Framing) -> Result<Self> {
+        if framing == Framing::Network {
+            let mut len = [0u8; 4];
+            let n = read_up_to(&mut reader, &mut len).map_err(|e| io(path, e))?;
+            if n == 0 {
+                return Err(Error::Empty { path: path.into(), expected: "an AEDAT 4.0 network header".into() });
+            }
+            if n < 4 {
+                return Err(Error::Truncated {
+                    path: path.into(),
+                    at: Location::Byte(n as u64),
+                    expected: "the 4-byte header length".into(),
+                });
+            }
+            return Self::after_magic(reader, path, options, 0, u32::from_le_bytes(len) as u64, framing);
+        }
         let mut magic = [0u8; MAGIC.len()];
         let n = read_up_to(&mut reader, &mut magic).map_err(|e| io(path, e))?;
         if n == 0 {
@@ -68,13 +94,24 @@ impl<R: Read> Decoder<R> {
                 found: format!("{:?}", String::from_utf8_lossy(&magic[..n])),
             });
         }
-        let mut position = MAGIC.len() as u64;
+        let position = MAGIC.len() as u64;
         let mut len = [0u8; 4];
         reader
             .read_exact(&mut len)
             .map_err(|e| io_at(path, Location::Byte(position), "the 4-byte header length", e))?;
-        let header_len = u32::from_le_bytes(len) as u64;
-        position += 4;
+        Self::after_magic(reader, path, options, position, u32::from_le_bytes(len) as u64, framing)
+    }
+
+    /// The rest of the header, from its length (read at byte `at`) on.
+    fn after_magic(
+        mut reader: R,
+        path: &Path,
+        options: &OpenOptions,
+        at: u64,
+        header_len: u64,
+        framing: Framing,
+    ) -> Result<Self> {
+        let mut position = at + 4;
         if header_len > MAX_HEADER_BYTES {
             return Err(Error::TooLarge {
                 path: path.into(),
@@ -128,7 +165,8 @@ impl<R: Read> Decoder<R> {
             reader,
             position,
             compression,
-            data_table_position: u64::try_from(table_pos).ok(),
+            // a network stream has no table of packets, whatever its header says
+            data_table_position: if framing == Framing::File { u64::try_from(table_pos).ok() } else { None },
             stream_id: chosen.id,
             streams,
             info,

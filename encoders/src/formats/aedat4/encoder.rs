@@ -1,7 +1,7 @@
 //! AEDAT 4.0 encoder: one event stream, packets of a fixed number of events.
 
 use super::flatbuf::PutLe;
-use super::{Compression, EVENT_BYTES, MAGIC};
+use super::{Compression, EVENT_BYTES, Framing, MAGIC};
 use crate::error::{Error, Location, Result};
 use crate::event::{Event, Resolution};
 use crate::formats::{AtomicFile, EventSink};
@@ -47,12 +47,33 @@ impl Encoder<AtomicFile> {
 }
 
 impl<W: Write> Encoder<W> {
-    /// Starts an AEDAT4 stream on any writer; `name` names it in errors.
+    /// Starts an AEDAT4 file on any writer; `name` names it in errors.
     pub fn to_writer(
         writer: W,
         name: &std::path::Path,
         resolution: Option<Resolution>,
         options: EncoderOptions,
+    ) -> Result<Self> {
+        Self::framed(writer, name, resolution, options, Framing::File)
+    }
+
+    /// Starts an AEDAT 4.0 network stream on `writer` (a client's socket: the header without the
+    /// magic, then packets, as DV's TCP outputs send them); `name` names it in errors.
+    pub fn to_network(
+        writer: W,
+        name: &std::path::Path,
+        resolution: Option<Resolution>,
+        options: EncoderOptions,
+    ) -> Result<Self> {
+        Self::framed(writer, name, resolution, options, Framing::Network)
+    }
+
+    fn framed(
+        writer: W,
+        name: &std::path::Path,
+        resolution: Option<Resolution>,
+        options: EncoderOptions,
+        framing: Framing,
     ) -> Result<Self> {
         if options.packet_events == 0 {
             return Err(Error::config("packet_events", "must be at least 1"));
@@ -76,7 +97,7 @@ impl<W: Write> Encoder<W> {
             last_t_us: i64::MIN,
         };
         let header = io_header(encoder.options.compression, &description(resolution, &encoder.options));
-        let mut head = MAGIC.to_vec();
+        let mut head = if framing == Framing::File { MAGIC.to_vec() } else { Vec::new() };
         head.put_u32(header.len() as u32);
         head.extend_from_slice(&header);
         encoder.put(&head)?;
@@ -117,10 +138,16 @@ impl<W: Write> Encoder<W> {
         Ok(())
     }
 
+    /// Writes what is pending as a packet (if anything is) and flushes the writer: a live stream
+    /// sends its packets as they are due.
+    pub fn flush(&mut self) -> Result<()> {
+        self.flush_packet()?;
+        self.writer.flush().map_err(|e| Error::Io { path: self.name.clone(), source: e })
+    }
+
     /// Writes what is pending and returns the writer.
     pub fn into_inner(mut self) -> Result<W> {
-        self.flush_packet()?;
-        self.writer.flush().map_err(|e| Error::Io { path: self.name.clone(), source: e })?;
+        self.flush()?;
         Ok(self.writer)
     }
 }

@@ -5,7 +5,8 @@
 //! FlatBuffer (compression, file data table position, an XML description of the streams); then
 //! packets, each a `u32` stream id, a `u32` byte size and a FlatBuffer (size-prefixed, identifier
 //! `EVTS` for events) compressed as the header says (LZ4 frame or ZSTD frame, or none). Files may
-//! hold several streams (events, frames, IMU, triggers); the decoder reads one event stream.
+//! hold several streams (events, frames, IMU, triggers); the decoder reads one event stream. DV's
+//! network stream is the same without the magic ([`Framing::Network`]).
 
 mod decoder;
 mod encoder;
@@ -13,6 +14,15 @@ mod flatbuf;
 
 pub use decoder::{Decoder, StreamDescription};
 pub use encoder::{Encoder, EncoderOptions};
+
+/// How the header and packets are framed: a file (the magic first, and maybe a table of packets
+/// at the end), or DV's network stream (the same header and packets without the magic: what
+/// DV's TCP outputs and dv-processing's `NetworkWriter` send each client).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Framing {
+    File,
+    Network,
+}
 
 /// The 14 bytes every AEDAT 4.0 file starts with.
 pub const MAGIC: &[u8] = b"#!AER-DAT4.0\r\n";

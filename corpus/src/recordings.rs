@@ -1,0 +1,323 @@
+//! A lab's own recorded scans: a folder of event files and a manifest (docs/recordings.md).
+//!
+//! `DIR/manifest.csv` has the header `file,role,text,speed_mm_s,depth_mm` (further columns are
+//! allowed and kept, e.g. `direction`, `sensor`, `notes`): `file` relative to DIR (AEDAT4, CSV
+//! or .npy), `role` one of `train`, `val`, `test`, `text` the printed row as written on the board,
+//! and the commanded `speed_mm_s` and `depth_mm`, which label training and validation data and
+//! group test results; a reader never gets them. [`Recordings::open`] checks the whole manifest
+//! and names the line and the field of the first thing wrong; [`Recordings::check`] also reads
+//! every event file through (a bad file is named with the place) and summarises the folder.
+
+use encoders::formats::{self, OpenOptions};
+use serde::Serialize;
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// The manifest's name inside a recordings folder.
+pub const MANIFEST: &str = "manifest.csv";
+
+/// The columns every manifest has.
+pub const COLUMNS: [&str; 5] = ["file", "role", "text", "speed_mm_s", "depth_mm"];
+
+/// What a recorded scan is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Cut into training windows.
+    Train,
+    /// Chooses checkpoints and the reader's operating point.
+    Val,
+    /// Scored, never used to choose anything.
+    #[default]
+    Test,
+}
+
+impl Role {
+    pub const ALL: [Role; 3] = [Role::Train, Role::Val, Role::Test];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Train => "train",
+            Role::Val => "val",
+            Role::Test => "test",
+        }
+    }
+}
+
+/// One line of the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Recording {
+    /// The event file, as the manifest names it (relative to the folder).
+    pub file: PathBuf,
+    pub role: Role,
+    /// The printed row, as written on the board (letters and spaces).
+    pub text: String,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    /// The manifest's further columns, by name.
+    pub extra: BTreeMap<String, String>,
+    /// The manifest's line (1-based, the header is line 1).
+    pub line: u64,
+}
+
+/// What is wrong with a recordings folder, with the line and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{}: line {line}: {source}", path.display())]
+    Csv { path: PathBuf, line: u64, source: csv::Error },
+    #[error("{}: the header lacks the column `{column}` (a manifest starts `file,role,text,speed_mm_s,depth_mm`)", path.display())]
+    MissingColumn { path: PathBuf, column: &'static str },
+    #[error("{}: line {line}: field `{field}`: {what}", path.display())]
+    Field { path: PathBuf, line: u64, field: &'static str, what: String },
+    #[error("{}: no scans: every line after the header is a recorded scan", path.display())]
+    Empty { path: PathBuf },
+    #[error("{}: line {line}: {source}", path.display())]
+    Events { path: PathBuf, line: u64, source: Box<encoders::Error> },
+}
+
+/// A checked recordings folder.
+#[derive(Debug, Clone, Serialize)]
+pub struct Recordings {
+    pub dir: PathBuf,
+    pub recordings: Vec<Recording>,
+}
+
+impl Recordings {
+    /// Reads and checks `dir`'s manifest: the columns, every field of every line, that every
+    /// file exists, and that no file is listed twice. The event files are not read.
+    pub fn open(dir: &Path) -> Result<Recordings, Error> {
+        let path = dir.join(MANIFEST);
+        let file = std::fs::File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(false).from_reader(file);
+        let header = reader.headers().map_err(|source| Error::Csv { path: path.clone(), line: 1, source })?.clone();
+        let index = |column: &'static str| {
+            header.iter().position(|h| h == column).ok_or(Error::MissingColumn { path: path.clone(), column })
+        };
+        let [file_at, role_at, text_at, speed_at, depth_at] =
+            [index("file")?, index("role")?, index("text")?, index("speed_mm_s")?, index("depth_mm")?];
+        let mut recordings = Vec::new();
+        let mut seen = HashSet::new();
+        for (k, record) in reader.records().enumerate() {
+            let line = k as u64 + 2;
+            let record = record.map_err(|source| Error::Csv { path: path.clone(), line, source })?;
+            let bad = |field: &'static str, what: String| Error::Field { path: path.clone(), line, field, what };
+            let get = |at: usize| record.get(at).unwrap_or("");
+            let name = get(file_at);
+            if name.is_empty() {
+                return Err(bad("file", "empty: name the event file, relative to the folder".into()));
+            }
+            let file = PathBuf::from(name);
+            if file.is_absolute() || file.components().any(|c| c == std::path::Component::ParentDir) {
+                return Err(bad("file", format!("{name:?} is not inside the folder: give a path relative to it")));
+            }
+            if !dir.join(&file).is_file() {
+                return Err(bad("file", format!("{name:?}: no such file in {}", dir.display())));
+            }
+            if !seen.insert(file.clone()) {
+                return Err(bad("file", format!("{name:?} is listed twice")));
+            }
+            let role = match get(role_at) {
+                "train" => Role::Train,
+                "val" => Role::Val,
+                "test" => Role::Test,
+                "" => return Err(bad("role", "empty: one of train, val, test".into())),
+                other => return Err(bad("role", format!("{other:?} is not a role: one of train, val, test"))),
+            };
+            let text = get(text_at).to_string();
+            if text.trim().is_empty() {
+                return Err(bad("text", "empty: the printed row, as written on the board".into()));
+            }
+            if let Some((i, c)) = text.chars().enumerate().find(|&(_, c)| encoders::braille::cell_of(c).is_none()) {
+                return Err(bad(
+                    "text",
+                    format!(
+                        "character {c:?} (position {}) is not in the Braille table the readers read (the paper's 26 letters and the space)",
+                        i + 1
+                    ),
+                ));
+            }
+            let number = |at: usize, field: &'static str, unit: &str| -> Result<f64, Error> {
+                let v = get(at);
+                match v.parse::<f64>() {
+                    Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+                    Ok(_) => Err(bad(field, format!("{v} is not a positive number of {unit}"))),
+                    Err(_) => Err(bad(field, format!("{v:?} is not a number ({unit})"))),
+                }
+            };
+            let speed_mm_s = number(speed_at, "speed_mm_s", "mm/s")?;
+            let depth_mm = number(depth_at, "depth_mm", "mm")?;
+            let extra = header
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| ![file_at, role_at, text_at, speed_at, depth_at].contains(i))
+                .map(|(i, h)| (h.to_string(), get(i).to_string()))
+                .collect();
+            recordings.push(Recording { file, role, text, speed_mm_s, depth_mm, extra, line });
+        }
+        if recordings.is_empty() {
+            return Err(Error::Empty { path });
+        }
+        Ok(Recordings { dir: dir.to_path_buf(), recordings })
+    }
+
+    /// The scans of one role, in the manifest's order.
+    pub fn role(&self, role: Role) -> impl Iterator<Item = &Recording> {
+        self.recordings.iter().filter(move |r| r.role == role)
+    }
+
+    /// The event file of a recording.
+    pub fn path(&self, r: &Recording) -> PathBuf {
+        self.dir.join(&r.file)
+    }
+
+    /// Reads every event file through (each checked as `braille info` checks a file: order,
+    /// range, framing) and summarises the folder per role and condition. Nothing is written.
+    pub fn check(&self) -> Result<CheckSummary, Error> {
+        let mut groups: BTreeMap<(Role, String, String), Group> = BTreeMap::new();
+        for r in &self.recordings {
+            let path = self.path(r);
+            let wrap =
+                |e: encoders::Error| Error::Events { path: self.dir.join(MANIFEST), line: r.line, source: Box::new(e) };
+            let mut source = formats::open(&path, &OpenOptions::default()).map_err(wrap)?;
+            let (mut events, mut first, mut last) = (0u64, None, 0i64);
+            while let Some(chunk) = source.next_chunk().map_err(wrap)? {
+                events += chunk.len() as u64;
+                first.get_or_insert(chunk[0].t_us);
+                last = chunk[chunk.len() - 1].t_us;
+            }
+            let duration_s = first.map_or(0.0, |f| (last - f) as f64 / 1e6);
+            let g =
+                groups.entry((r.role, format!("{}", r.speed_mm_s), format!("{}", r.depth_mm))).or_insert_with(|| {
+                    Group { role: r.role, speed_mm_s: r.speed_mm_s, depth_mm: r.depth_mm, ..Group::default() }
+                });
+            g.scans += 1;
+            g.events += events;
+            g.duration_s += duration_s;
+            g.characters += r.text.chars().filter(|c| *c != ' ').count();
+            if events == 0 {
+                g.empty_files.push(r.file.clone());
+            }
+        }
+        let mut groups: Vec<Group> = groups.into_values().collect();
+        for g in &mut groups {
+            g.event_rate_hz = if g.duration_s > 0.0 { g.events as f64 / g.duration_s } else { 0.0 };
+        }
+        let roles = Role::ALL
+            .iter()
+            .map(|&role| {
+                let of: Vec<&Group> = groups.iter().filter(|g| g.role == role).collect();
+                RoleSummary {
+                    role,
+                    scans: of.iter().map(|g| g.scans).sum(),
+                    events: of.iter().map(|g| g.events).sum(),
+                    duration_s: of.iter().map(|g| g.duration_s).sum::<f64>() + 0.0,
+                    characters: of.iter().map(|g| g.characters).sum(),
+                }
+            })
+            .collect();
+        Ok(CheckSummary { dir: self.dir.clone(), scans: self.recordings.len(), roles, groups })
+    }
+}
+
+/// The scans of one role at one commanded speed and depth.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Group {
+    pub role: Role,
+    pub speed_mm_s: f64,
+    pub depth_mm: f64,
+    pub scans: usize,
+    pub events: u64,
+    pub duration_s: f64,
+    pub event_rate_hz: f64,
+    /// Printed characters (spaces not counted).
+    pub characters: usize,
+    /// Files that hold no events (allowed, but worth a look).
+    pub empty_files: Vec<PathBuf>,
+}
+
+/// One role over every condition.
+#[derive(Debug, Clone, Serialize)]
+pub struct RoleSummary {
+    pub role: Role,
+    pub scans: usize,
+    pub events: u64,
+    pub duration_s: f64,
+    pub characters: usize,
+}
+
+/// What `braille recordings check` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckSummary {
+    pub dir: PathBuf,
+    pub scans: usize,
+    pub roles: Vec<RoleSummary>,
+    pub groups: Vec<Group>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A folder with `manifest` and two small event files, `a.csv` and `b.csv`.
+    fn folder(manifest: &str) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("a.csv"), "t_us,x,y,p\n0,1,2,1\n500000,3,4,0\n1000000,5,6,1\n").unwrap();
+        std::fs::write(dir.path().join("b.csv"), "t_us,x,y,p\n0,1,2,1\n2000000,3,4,0\n").unwrap();
+        std::fs::write(dir.path().join(MANIFEST), manifest).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_good_folder_is_summarised_per_role_and_condition() {
+        let dir = folder(
+            "file,role,text,speed_mm_s,depth_mm,notes\na.csv,train,HELLO WORLD,16,1.0,first\nb.csv, test ,stop,32,1.5,\n",
+        );
+        let r = Recordings::open(dir.path()).unwrap();
+        assert_eq!(r.recordings.len(), 2);
+        assert_eq!(r.recordings[1].role, Role::Test);
+        assert_eq!(r.recordings[0].extra["notes"], "first");
+        let s = r.check().unwrap();
+        let train = &s.roles[0];
+        assert_eq!(
+            (train.role, train.scans, train.events, train.duration_s, train.characters),
+            (Role::Train, 1, 3, 1.0, 10)
+        );
+        assert_eq!(s.groups.len(), 2);
+        let test = &s.groups[1];
+        assert_eq!((test.speed_mm_s, test.depth_mm, test.events, test.event_rate_hz), (32.0, 1.5, 2, 1.0));
+    }
+
+    #[test]
+    fn a_bad_manifest_names_the_line_and_the_field() {
+        let head = "file,role,text,speed_mm_s,depth_mm\n";
+        for (body, want) in [
+            ("a.csv,training,HELLO,16,1\n", "line 2: field `role`: \"training\" is not a role"),
+            ("a.csv,train,HELLO,16,1\nc.csv,test,HELLO,16,1\n", "line 3: field `file`: \"c.csv\": no such file"),
+            ("a.csv,train,HELLO 2,16,1\n", "line 2: field `text`: character '2' (position 7)"),
+            ("a.csv,train,HELLO,fast,1\n", "line 2: field `speed_mm_s`: \"fast\" is not a number (mm/s)"),
+            ("a.csv,train,HELLO,16,-1\n", "line 2: field `depth_mm`: -1 is not a positive number of mm"),
+            (
+                "a.csv,train,HELLO,16,1\nb.csv,val,HELP,16,1\na.csv,test,HELLO,16,1\n",
+                "line 4: field `file`: \"a.csv\" is listed twice",
+            ),
+            ("a.csv,,HELLO,16,1\n", "line 2: field `role`: empty"),
+            ("../a.csv,train,HELLO,16,1\n", "line 2: field `file`: \"../a.csv\" is not inside the folder"),
+            ("", "no scans"),
+        ] {
+            let dir = folder(&format!("{head}{body}"));
+            let e = Recordings::open(dir.path()).unwrap_err().to_string();
+            assert!(e.starts_with(&dir.path().join(MANIFEST).display().to_string()), "{e}");
+            assert!(e.contains(want), "{e}\nwanted: {want}");
+        }
+        let dir = folder("file,role,text,speed_mm_s\na.csv,train,HELLO,16\n");
+        let e = Recordings::open(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("lacks the column `depth_mm`"), "{e}");
+        // a bad event file is named with its manifest line and the place in the file
+        let dir = folder(&format!("{head}a.csv,train,HELLO,16,1\n"));
+        std::fs::write(dir.path().join("a.csv"), "t_us,x,y,p\n5,1,2,1\n4,1,2,1\n").unwrap();
+        let e = Recordings::open(dir.path()).unwrap().check().unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("a.csv: at line 3: timestamp 4 us goes backwards"), "{e}");
+    }
+}
