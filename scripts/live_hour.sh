@@ -19,7 +19,10 @@ trap 'rm -rf "$work"' EXIT
 replay=$!
 until grep -q "tcp://" "$work/replay.err" 2>/dev/null; do sleep 0.1; done
 address=$(grep -o "tcp://[0-9.:]*" "$work/replay.err")
-"$b" read "$address" --arch snn --json > "$work/words.jsonl" &
+# the stand-in sensor simulates each row while the one before is sent; on a busy machine a row can
+# take longer to simulate than the one before takes to send, and the sender falls silent meanwhile
+# (its lag is in the report): wait up to two minutes before calling it stalled
+"$b" read "$address" --arch snn --json --stall-timeout-s 120 > "$work/words.jsonl" &
 reader=$!
 start=$(date +%s)
 echo "elapsed_s,rss_kb" > "$work/rss.csv"

@@ -51,6 +51,11 @@ pub struct Args {
     /// An event file (.aedat4, .csv, .npy) for one scan, or a folder for several.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write the scans as a lab's recordings folder instead (`--out` is the folder): numbered
+    /// AEDAT4 files with no ground truth, their lines appended to its manifest.csv with this role,
+    /// the row's text and the commanded speed and depth (docs/recordings.md).
+    #[arg(long, value_enum)]
+    pub recordings: Option<corpus::recordings::Role>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
@@ -77,6 +82,25 @@ pub fn run(args: Args) -> Result<()> {
         force: args.force,
     };
     let quiet = crate::common::Bar::default();
+    if let Some(role) = args.recordings {
+        let written = corpus::recordings::export(&spec, role, if args.json { &() } else { &quiet })?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&written)?);
+        } else {
+            for r in &written {
+                println!(
+                    "{}: {} {:?} at {} mm/s, {} mm",
+                    spec.out.join(&r.file).display(),
+                    r.role.name(),
+                    r.text,
+                    r.speed_mm_s,
+                    r.depth_mm
+                );
+            }
+            println!("{} scans added to {}", written.len(), spec.out.join(corpus::recordings::MANIFEST).display());
+        }
+        return Ok(());
+    }
     let summary = corpus::scans::simulate_files(&spec, if args.json { &() } else { &quiet })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);

@@ -30,6 +30,8 @@ pub enum Error {
     Io { path: PathBuf, source: std::io::Error },
     #[error("{}: {source}", path.display())]
     Json { path: PathBuf, source: serde_json::Error },
+    #[error(transparent)]
+    Recordings(Box<crate::recordings::Error>),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
@@ -43,5 +45,11 @@ impl From<pipeline::Error> for Error {
 impl From<encoders::Error> for Error {
     fn from(e: encoders::Error) -> Self {
         Error::Encoders(Box::new(e))
+    }
+}
+
+impl From<crate::recordings::Error> for Error {
+    fn from(e: crate::recordings::Error) -> Self {
+        Error::Recordings(Box::new(e))
     }
 }

@@ -21,6 +21,7 @@ pub const COLUMNS: [&str; 5] = ["file", "role", "text", "speed_mm_s", "depth_mm"
 
 /// What a recorded scan is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
     /// Cut into training windows.
@@ -221,6 +222,89 @@ impl Recordings {
     }
 }
 
+/// SIMULATED scans written as a lab would keep them (the path the recordings commands are tested
+/// on): the scans of `spec` (`spec.out` is the folder) as `NNNNN.aedat4`, numbered on from the
+/// folder's manifest, with no ground truth beside them, and their lines appended to the manifest
+/// (created with its header if absent) with `role`, each row's text and the commanded speed and
+/// depth. Returns the lines written.
+pub fn export(
+    spec: &crate::scans::ScanSpec,
+    role: Role,
+    progress: &dyn crate::Progress,
+) -> crate::Result<Vec<Recording>> {
+    use rayon::prelude::*;
+    let dir = &spec.out;
+    std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io { path: dir.clone(), source })?;
+    let manifest = dir.join(MANIFEST);
+    let (mut text, first) = if manifest.exists() {
+        let existing = Recordings::open(dir)?;
+        let next = existing
+            .recordings
+            .iter()
+            .filter_map(|r| r.file.file_stem()?.to_str()?.parse::<u64>().ok())
+            .max()
+            .map_or(existing.recordings.len() as u64, |n| n.max(existing.recordings.len() as u64))
+            + 1;
+        let text =
+            std::fs::read_to_string(&manifest).map_err(|source| crate::Error::Io { path: manifest.clone(), source })?;
+        (text, next)
+    } else {
+        (format!("{}\n", COLUMNS.join(",")), 1)
+    };
+    if !text.ends_with('\n') {
+        text.push('\n');
+    }
+    let scanner = crate::scans::Scanner::of(spec)?;
+    let rows: Vec<usize> = match spec.row {
+        Some(r) if r >= scanner.board.rows.len() => {
+            return Err(crate::Error::NoSuchRow { row: r, rows: scanner.board.rows.len() });
+        }
+        Some(r) => vec![r],
+        None => (0..scanner.board.rows.len()).collect(),
+    };
+    let jobs: Vec<(usize, u64)> = rows.iter().flat_map(|&r| (0..spec.trials).map(move |t| (r, t))).collect();
+    progress.start("simulating scans", jobs.len() as u64);
+    let written: Vec<Recording> = jobs
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(row, trial))| -> crate::Result<Recording> {
+            let s = scanner.scan(row, trial)?;
+            let file = PathBuf::from(format!("{:05}.aedat4", first + k as u64));
+            crate::scans::write_events(&dir.join(&file), &s.events, spec.resolution, spec.force)?;
+            progress.inc();
+            Ok(Recording {
+                file,
+                role,
+                text: s.truth.row_text,
+                speed_mm_s: spec.speed,
+                depth_mm: spec.depth,
+                extra: BTreeMap::new(),
+                line: 0,
+            })
+        })
+        .collect::<crate::Result<_>>()?;
+    progress.finish();
+    let extra_columns = text.lines().next().map_or(0, |h| h.split(',').count().saturating_sub(COLUMNS.len()));
+    for r in &written {
+        text.push_str(&format!(
+            "{},{},{},{},{}{}\n",
+            r.file.display(),
+            role.name(),
+            r.text,
+            r.speed_mm_s,
+            r.depth_mm,
+            ",".repeat(extra_columns)
+        ));
+    }
+    let mut out = encoders::formats::AtomicFile::create(&manifest, true)?;
+    std::io::Write::write_all(&mut out, text.as_bytes())
+        .map_err(|source| crate::Error::Io { path: manifest.clone(), source })?;
+    out.commit()?;
+    // the folder as written reads back
+    let back = Recordings::open(dir)?;
+    Ok(back.recordings[back.recordings.len() - written.len()..].to_vec())
+}
+
 /// The scans of one role at one commanded speed and depth.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Group {
@@ -319,5 +403,41 @@ mod tests {
         std::fs::write(dir.path().join("a.csv"), "t_us,x,y,p\n5,1,2,1\n4,1,2,1\n").unwrap();
         let e = Recordings::open(dir.path()).unwrap().check().unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("a.csv: at line 3: timestamp 4 us goes backwards"), "{e}");
+    }
+
+    #[test]
+    fn simulated_scans_export_as_a_folder_a_lab_would_keep() {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = |board: &str, trials: u64, speed: f64| crate::scans::ScanSpec {
+            board: board.parse().unwrap(),
+            speed,
+            depth: 1.0,
+            row: None,
+            trials,
+            seed: 3,
+            board_seed: None,
+            sensor_seed: 101,
+            realism: sim::Realism::Nominal,
+            direction: sim::Direction::Forward,
+            stick_slip: None,
+            resolution: encoders::Resolution::DVXPLORER,
+            out: dir.path().to_path_buf(),
+            force: false,
+        };
+        let a = export(&spec("text:AB/CD", 1, 32.0), Role::Train, &()).unwrap();
+        let b = export(&spec("text:HI", 2, 48.0), Role::Test, &()).unwrap();
+        let names: Vec<String> = a.iter().chain(&b).map(|r| r.file.display().to_string()).collect();
+        assert_eq!(names, ["00001.aedat4", "00002.aedat4", "00003.aedat4", "00004.aedat4"]);
+        let manifest = std::fs::read_to_string(dir.path().join(MANIFEST)).unwrap();
+        assert_eq!(
+            manifest,
+            "file,role,text,speed_mm_s,depth_mm\n00001.aedat4,train,AB,32,1\n00002.aedat4,train,CD,32,1\n\
+             00003.aedat4,test,HI,48,1\n00004.aedat4,test,HI,48,1\n"
+        );
+        // no ground truth beside the scans: the manifest and the event files only
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 5);
+        let s = Recordings::open(dir.path()).unwrap().check().unwrap();
+        assert_eq!(s.roles.iter().map(|r| r.scans).collect::<Vec<_>>(), [2, 0, 2]);
+        assert!(s.groups.iter().all(|g| g.events > 0 && g.empty_files.is_empty()));
     }
 }
