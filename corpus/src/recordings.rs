@@ -284,17 +284,20 @@ pub fn export(
         })
         .collect::<crate::Result<_>>()?;
     progress.finish();
-    let extra_columns = text.lines().next().map_or(0, |h| h.split(',').count().saturating_sub(COLUMNS.len()));
+    // each line in the header's order of columns (a lab's manifest may order them otherwise, or
+    // have more); the columns this writer does not know stay empty
+    let header: Vec<String> = text.lines().next().unwrap_or("").split(',').map(|h| h.trim().to_string()).collect();
     for r in &written {
-        text.push_str(&format!(
-            "{},{},{},{},{}{}\n",
-            r.file.display(),
-            role.name(),
-            r.text,
-            r.speed_mm_s,
-            r.depth_mm,
-            ",".repeat(extra_columns)
-        ));
+        let field = |column: &str| match column {
+            "file" => r.file.display().to_string(),
+            "role" => role.name().to_string(),
+            "text" => r.text.clone(),
+            "speed_mm_s" => r.speed_mm_s.to_string(),
+            "depth_mm" => r.depth_mm.to_string(),
+            _ => String::new(),
+        };
+        text.push_str(&header.iter().map(|c| field(c)).collect::<Vec<_>>().join(","));
+        text.push('\n');
     }
     let mut out = encoders::formats::AtomicFile::create(&manifest, true)?;
     std::io::Write::write_all(&mut out, text.as_bytes())
@@ -436,6 +439,23 @@ mod tests {
         );
         // no ground truth beside the scans: the manifest and the event files only
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 5);
+        // a lab's manifest with its columns in another order and one more: new lines follow it
+        let lab = tempfile::tempdir().unwrap();
+        std::fs::copy(dir.path().join("00001.aedat4"), lab.path().join("mine.aedat4")).unwrap();
+        std::fs::write(
+            lab.path().join(MANIFEST),
+            "role,file,notes,text,depth_mm,speed_mm_s\ntrain,mine.aedat4,gel 2,AB,1,32\n",
+        )
+        .unwrap();
+        let c = export(
+            &crate::scans::ScanSpec { out: lab.path().to_path_buf(), ..spec("text:HI", 1, 48.0) },
+            Role::Val,
+            &(),
+        )
+        .unwrap();
+        assert_eq!(c[0].file, PathBuf::from("00002.aedat4"));
+        let manifest = std::fs::read_to_string(lab.path().join(MANIFEST)).unwrap();
+        assert!(manifest.ends_with("\nval,00002.aedat4,,HI,1,48\n"), "{manifest}");
         let s = Recordings::open(dir.path()).unwrap().check().unwrap();
         assert_eq!(s.roles.iter().map(|r| r.scans).collect::<Vec<_>>(), [2, 0, 2]);
         assert!(s.groups.iter().all(|g| g.events > 0 && g.empty_files.is_empty()));
