@@ -56,6 +56,11 @@ pub struct Args {
     /// the row's text and the commanded speed and depth (docs/recordings.md).
     #[arg(long, value_enum)]
     pub recordings: Option<corpus::recordings::Role>,
+    /// --recordings: write the scans `eval words` reads at these sensor builds (the same board,
+    /// speed, depth, trials, seed and preset: the world's scan seeds, trial k on its build k mod
+    /// builds), instead of `simulate`'s own seeds and `--sensor-seed`.
+    #[arg(long, value_enum, requires = "recordings")]
+    pub sensor_builds: Option<corpus::world::SensorBuilds>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
@@ -83,7 +88,8 @@ pub fn run(args: Args) -> Result<()> {
     };
     let quiet = crate::common::Bar::default();
     if let Some(role) = args.recordings {
-        let written = corpus::recordings::export(&spec, role, if args.json { &() } else { &quiet })?;
+        let world = args.sensor_builds.map(|b| corpus::World::of(args.realism, b));
+        let written = corpus::recordings::export(&spec, world.as_ref(), role, if args.json { &() } else { &quiet })?;
         if args.json {
             println!("{}", serde_json::to_string_pretty(&written)?);
         } else {

@@ -226,9 +226,13 @@ impl Recordings {
 /// on): the scans of `spec` (`spec.out` is the folder) as `NNNNN.aedat4`, numbered on from the
 /// folder's manifest, with no ground truth beside them, and their lines appended to the manifest
 /// (created with its header if absent) with `role`, each row's text and the commanded speed and
-/// depth. Returns the lines written.
+/// depth. With `world`, the scans are those `eval words` reads for the same board, speed, depth,
+/// trials and seed in that world (its scan seeds, trial `k` on its build `k mod builds`, its
+/// preset and mount), not `spec`'s sensor seed and `braille simulate`'s own seeds. Returns the
+/// lines written.
 pub fn export(
     spec: &crate::scans::ScanSpec,
+    world: Option<&crate::World>,
     role: Role,
     progress: &dyn crate::Progress,
 ) -> crate::Result<Vec<Recording>> {
@@ -255,6 +259,16 @@ pub fn export(
         text.push('\n');
     }
     let scanner = crate::scans::Scanner::of(spec)?;
+    // the world's scans: its preset's setup, its board print, its builds
+    let in_world = match world {
+        Some(w) => {
+            let setup = w.setup();
+            let board = w.board(&setup, &spec.board)?;
+            let sensors = w.sensors_at(&setup, spec.resolution)?;
+            Some((w, setup, board, sensors))
+        }
+        None => None,
+    };
     let rows: Vec<usize> = match spec.row {
         Some(r) if r >= scanner.board.rows.len() => {
             return Err(crate::Error::NoSuchRow { row: r, rows: scanner.board.rows.len() });
@@ -268,7 +282,14 @@ pub fn export(
         .par_iter()
         .enumerate()
         .map(|(k, &(row, trial))| -> crate::Result<Recording> {
-            let s = scanner.scan(row, trial)?;
+            let s = match &in_world {
+                None => scanner.scan(row, trial)?,
+                Some((w, setup, board, sensors)) => {
+                    let seed = w.scan_seed(spec.seed, &spec.board, row, trial, spec.speed, spec.depth);
+                    let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+                    sim::simulate(board, sensor, &setup.scan(spec.speed, spec.depth, row, seed))?
+                }
+            };
             let file = PathBuf::from(format!("{:05}.aedat4", first + k as u64));
             crate::scans::write_events(&dir.join(&file), &s.events, spec.resolution, spec.force)?;
             progress.inc();
@@ -427,8 +448,8 @@ mod tests {
             out: dir.path().to_path_buf(),
             force: false,
         };
-        let a = export(&spec("text:AB/CD", 1, 32.0), Role::Train, &()).unwrap();
-        let b = export(&spec("text:HI", 2, 48.0), Role::Test, &()).unwrap();
+        let a = export(&spec("text:AB/CD", 1, 32.0), None, Role::Train, &()).unwrap();
+        let b = export(&spec("text:HI", 2, 48.0), None, Role::Test, &()).unwrap();
         let names: Vec<String> = a.iter().chain(&b).map(|r| r.file.display().to_string()).collect();
         assert_eq!(names, ["00001.aedat4", "00002.aedat4", "00003.aedat4", "00004.aedat4"]);
         let manifest = std::fs::read_to_string(dir.path().join(MANIFEST)).unwrap();
@@ -449,6 +470,7 @@ mod tests {
         .unwrap();
         let c = export(
             &crate::scans::ScanSpec { out: lab.path().to_path_buf(), ..spec("text:HI", 1, 48.0) },
+            None,
             Role::Val,
             &(),
         )
