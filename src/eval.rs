@@ -201,6 +201,15 @@ pub struct WordsArgs {
     seed: u64,
     #[arg(long, value_enum, default_value = "sliding")]
     snn_runner: SnnRunner,
+    /// Read a lab's recordings folder instead of simulated scans (docs/recordings.md): its
+    /// `test` scans (or `--role`'s), one table per commanded speed and depth; the board, speed,
+    /// depth, trials, seed and builds options do not apply (`given` timing hands the reader the
+    /// commanded speed).
+    #[arg(long)]
+    recordings: Option<PathBuf>,
+    /// --recordings: which role's scans.
+    #[arg(long, value_enum, default_value = "test", requires = "recordings")]
+    role: corpus::recordings::Role,
     #[arg(long)]
     json: bool,
     #[command(flatten)]
@@ -212,6 +221,29 @@ fn words(args: WordsArgs) -> Result<()> {
     files.segmenter = args.segmenter.clone().unwrap_or(files.segmenter);
     files.classifier = args.classifier.clone().unwrap_or(files.classifier);
     let readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
+    if let Some(dir) = &args.recordings {
+        let rec = corpus::recordings::Recordings::open(dir)?;
+        let tables = experiments::eval::words::eval_recordings(
+            &rec,
+            args.role,
+            &readers,
+            &files,
+            args.timing,
+            args.spell,
+            &Bar::default(),
+        )?;
+        if tables.is_empty() {
+            anyhow::bail!("{}: no {} scans in the manifest", dir.display(), args.role.name());
+        }
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&tables)?);
+        } else {
+            for t in &tables {
+                print!("{t}");
+            }
+        }
+        return Ok(());
+    }
     let spec = WordsSpec {
         board: args.board.clone(),
         speed_mm_s: args.speed,

@@ -184,6 +184,42 @@ fn read_a_live_stream_as_replay_serves_it() {
     }
 }
 
+/// Simulated scans exported as a lab's recordings folder (numbered files, no truth) read by
+/// `eval words --recordings` give the table `eval words` gives for the same scans, word for word
+/// (the speed error differs by design: against the commanded speed, not the truth).
+#[test]
+fn a_recordings_folder_reads_as_the_simulated_path_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("scans");
+    let board = "text:HELLO WORLD/STOP HELP";
+    let common = ["--speed", "32", "--depth", "1.0", "--trials", "2", "--seed", "7", "--sensor-builds", "test"];
+    let mut args = vec!["simulate", "--board", board, "--out", rec.to_str().unwrap(), "--recordings", "test"];
+    args.extend(common);
+    let o = braille(&args);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert!(!rec.join("00001.truth.json").exists());
+    let o = braille(&["eval", "words", "--recordings", rec.to_str().unwrap(), "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let tables: Vec<serde_json::Value> = serde_json::from_str(&out).unwrap();
+    assert_eq!(tables.len(), 1, "one condition");
+    let mut args = vec!["eval", "words", "--board", board, "--json"];
+    args.extend(common);
+    let o = braille(&args);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let simulated: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let recorded = &tables[0];
+    assert_eq!(recorded["data"], "recorded scans");
+    assert_eq!(recorded["examples"], simulated["examples"]);
+    assert_eq!(recorded["examples"].as_array().unwrap().len(), 4);
+    for k in ["word_accuracy", "percent_correct", "wer", "cer", "lines", "speed_mm_s", "depth_mm"] {
+        assert_eq!(recorded[k], simulated[k], "{k}");
+    }
+    for (r, s) in recorded["by_spell"].as_array().unwrap().iter().zip(simulated["by_spell"].as_array().unwrap()) {
+        assert_eq!(r["counts"], s["counts"]);
+    }
+}
+
 #[test]
 fn eval_words_prints_the_papers_metrics() {
     let o = braille(&["eval", "words", "--arch", "snn", "--speed", "32", "--trials", "1", "--json"]);

@@ -122,7 +122,8 @@ pub fn truth_speed_at(truth: &sim::ScanTruth, t_s: f64) -> f64 {
     ((b.1 - a.1) / (b.0 - a.0)).abs()
 }
 
-/// One simulated scan, read.
+/// One scan (simulated or recorded), read.
+#[derive(Clone)]
 pub struct LineRead {
     /// The row's words as printed.
     pub truth: Vec<String>,
@@ -222,8 +223,23 @@ pub fn read_scans(
     Ok(lines)
 }
 
-/// Scores the lines of reader `k` (`lines[scan][k]`), an `arch` reader with `timing`.
-pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], spec: &WordsSpec) -> WordsScore {
+/// The scan condition a score is of: the (commanded) speed, its hand-held swing and the depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Condition {
+    pub speed_mm_s: f64,
+    pub speed_variation: f64,
+    pub depth_mm: f64,
+}
+
+impl WordsSpec {
+    pub fn condition(&self) -> Condition {
+        Condition { speed_mm_s: self.speed_mm_s, speed_variation: self.speed_variation, depth_mm: self.depth_mm }
+    }
+}
+
+/// Scores the lines of reader `k` (`lines[scan][k]`), an `arch` reader with `timing`, scans of
+/// `spec`'s condition.
+pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], spec: Condition) -> WordsScore {
     let spellers: Vec<Speller> = SPELLS.iter().map(|&s| Speller::new(s)).collect();
     let mut metrics = vec![WordMetrics::default(); SPELLS.len()];
     let (mut delays, mut examples) = (Vec::new(), Vec::new());
@@ -303,7 +319,9 @@ pub struct EvalWords {
     pub segmenter: PathBuf,
     pub classifier: PathBuf,
     pub operating_point: pipeline::reader::OperatingPoint,
-    pub sensor_builds: corpus::world::SensorBuilds,
+    /// The simulated world's builds (none for recorded scans).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_builds: Option<corpus::world::SensorBuilds>,
     pub spell: Spell,
     /// Unconditional, over every printed word: word accuracy `1 - WER` (inserted words count),
     /// percent correct (printed words read right; blind to insertions, as a fraction), and the word
@@ -335,7 +353,7 @@ pub fn eval_words(
     progress: &dyn Progress,
 ) -> Result<EvalWords> {
     let lines = read_scans(spec, &[readers], &[timing], progress)?;
-    let score = score(readers.classifier.arch(), timing, 0, &lines, spec);
+    let score = score(readers.classifier.arch(), timing, 0, &lines, spec.condition());
     let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
     Ok(EvalWords {
         data: "simulated (virtual Evetac)",
@@ -343,7 +361,7 @@ pub fn eval_words(
         segmenter: files.segmenter.clone(),
         classifier: files.classifier.clone(),
         operating_point: readers.operating_point().clone(),
-        sensor_builds: builds,
+        sensor_builds: Some(builds),
         spell,
         word_accuracy: m.word_accuracy,
         percent_correct: m.percent_correct,
@@ -363,17 +381,18 @@ impl std::fmt::Display for EvalWords {
         let (s, p) = (&self.score, &self.operating_point);
         writeln!(
             f,
-            "models: {} + {} (segmentation read above {}, characters from {} frames{}); {:?} sensor builds",
+            "models: {} + {} (segmentation read above {}, characters from {} frames{}){}",
             self.segmenter.display(),
             self.classifier.display(),
             p.present_threshold,
             p.min_frames,
             if p.calibration.is_none() { ", the paper's point" } else { ", calibrated" },
-            self.sensor_builds
+            self.sensor_builds.map_or(String::new(), |b| format!("; {b:?} sensor builds"))
         )?;
         writeln!(
             f,
-            "SIMULATED {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy (1 - WER) {:.3} over all printed words, percent correct {:.3}, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            "{} {} at {} mm/s{}, {} mm, {} lines, {} architecture, {} timing (speed error median {:+.1}%, mean absolute {:.1}% over {} characters), spelling {:?}: word accuracy (1 - WER) {:.3} over all printed words, percent correct {:.3}, WER {:.3}, CER {:.3}; the paper's conditional metrics: words per line {:.3}, letters per word {:.3}, correct words {:.3}, correct letters {:.3}; read {:.1} s of stream in {:.2} s",
+            if self.data.starts_with("simulated") { "SIMULATED" } else { "RECORDED" },
             self.board,
             s.speed_mm_s,
             if s.speed_variation > 0.0 {
@@ -401,4 +420,114 @@ impl std::fmt::Display for EvalWords {
             s.read_s
         )
     }
+}
+
+/// The scans of one role of a recordings folder, read by each of `readers` with each of
+/// `timings` as [`read_scans`] reads simulated ones (`[scan][timing * readers.len() + reader]`),
+/// with the manifest's line of each. The readers get the events only; with
+/// [`TimingMode::Given`] they are told the commanded speed (the manifest's label). The speed
+/// error is against the commanded speed (a recording has no truth of the speed under the sensor).
+pub fn read_recordings(
+    rec: &corpus::recordings::Recordings,
+    role: corpus::recordings::Role,
+    readers: &[&ReaderModels],
+    timings: &[TimingMode],
+    progress: &dyn Progress,
+) -> Result<Vec<(corpus::recordings::Recording, Vec<LineRead>)>> {
+    let scans: Vec<&corpus::recordings::Recording> = rec.role(role).collect();
+    progress.start("reading recorded scans", scans.len() as u64);
+    let speller = Speller::new(Spell::None);
+    let out = scans
+        .par_iter()
+        .map(|r| -> Result<(corpus::recordings::Recording, Vec<LineRead>)> {
+            let path = rec.path(r);
+            let (info, events) =
+                encoders::formats::read_all(&path, &encoders::OpenOptions::default()).map_err(corpus::Error::from)?;
+            let resolution = info.resolution.unwrap_or(encoders::Resolution::DVXPLORER);
+            let truth: Vec<String> = r.text.split_whitespace().map(str::to_uppercase).collect();
+            let stream_s = events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+            let mut lines = Vec::new();
+            for (&mode, reader) in timings.iter().flat_map(|m| readers.iter().map(move |x| (m, x))) {
+                let timing = match mode {
+                    TimingMode::Estimated => Timing::ESTIMATED,
+                    TimingMode::Paper => Timing::Paper,
+                    TimingMode::Given => Timing::Given { speed_mm_s: r.speed_mm_s },
+                };
+                let t = Instant::now();
+                let read = reader.read(&events, resolution, timing, &speller)?;
+                let speed_errors = read
+                    .words
+                    .iter()
+                    .flat_map(|w| &w.chars)
+                    .filter_map(|c| c.speed_mm_s.map(|v| v / r.speed_mm_s - 1.0))
+                    .collect();
+                lines.push(LineRead {
+                    speed_errors,
+                    truth: truth.clone(),
+                    words: read.words,
+                    stats: read.stats,
+                    stream_s,
+                    read_s: t.elapsed().as_secs_f64(),
+                    seg_ns: read.segmenter.stats.nanos,
+                    cls_ns: read.classifier.stats.nanos,
+                    synops: read.segmenter.stats.synops + read.classifier.stats.synops,
+                });
+            }
+            progress.inc();
+            Ok(((*r).clone(), lines))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    progress.finish();
+    Ok(out)
+}
+
+/// A reader's words on a recordings folder's scans of one role, one table per condition (the
+/// commanded speed and depth, in order), as [`eval_words`] scores simulated scans.
+pub fn eval_recordings(
+    rec: &corpus::recordings::Recordings,
+    role: corpus::recordings::Role,
+    readers: &ReaderModels,
+    files: &pipeline::shipped::ReaderFiles,
+    timing: TimingMode,
+    spell: Spell,
+    progress: &dyn Progress,
+) -> Result<Vec<EvalWords>> {
+    let read = read_recordings(rec, role, &[readers], &[timing], progress)?;
+    let mut conditions: Vec<(f64, f64)> = Vec::new();
+    for (r, _) in &read {
+        if !conditions.contains(&(r.speed_mm_s, r.depth_mm)) {
+            conditions.push((r.speed_mm_s, r.depth_mm));
+        }
+    }
+    conditions.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut out = Vec::new();
+    for (speed_mm_s, depth_mm) in conditions {
+        let lines: Vec<Vec<LineRead>> = read
+            .iter()
+            .filter(|(r, _)| r.speed_mm_s == speed_mm_s && r.depth_mm == depth_mm)
+            .map(|(_, l)| l.clone())
+            .collect();
+        let condition = Condition { speed_mm_s, speed_variation: 0.0, depth_mm };
+        let score = score(readers.classifier.arch(), timing, 0, &lines, condition);
+        let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
+        out.push(EvalWords {
+            data: "recorded scans",
+            board: format!("{} ({} scans)", rec.dir.display(), role.name()),
+            segmenter: files.segmenter.clone(),
+            classifier: files.classifier.clone(),
+            operating_point: readers.operating_point().clone(),
+            sensor_builds: None,
+            spell,
+            word_accuracy: m.word_accuracy,
+            percent_correct: m.percent_correct,
+            word_error_rate: m.word_error_rate,
+            char_error_rate: m.char_error_rate,
+            words_per_line: m.words_per_line,
+            letters_per_word: m.letters_per_word,
+            correct_words: m.correct_words,
+            correct_letters: m.correct_letters,
+            score,
+        });
+    }
+    Ok(out)
 }

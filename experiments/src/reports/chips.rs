@@ -215,7 +215,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         .collect::<Result<Vec<_>>>()?;
     let lines = read_scans(&words, &readers.iter().collect::<Vec<_>>(), &[TimingMode::Estimated], progress)?;
     let acc = |k: usize, spell: Spell| {
-        let s = score(Arch::Snn, TimingMode::Estimated, k, &lines, &words);
+        let s = score(Arch::Snn, TimingMode::Estimated, k, &lines, words.condition());
         s.by_spell.iter().find(|b| b.spell == spell).map_or(0.0, |b| b.word_accuracy)
     };
     for spell in [Spell::Lexicon, Spell::None] {

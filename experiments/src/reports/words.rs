@@ -96,7 +96,7 @@ pub fn words_report(models: &Path, spec: &WordsReportSpec, progress: &dyn Progre
         let lines = read_scans(&ws, &refs, &spec.timings, progress)?;
         for (t, &timing) in spec.timings.iter().enumerate() {
             for (a, &arch) in archs.iter().enumerate() {
-                scores.push(score(arch, timing, t * archs.len() + a, &lines, &ws));
+                scores.push(score(arch, timing, t * archs.len() + a, &lines, ws.condition()));
             }
         }
     }
@@ -119,7 +119,7 @@ pub fn words_report(models: &Path, spec: &WordsReportSpec, progress: &dyn Progre
             };
             let lines = read_scans(&ws, &refs, &[TimingMode::Estimated], progress)?;
             for (a, &arch) in archs.iter().enumerate() {
-                unseen.push(score(arch, TimingMode::Estimated, a, &lines, &ws));
+                unseen.push(score(arch, TimingMode::Estimated, a, &lines, ws.condition()));
             }
         }
     }
