@@ -155,6 +155,53 @@ pub struct WordsSpec {
     pub world: corpus::world::World,
 }
 
+/// One scan's events read by each of `readers` with each of `timings` (`[timing * readers.len()
+/// + reader]`); `speed_mm_s` is what [`TimingMode::Given`] tells the reader, and each
+/// character's speed error is against `true_speed` at the middle of its segment (s of stream).
+fn read_lines(
+    readers: &[&ReaderModels],
+    timings: &[TimingMode],
+    events: &[encoders::Event],
+    resolution: encoders::Resolution,
+    speed_mm_s: f64,
+    truth: &[String],
+    true_speed: &dyn Fn(f64) -> f64,
+) -> Result<Vec<LineRead>> {
+    let speller = Speller::new(Spell::None);
+    let stream_s = events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+    let mut out = Vec::new();
+    for (&mode, r) in timings.iter().flat_map(|m| readers.iter().map(move |r| (m, r))) {
+        let timing = match mode {
+            TimingMode::Estimated => Timing::ESTIMATED,
+            TimingMode::Paper => Timing::Paper,
+            TimingMode::Given => Timing::Given { speed_mm_s },
+        };
+        let t = Instant::now();
+        let read = r.read(events, resolution, timing, &speller)?;
+        let speed_errors = read
+            .words
+            .iter()
+            .flat_map(|w| &w.chars)
+            .filter_map(|c| {
+                let t_s = 0.5 * (c.t_start_us + c.t_end_us) as f64 / 1e6;
+                c.speed_mm_s.map(|v| v / true_speed(t_s) - 1.0)
+            })
+            .collect();
+        out.push(LineRead {
+            speed_errors,
+            truth: truth.to_vec(),
+            words: read.words,
+            stats: read.stats,
+            stream_s,
+            read_s: t.elapsed().as_secs_f64(),
+            seg_ns: read.segmenter.stats.nanos,
+            cls_ns: read.classifier.stats.nanos,
+            synops: read.segmenter.stats.synops + read.classifier.stats.synops,
+        });
+    }
+    Ok(out)
+}
+
 /// The scans of every row of the board, `trials` each, read by each of `readers` with each of
 /// `timings` (each scan simulated once for all; the models are shared by the threads);
 /// `[scan][timing * readers.len() + reader]`. The readers get the events only; with
@@ -171,7 +218,6 @@ pub fn read_scans(
     let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let jobs: Vec<(usize, u64)> = (0..b.rows.len()).flat_map(|r| (0..spec.trials).map(move |t| (r, t))).collect();
     progress.start("reading simulated scans", jobs.len() as u64);
-    let speller = Speller::new(Spell::None);
     let lines: Vec<Vec<LineRead>> = jobs
         .par_iter()
         .map(|&(row, trial)| -> Result<Vec<LineRead>> {
@@ -184,37 +230,9 @@ pub fn read_scans(
             let s = sim::simulate(&b, sensor, &scan)?;
 
             let truth: Vec<String> = s.truth.row_text.split_whitespace().map(str::to_string).collect();
-            let stream_s = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
-            let mut out = Vec::new();
-            for (&mode, r) in timings.iter().flat_map(|m| readers.iter().map(move |r| (m, r))) {
-                let timing = match mode {
-                    TimingMode::Estimated => Timing::ESTIMATED,
-                    TimingMode::Paper => Timing::Paper,
-                    TimingMode::Given => Timing::Given { speed_mm_s },
-                };
-                let t = Instant::now();
-                let read = r.read(&s.events, sensor.camera.resolution, timing, &speller)?;
-                let speed_errors = read
-                    .words
-                    .iter()
-                    .flat_map(|w| &w.chars)
-                    .filter_map(|c| {
-                        let t_s = 0.5 * (c.t_start_us + c.t_end_us) as f64 / 1e6;
-                        c.speed_mm_s.map(|v| v / truth_speed_at(&s.truth, t_s) - 1.0)
-                    })
-                    .collect();
-                out.push(LineRead {
-                    speed_errors,
-                    truth: truth.clone(),
-                    words: read.words,
-                    stats: read.stats,
-                    stream_s,
-                    read_s: t.elapsed().as_secs_f64(),
-                    seg_ns: read.segmenter.stats.nanos,
-                    cls_ns: read.classifier.stats.nanos,
-                    synops: read.segmenter.stats.synops + read.classifier.stats.synops,
-                });
-            }
+            let true_speed = |t_s: f64| truth_speed_at(&s.truth, t_s);
+            let resolution = sensor.camera.resolution;
+            let out = read_lines(readers, timings, &s.events, resolution, speed_mm_s, &truth, &true_speed)?;
             progress.inc();
             Ok(out)
         })
@@ -436,7 +454,6 @@ pub fn read_recordings(
 ) -> Result<Vec<(corpus::recordings::Recording, Vec<LineRead>)>> {
     let scans: Vec<&corpus::recordings::Recording> = rec.role(role).collect();
     progress.start("reading recorded scans", scans.len() as u64);
-    let speller = Speller::new(Spell::None);
     let out = scans
         .par_iter()
         .map(|r| -> Result<(corpus::recordings::Recording, Vec<LineRead>)> {
@@ -445,34 +462,9 @@ pub fn read_recordings(
                 encoders::formats::read_all(&path, &encoders::OpenOptions::default()).map_err(corpus::Error::from)?;
             let resolution = info.resolution.unwrap_or(encoders::Resolution::DVXPLORER);
             let truth: Vec<String> = r.text.split_whitespace().map(str::to_uppercase).collect();
-            let stream_s = events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
-            let mut lines = Vec::new();
-            for (&mode, reader) in timings.iter().flat_map(|m| readers.iter().map(move |x| (m, x))) {
-                let timing = match mode {
-                    TimingMode::Estimated => Timing::ESTIMATED,
-                    TimingMode::Paper => Timing::Paper,
-                    TimingMode::Given => Timing::Given { speed_mm_s: r.speed_mm_s },
-                };
-                let t = Instant::now();
-                let read = reader.read(&events, resolution, timing, &speller)?;
-                let speed_errors = read
-                    .words
-                    .iter()
-                    .flat_map(|w| &w.chars)
-                    .filter_map(|c| c.speed_mm_s.map(|v| v / r.speed_mm_s - 1.0))
-                    .collect();
-                lines.push(LineRead {
-                    speed_errors,
-                    truth: truth.clone(),
-                    words: read.words,
-                    stats: read.stats,
-                    stream_s,
-                    read_s: t.elapsed().as_secs_f64(),
-                    seg_ns: read.segmenter.stats.nanos,
-                    cls_ns: read.classifier.stats.nanos,
-                    synops: read.segmenter.stats.synops + read.classifier.stats.synops,
-                });
-            }
+            // against the commanded speed: a recording has no truth of the speed under the sensor
+            let commanded = |_: f64| r.speed_mm_s;
+            let lines = read_lines(readers, timings, &events, resolution, r.speed_mm_s, &truth, &commanded)?;
             progress.inc();
             Ok(((*r).clone(), lines))
         })
