@@ -173,3 +173,22 @@ impl LiveArgs {
         }
     }
 }
+
+/// AEDAT4 packet compression on the command line.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum CompressionArg {
+    None,
+    Lz4,
+    Zstd,
+}
+
+impl CompressionArg {
+    pub fn compression(self) -> encoders::formats::aedat4::Compression {
+        use encoders::formats::aedat4::Compression;
+        match self {
+            CompressionArg::None => Compression::None,
+            CompressionArg::Lz4 => Compression::Lz4,
+            CompressionArg::Zstd => Compression::Zstd,
+        }
+    }
+}

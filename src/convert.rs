@@ -1,15 +1,8 @@
 use anyhow::{Context, Result};
-use encoders::formats::aedat4::{self, Compression, EncoderOptions};
+use encoders::formats::aedat4::{self, EncoderOptions};
 use encoders::formats::{self, AtomicFile, EventSink, OpenOptions};
 use encoders::{Format, Resolution};
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum CompressionArg {
-    None,
-    Lz4,
-    Zstd,
-}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -32,7 +25,7 @@ pub struct Args {
     stream: Option<u32>,
     /// AEDAT4 output: packet compression.
     #[arg(long, value_enum, default_value = "lz4")]
-    compression: CompressionArg,
+    compression: crate::common::CompressionArg,
     /// AEDAT4 output: events per packet.
     #[arg(long, default_value_t = 8192)]
     packet_events: usize,
@@ -45,11 +38,7 @@ pub fn run(args: Args) -> Result<()> {
     let format = Format::for_output(&args.output)?;
     let mut sink: Box<dyn EventSink> = match format {
         Format::Aedat4 => {
-            let compression = match args.compression {
-                CompressionArg::None => Compression::None,
-                CompressionArg::Lz4 => Compression::Lz4,
-                CompressionArg::Zstd => Compression::Zstd,
-            };
+            let compression = args.compression.compression();
             let file = AtomicFile::create(&args.output, args.force)?;
             let opts =
                 EncoderOptions { compression, packet_events: args.packet_events, source: "braille convert".into() };

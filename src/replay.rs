@@ -4,17 +4,9 @@
 
 use anyhow::{Context, Result};
 use encoders::Resolution;
-use encoders::formats::aedat4::Compression;
 use encoders::formats::net::{ReplayOptions, serve};
 use encoders::formats::{self, OpenOptions};
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum CompressionArg {
-    None,
-    Lz4,
-    Zstd,
-}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -46,7 +38,7 @@ pub struct Args {
     packet_ms: f64,
     /// Packet compression.
     #[arg(long, value_enum, default_value = "none")]
-    compression: CompressionArg,
+    compression: crate::common::CompressionArg,
     /// Seconds to keep the connection open after the last packet, until the client closes it:
     /// dv-processing's NetworkReader drops the packets it has not handed out when the sender
     /// closes first. 0 closes at once (what `braille read` takes as the end of the stream).
@@ -70,11 +62,7 @@ pub fn run(args: Args) -> Result<()> {
     let options = ReplayOptions {
         pace: args.pace,
         packet_us: (args.packet_ms * 1e3).round() as i64,
-        compression: match args.compression {
-            CompressionArg::None => Compression::None,
-            CompressionArg::Lz4 => Compression::Lz4,
-            CompressionArg::Zstd => Compression::Zstd,
-        },
+        compression: args.compression.compression(),
         linger: std::time::Duration::from_secs_f64(args.linger_s.max(0.0)),
     };
     let what = match (&args.file, &args.board) {

@@ -372,25 +372,40 @@ pub fn eval_words(
 ) -> Result<EvalWords> {
     let lines = read_scans(spec, &[readers], &[timing], progress)?;
     let score = score(readers.classifier.arch(), timing, 0, &lines, spec.condition());
-    let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
-    Ok(EvalWords {
-        data: "simulated (virtual Evetac)",
-        board: spec.board.name(),
-        segmenter: files.segmenter.clone(),
-        classifier: files.classifier.clone(),
-        operating_point: readers.operating_point().clone(),
-        sensor_builds: Some(builds),
-        spell,
-        word_accuracy: m.word_accuracy,
-        percent_correct: m.percent_correct,
-        word_error_rate: m.word_error_rate,
-        char_error_rate: m.char_error_rate,
-        words_per_line: m.words_per_line,
-        letters_per_word: m.letters_per_word,
-        correct_words: m.correct_words,
-        correct_letters: m.correct_letters,
-        score,
-    })
+    Ok(EvalWords::of("simulated (virtual Evetac)", spec.board.name(), files, readers, Some(builds), spell, score))
+}
+
+impl EvalWords {
+    /// The table of `score` with `spell`'s metrics in front, read by `readers` (from `files`).
+    fn of(
+        data: &'static str,
+        board: String,
+        files: &pipeline::shipped::ReaderFiles,
+        readers: &ReaderModels,
+        sensor_builds: Option<corpus::world::SensorBuilds>,
+        spell: Spell,
+        score: WordsScore,
+    ) -> EvalWords {
+        let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
+        EvalWords {
+            data,
+            board,
+            segmenter: files.segmenter.clone(),
+            classifier: files.classifier.clone(),
+            operating_point: readers.operating_point().clone(),
+            sensor_builds,
+            spell,
+            word_accuracy: m.word_accuracy,
+            percent_correct: m.percent_correct,
+            word_error_rate: m.word_error_rate,
+            char_error_rate: m.char_error_rate,
+            words_per_line: m.words_per_line,
+            letters_per_word: m.letters_per_word,
+            correct_words: m.correct_words,
+            correct_letters: m.correct_letters,
+            score,
+        }
+    }
 }
 
 /// The lines `braille eval words` prints.
@@ -501,25 +516,8 @@ pub fn eval_recordings(
             .collect();
         let condition = Condition { speed_mm_s, speed_variation: 0.0, depth_mm };
         let score = score(readers.classifier.arch(), timing, 0, &lines, condition);
-        let m = score.by_spell.iter().find(|b| b.spell == spell).expect("every spelling is scored").clone();
-        out.push(EvalWords {
-            data: "recorded scans",
-            board: format!("{} ({} scans)", rec.dir.display(), role.name()),
-            segmenter: files.segmenter.clone(),
-            classifier: files.classifier.clone(),
-            operating_point: readers.operating_point().clone(),
-            sensor_builds: None,
-            spell,
-            word_accuracy: m.word_accuracy,
-            percent_correct: m.percent_correct,
-            word_error_rate: m.word_error_rate,
-            char_error_rate: m.char_error_rate,
-            words_per_line: m.words_per_line,
-            letters_per_word: m.letters_per_word,
-            correct_words: m.correct_words,
-            correct_letters: m.correct_letters,
-            score,
-        });
+        let board = format!("{} ({} scans)", rec.dir.display(), role.name());
+        out.push(EvalWords::of("recorded scans", board, files, readers, None, spell, score));
     }
     Ok(out)
 }
