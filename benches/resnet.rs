@@ -49,7 +49,11 @@ fn training(c: &mut Criterion) {
     group.sample_size(10);
     group.throughput(Throughput::Elements(train.len() as u64));
     group.bench_function("lite_training_64_windows_batch32", |b| {
-        b.iter(|| black_box(learn::resnet::train(&cfg, &train, &val, &tc, &identity, &mut Silent).1.len()))
+        b.iter(|| {
+            black_box(
+                learn::resnet::train(&cfg, &train, &val, &tc, &identity, None, &mut Silent).expect("trains").1.len(),
+            )
+        })
     });
     group.finish();
 }

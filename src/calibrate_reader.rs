@@ -47,6 +47,11 @@ pub struct Args {
     /// in the segmentation network's model file.
     #[arg(long, conflicts_with = "write")]
     apply: Option<PathBuf>,
+    /// Choose on a lab's recordings folder (docs/recordings.md) instead of the simulated
+    /// validation words: its `val` scans, grouped by commanded speed; `--trials` and `--speeds`
+    /// do not apply.
+    #[arg(long)]
+    recordings: Option<PathBuf>,
     #[command(flatten)]
     realism: crate::common::RealismArg,
 }
@@ -69,7 +74,18 @@ pub fn run(args: Args) -> Result<()> {
     };
     let name =
         |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let r = calibrate(&models, &name(&s_path), &name(&c_path), &spec, &Bar::default())?;
+    let r = match &args.recordings {
+        Some(dir) => experiments::eval::calibrate::calibrate_recordings(
+            &models,
+            &name(&s_path),
+            &name(&c_path),
+            &corpus::recordings::Recordings::open(dir)?,
+            &args.thresholds,
+            &args.min_frames,
+            &Bar::default(),
+        )?,
+        None => calibrate(&models, &name(&s_path), &name(&c_path), &spec, &Bar::default())?,
+    };
     let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir());
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = out.join(format!("operating_point_{}", args.arch));

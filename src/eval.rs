@@ -128,6 +128,20 @@ pub struct CharsArgs {
     seed: u64,
     #[arg(long)]
     json: bool,
+    /// The sensor mount's compliance (um per N) in place of the preset's: 0 for a rigid mount
+    /// (no stick-slip), 10 is `nominal`'s, 33 `harsh`'s. The same scans with another mount, to
+    /// measure what stick-slip costs (docs/simulator.md).
+    #[arg(long)]
+    mount_compliance_um_per_n: Option<f64>,
+    /// Score on a lab's recordings folder instead of simulated scans (docs/recordings.md): its
+    /// `test` scans (or `--role`'s), each labelled by the paper's pipeline from the manifest's
+    /// text and commanded speed, one score per commanded speed and depth; the board, speed,
+    /// depth, trials, seed and builds options do not apply.
+    #[arg(long)]
+    recordings: Option<PathBuf>,
+    /// --recordings: which role's scans.
+    #[arg(long, value_enum, default_value = "test", requires = "recordings")]
+    role: corpus::recordings::Role,
     #[command(flatten)]
     realism: crate::common::RealismArg,
 }
@@ -137,6 +151,19 @@ fn chars(args: CharsArgs) -> Result<()> {
         Some(p) => p.clone(),
         None => pipeline::shipped::chars_in(&args.realism.models_dir(), args.arch),
     };
+    if let Some(dir) = &args.recordings {
+        let rec = corpus::recordings::Recordings::open(dir)?;
+        let scores = experiments::eval::chars::eval_recordings(&path, &rec, args.role, &Bar::default())?;
+        if scores.is_empty() {
+            anyhow::bail!("{}: no {} scans in the manifest", dir.display(), args.role.name());
+        }
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&scores)?);
+        } else {
+            scores.iter().for_each(|s| print!("{s}"));
+        }
+        return Ok(());
+    }
     let spec = CharSetSpec {
         boards: vec![args.board.clone()],
         speed_mm_s: args.speed,
@@ -145,8 +172,9 @@ fn chars(args: CharsArgs) -> Result<()> {
         seed: args.seed,
         task: Task::Chars,
         jitter_ms: 0.0,
-        world: args.realism.world(args.sensor_builds),
+        world: args.realism.world(args.sensor_builds).with_mount(args.mount_compliance_um_per_n),
         blank_cells: false,
+        sweep: None,
     };
     let r = experiments::eval::chars::eval(&path, &spec, &Bar::default())?;
     if args.json {
@@ -170,7 +198,8 @@ pub struct WordsArgs {
     /// `resnet-lite-normaug-words`, in the realism's models folder].
     #[arg(long)]
     classifier: Option<PathBuf>,
-    /// Board: SAB, UN, RAB, VAL (validation), VAL-WORDS (validation words), EV, or text:"ANY WORDS"
+    /// Board: SAB, UN, RAB, VAL (validation), VAL-WORDS, VAL-LETTERS (validation words and letters),
+    /// EV, ALL-LETTERS (every letter at every place), or text:"ANY WORDS"
     /// (`/` starts a new row; long rows wrap).
     #[arg(long, default_value = "EV", value_parser = corpus::boards::parse_board)]
     board: BoardKind,
@@ -212,6 +241,11 @@ pub struct WordsArgs {
     role: corpus::recordings::Role,
     #[arg(long)]
     json: bool,
+    /// The sensor mount's compliance (um per N) in place of the preset's: 0 for a rigid mount
+    /// (no stick-slip), 10 is `nominal`'s, 33 `harsh`'s. The same scans with another mount, to
+    /// measure what stick-slip costs (docs/simulator.md).
+    #[arg(long)]
+    mount_compliance_um_per_n: Option<f64>,
     #[command(flatten)]
     realism: crate::common::RealismArg,
 }
@@ -251,7 +285,7 @@ fn words(args: WordsArgs) -> Result<()> {
         depth_mm: args.depth,
         trials: args.trials,
         seed: args.seed,
-        world: args.realism.world(args.sensor_builds),
+        world: args.realism.world(args.sensor_builds).with_mount(args.mount_compliance_um_per_n),
     };
     let r = experiments::eval::words::eval_words(
         &spec,

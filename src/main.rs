@@ -15,6 +15,7 @@ mod eval;
 mod icub_report;
 mod info;
 mod label_check;
+mod letters_report;
 mod nir_cli;
 mod plot;
 mod read;
@@ -95,6 +96,10 @@ enum Command {
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
     /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
     WordsReport(words_report::Args),
+    /// Every letter at every place in a row: both architectures on SIMULATED scans of the
+    /// all-letters board (ALL-LETTERS, or VAL-LETTERS for choices) over speed and depth, per-letter
+    /// accuracy, confusions, accuracy by place in the row (Markdown, JSON).
+    LettersReport(letters_report::Args),
     /// Choose a segmentation network's operating point (threshold, shortest segment) on the
     /// SIMULATED validation words, never a test board; `--write` records it in the model file.
     CalibrateReader(calibrate_reader::Args),
@@ -145,6 +150,7 @@ fn main() -> ExitCode {
         Command::Recordings(a) => recordings::run(a),
         Command::Report(a) => report::run(a),
         Command::WordsReport(a) => words_report::run(a),
+        Command::LettersReport(a) => letters_report::run(a),
         Command::CalibrateReader(a) => calibrate_reader::run(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),

@@ -9,8 +9,9 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Board: SAB, UN, RAB, VAL (validation), EV, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
-    #[arg(long, default_value = "EV")]
+    /// Board: SAB, UN, RAB, VAL (validation), EV, VAL-WORDS, VAL-LETTERS (validation words and
+    /// letters), ALL-LETTERS, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
+    #[arg(long, default_value = "EV", value_parser = corpus::boards::parse_board)]
     pub board: BoardKind,
     /// Sliding speed (the paper: 8-32 mm/s).
     #[arg(long, default_value_t = 8.0)]
@@ -41,11 +42,12 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Direction::Forward)]
     pub direction: Direction,
     /// Stick-slip of the gel on the board's face, seen through a mount of this compliance (um per
-    /// N; 33 is `harsh`'s mount, 0 a rigid one), the rest of the mount as `sim::StickSlip::LIGHT_MOUNT`
-    /// [default: the preset's: none at `clean` and `nominal`].
+    /// N; 33 is `harsh`'s mount, 10 `nominal`'s, 0 a rigid one), the rest of the mount as
+    /// `sim::StickSlip::LIGHT_MOUNT` [default: the preset's: none at `clean`].
     #[arg(long)]
     pub mount_compliance_um_per_n: Option<f64>,
-    /// Sensor resolution; the field of view stays 18.6 mm wide.
+    /// Sensor resolution; the field of view stays the build's width (18.6 mm by design, drawn
+    /// per build beyond `clean`).
     #[arg(long, default_value = "640x480")]
     pub resolution: Resolution,
     /// An event file (.aedat4, .csv, .npy) for one scan, or a folder for several.

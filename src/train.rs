@@ -98,6 +98,30 @@ pub struct Args {
     /// added to the training boards (0: the paper's protocol, SAB and UN only).
     #[arg(long)]
     words: Option<usize>,
+    /// Without --data: rows of training words that hold every letter at every place in a row
+    /// (the row's start, a later word's start, inside a word, a word's end) this many times,
+    /// added to the training boards (0: none).
+    #[arg(long)]
+    letter_rows: Option<usize>,
+    /// Without --data: training scans spread over these speeds (mm/s), one pairing with
+    /// `--train-depths` per trial (trial k at speed k mod S, depth (k / S) mod D) [the recipe's;
+    /// the paper's: 8].
+    #[arg(long, value_delimiter = ',')]
+    train_speeds: Option<Vec<f64>>,
+    /// Without --data: training scans spread over these depths (mm) [the recipe's; the paper's:
+    /// 1.5].
+    #[arg(long, value_delimiter = ',')]
+    train_depths: Option<Vec<f64>>,
+    /// Train either architecture on a lab's recordings folder (docs/recordings.md) instead of
+    /// simulated scans: its `train` scans cut into windows by the paper's labeling pipeline (the
+    /// character count from each line's `text`, durations from its `speed_mm_s`), its `val` scans
+    /// to choose checkpoints. The recipe's scans, seed of scans and word rows do not apply.
+    #[arg(long, conflicts_with = "data")]
+    recordings: Option<PathBuf>,
+    /// Start from this trained model's weights (fine-tuning; its network, input and classes must
+    /// be the recipe's), e.g. a shipped model fine-tuned on a lab's recordings.
+    #[arg(long)]
+    init: Option<PathBuf>,
     /// Simulated windows: sum-pooling of the 64x80 crop [default: the recipe's (2) for the SNN, 1
     /// for the ResNet].
     #[arg(long)]
@@ -235,7 +259,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     macro_rules! set {
         ($($field:ident <- $flag:expr),* $(,)?) => { $( if let Some(v) = $flag.clone() { r.$field = v; } )* };
     }
-    set!(task <- a.task, jitter_ms <- a.jitter_ms, blank_cells <- a.blank_cells, realism <- a.realism, trials <- a.trials, word_rows <- a.words, pool <- a.pool,
+    set!(task <- a.task, jitter_ms <- a.jitter_ms, blank_cells <- a.blank_cells, realism <- a.realism, trials <- a.trials, word_rows <- a.words, letter_rows <- a.letter_rows, train_speeds_mm_s <- a.train_speeds, train_depths_mm <- a.train_depths, pool <- a.pool,
         center <- a.center, period_us <- a.period_us, sigma_delta <- a.sigma_delta, dt_us <- a.dt_us,
         hidden <- a.hidden, neuron <- a.neuron, tau_mem_us <- a.tau_mem_us, tau_syn_us <- a.tau_syn_us,
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
@@ -286,6 +310,9 @@ pub fn run(args: Args) -> Result<()> {
     if out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }
+    if args.init.is_some() && args.data.is_some() {
+        bail!("--init fine-tunes a model on simulated windows or a recordings folder; --data trains from scratch");
+    }
     let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
     let mut epochs = Epochs::new(args.quiet);
     let bar = Bar::default();
@@ -304,10 +331,14 @@ pub fn run(args: Args) -> Result<()> {
                 pool: args.pool.unwrap_or(1),
                 trials: r.trials,
                 word_rows: r.word_rows,
+                letter_rows: r.letter_rows,
+                sweep: experiments::train::recipe::sweep(&r.train_speeds_mm_s, &r.train_depths_mm),
                 realism: r.realism,
                 train: r.train_config(),
             };
-            let m = experiments::train::resnet::train_resnet(&t, &mut epochs, &bar)?;
+            let rec = args.recordings.as_deref().map(corpus::recordings::Recordings::open).transpose()?;
+            let m =
+                experiments::train::resnet::train_resnet(&t, rec.as_ref(), args.init.as_deref(), &mut epochs, &bar)?;
             eprint!("{m}");
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
@@ -319,7 +350,10 @@ pub fn run(args: Args) -> Result<()> {
             eprintln!("wrote {}", out.display());
             return Ok(());
         }
-        (Arch::Snn, None) => experiments::train::fit::train_windows(&r, &mut epochs, &bar)?,
+        (Arch::Snn, None) => {
+            let rec = args.recordings.as_deref().map(corpus::recordings::Recordings::open).transpose()?;
+            experiments::train::fit::train_windows(&r, rec.as_ref(), args.init.as_deref(), &mut epochs, &bar)?
+        }
         (Arch::Snn, Some(_)) => {
             let dataset = dataset.as_ref().expect("loaded above for the SNN");
             if args.recipe.is_none()

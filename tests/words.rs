@@ -218,6 +218,24 @@ fn a_recordings_folder_reads_as_the_simulated_path_does() {
     for (r, s) in recorded["by_spell"].as_array().unwrap().iter().zip(simulated["by_spell"].as_array().unwrap()) {
         assert_eq!(r["counts"], s["counts"]);
     }
+    // the character classifier on the same scans' windows, cut by the labeler from the manifest's
+    // text and commanded speed as from the simulator's row and speed: the same windows and score
+    let words_snn = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/nominal/snn-words.safetensors");
+    let model = words_snn.to_str().unwrap();
+    let o = braille(&["eval", "chars", "--model", model, "--recordings", rec.to_str().unwrap(), "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let scores: Vec<serde_json::Value> = serde_json::from_str(&out).unwrap();
+    let mut args = vec!["eval", "chars", "--model", model, "--board", board, "--json"];
+    args.extend(common);
+    let o = braille(&args);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let simulated: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((scores.len(), scores[0]["data"].as_str()), (1, Some("recorded scans")));
+    for k in ["printed", "scans", "skipped_scans", "n", "accuracy", "accuracy_all", "confusion"] {
+        assert_eq!(scores[0][k], simulated[k], "{k}");
+    }
+    assert_eq!(simulated["printed"], 2 * (10 + 8));
 }
 
 #[test]
@@ -254,6 +272,22 @@ fn eval_words_prints_the_papers_metrics() {
         (ex[0][0].as_str(), ex[1][0].as_str()),
         (Some("RIGHT LEFT EXIT OPEN"), Some("PUSH PULL STOP HELP WATER"))
     );
+    // every printed letter scored by letter and place, every word by place, by hand: P is in OPEN,
+    // PUSH, PULL, STOP and HELP; 38 letters, 2 at a row's start, 7 at a later word's start, 9 at
+    // a word's end; 2 first words, 2 last, 5 between
+    let l = &c["letter_scores"];
+    let printed = |t: &serde_json::Value| t["printed"].as_u64().unwrap();
+    assert_eq!(printed(&l["by_letter"][(b'P' - b'A') as usize]), 5);
+    assert_eq!(printed(&l["by_letter"][(b'Q' - b'A') as usize]), 0);
+    let places: Vec<u64> = l["by_place"].as_array().unwrap().iter().map(printed).collect();
+    assert_eq!(places, [2, 7, 20, 9]);
+    let right: u64 = l["by_letter"].as_array().unwrap().iter().map(|t| t["right"].as_u64().unwrap()).sum();
+    let diagonal: u64 = (0..26).map(|k| l["confusion"][k][k].as_u64().unwrap()).sum();
+    assert_eq!(right, diagonal);
+    let wp = &c["word_places"];
+    assert_eq!((printed(&wp["first"]), printed(&wp["middle"]), printed(&wp["last"])), (2, 5, 2));
+    let hits = |t: &serde_json::Value| t["right"].as_u64().unwrap() as f64;
+    assert_eq!(hits(&wp["first"]) + hits(&wp["middle"]) + hits(&wp["last"]), n(&w["hits"]));
     // the speed each character was read at, against the truth under the sensor
     let e = &v["speed_error"];
     assert!(e["chars"].as_u64() > Some(3) && e["mean_abs"].as_f64() < Some(0.2), "{e}");
@@ -262,6 +296,7 @@ fn eval_words_prints_the_papers_metrics() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(out.contains("SIMULATED TEXT") || out.contains("SIMULATED text"), "{out}");
+    assert!(out.contains("letters: ") && out.contains("by place: row start"), "{out}");
     let o = braille(&["eval", "words", "--board", "XYZ", "--trials", "1"]);
     assert!(!o.status.success() && text(&o).1.contains("XYZ"));
 }
@@ -293,7 +328,7 @@ fn eval_words_reads_the_validation_words_with_either_architectures_networks() {
     assert!(o.status.success(), "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["lines"], 4, "{out}");
-    assert!(v["board"].as_str().unwrap().starts_with("text:"), "{}", v["board"]);
+    assert_eq!(v["board"], "VAL-WORDS");
     assert!(v["word_accuracy"].as_f64().unwrap() > 0.5, "{}", v["word_accuracy"]);
     assert_eq!(v["segmenter"], seg);
     assert_eq!(v["classifier"], cls);
@@ -339,6 +374,39 @@ fn words_report_writes_the_speed_table() {
 }
 
 #[test]
+fn letters_report_reads_the_all_letters_board() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = ["letters-report", "--archs", "snn", "--speeds", "64", "--depths", "1.5", "--trials", "1"];
+    let mut args = common.to_vec();
+    let out = dir.path().to_str().unwrap();
+    args.extend(["--focus-speed", "64", "--focus-depth", "1.5", "--focus-trials", "1", "--rows", "2", "--out", out]);
+    let o = braille(&args);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(stdout.contains("every letter at least 97%"), "{stdout}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("letters.json")).unwrap()).unwrap();
+    assert_eq!(v["board"], "ALL-LETTERS");
+    assert_eq!(v["board_rows"], 78);
+    // the board's first two rows, A and B first
+    let rows: Vec<&str> = v["rows"].as_array().unwrap().iter().map(|r| r.as_str().unwrap()).collect();
+    assert_eq!(rows.len(), 2);
+    assert!(rows[0].starts_with('A') && rows[1].starts_with('B'), "{rows:?}");
+    assert_eq!(v["scores"].as_array().unwrap().len(), 1);
+    let md = std::fs::read_to_string(dir.path().join("letters.md")).unwrap();
+    assert!(md.contains("SIMULATED") && md.contains("first 2 rows of 78") && md.contains("| Z |"), "{md}");
+    // the validation board writes its own files
+    let mut args = common.to_vec();
+    args.extend(["--focus-trials", "1", "--rows", "1", "--validation", "--out", out]);
+    let o = braille(&args);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("val_letters.json")).unwrap()).unwrap();
+    assert_eq!((v["board"].as_str(), v["seed"].as_u64()), (Some("VAL-LETTERS"), Some(2_000_003)));
+    assert_eq!(v["sensor_builds"], serde_json::json!([1, 2, 3, 4]));
+}
+
+#[test]
 fn train_the_segmentation_networks() {
     let dir = tempfile::tempdir().unwrap();
     for (arch, extra) in
@@ -368,6 +436,160 @@ fn train_the_segmentation_networks() {
         let header = String::from_utf8_lossy(&head[8..8 + n]);
         assert!(header.contains(r#"[\"background\",\"character\"]"#), "{arch}: {header}");
     }
+}
+
+#[test]
+fn train_and_fine_tune_on_a_recordings_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("lab");
+    let recs = rec.to_str().unwrap();
+    for (role, board, trials) in [("train", "text:HELLO WORLD", "2"), ("val", "text:STOP HELP", "1")] {
+        let o = braille(&[
+            "simulate",
+            "--board",
+            board,
+            "--out",
+            recs,
+            "--recordings",
+            role,
+            "--speed",
+            "16",
+            "--depth",
+            "1.0",
+            "--trials",
+            trials,
+            "--seed",
+            "5",
+        ]);
+        assert!(o.status.success(), "{}", text(&o).1);
+    }
+    let header = |path: &Path| {
+        let head = std::fs::read(path).unwrap();
+        let n = u64::from_le_bytes(head[..8].try_into().unwrap()) as usize;
+        String::from_utf8_lossy(&head[8..8 + n]).to_string()
+    };
+    let val_score = |model: &Path| {
+        let o = braille(&[
+            "eval",
+            "chars",
+            "--model",
+            model.to_str().unwrap(),
+            "--recordings",
+            recs,
+            "--role",
+            "val",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o).1);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v[0]["confusion"].clone(), v[0]["printed"].clone())
+    };
+    for (arch, extra) in
+        [("snn", &["--hidden", "8", "--pool", "4"][..]), ("resnet", &["--preset", "tiny", "--pool", "2"])]
+    {
+        let first = dir.path().join(format!("{arch}-1.safetensors"));
+        let mut args = vec!["train", "--arch", arch, "--recordings", recs, "--epochs", "1", "--quiet"];
+        args.extend_from_slice(extra);
+        let mut a = args.clone();
+        a.extend(["--out", first.to_str().unwrap()]);
+        let o = braille(&a);
+        assert!(o.status.success(), "{arch}: {}", text(&o).1);
+        assert!(header(&first).contains("recorded scans of"), "{arch}: {}", header(&first));
+        // fine-tuned at a learning rate of 0 it stays the model it started from
+        let tuned = dir.path().join(format!("{arch}-2.safetensors"));
+        let mut a = args.clone();
+        a.extend(["--init", first.to_str().unwrap(), "--lr", "0", "--out", tuned.to_str().unwrap()]);
+        let o = braille(&a);
+        assert!(o.status.success(), "{arch}: {}", text(&o).1);
+        assert!(header(&tuned).contains("-1.safetensors"), "{arch}: the provenance names the start");
+        // every weight as it was (the ResNet's batch norm statistics follow the new data)
+        let (a, b) = (std::fs::read(&first).unwrap(), std::fs::read(&tuned).unwrap());
+        let (a, b) =
+            (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
+        let mut names: Vec<String> =
+            a.names().into_iter().filter(|n| !n.contains("running")).map(String::from).collect();
+        names.sort();
+        assert!(!names.is_empty());
+        for n in &names {
+            assert_eq!(a.tensor(n).unwrap().data(), b.tensor(n).unwrap().data(), "{arch}: {n}");
+        }
+        if arch == "snn" {
+            let (c1, printed) = val_score(&first);
+            assert_eq!(printed, 8, "STOP HELP");
+            assert_eq!(c1, val_score(&tuned).0, "{arch}");
+        }
+    }
+    // a start of another network, or of another architecture, is refused by name
+    let snn = dir.path().join("snn-1.safetensors");
+    let o = braille(&[
+        "train",
+        "--arch",
+        "snn",
+        "--recordings",
+        recs,
+        "--hidden",
+        "16",
+        "--pool",
+        "4",
+        "--epochs",
+        "1",
+        "--init",
+        snn.to_str().unwrap(),
+        "--out",
+        dir.path().join("x.safetensors").to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("snn-1.safetensors") && err.contains("network"), "{err}");
+    let o = braille(&[
+        "train",
+        "--arch",
+        "resnet",
+        "--preset",
+        "tiny",
+        "--pool",
+        "2",
+        "--recordings",
+        recs,
+        "--epochs",
+        "1",
+        "--init",
+        snn.to_str().unwrap(),
+        "--out",
+        dir.path().join("y.safetensors").to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("holds an SNN"), "{err}");
+    // a folder with no validation scans cannot choose checkpoints
+    let lone = dir.path().join("lone");
+    let o = braille(&[
+        "simulate",
+        "--board",
+        "text:HELLO",
+        "--out",
+        lone.to_str().unwrap(),
+        "--recordings",
+        "train",
+        "--speed",
+        "16",
+        "--trials",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let o = braille(&[
+        "train",
+        "--arch",
+        "snn",
+        "--recordings",
+        lone.to_str().unwrap(),
+        "--hidden",
+        "8",
+        "--epochs",
+        "1",
+        "--out",
+        dir.path().join("z.safetensors").to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("no val scans"), "{err}");
 }
 
 #[test]
@@ -424,6 +646,53 @@ fn calibrate_reader_chooses_on_the_validation_words_and_records_the_point() {
     assert_eq!(v["rows"].as_array().unwrap().len(), 4);
     assert_eq!(v["spec"]["seed"], 2_000_003, "validation seed");
     let chosen = v["chosen"]["present_threshold"].as_f64().unwrap();
+    // the same scans as a lab's `val` recordings give the same grid, point for point
+    let rec = dir.path().join("lab");
+    let o = braille(&[
+        "simulate",
+        "--realism",
+        "clean",
+        "--board",
+        "VAL-WORDS",
+        "--speed",
+        "32",
+        "--depth",
+        "1.5",
+        "--trials",
+        "1",
+        "--seed",
+        "2000003",
+        "--sensor-builds",
+        "training",
+        "--out",
+        rec.to_str().unwrap(),
+        "--recordings",
+        "val",
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let out_rec = dir.path().join("from-recordings");
+    let o = braille(&[
+        "calibrate-reader",
+        "--models",
+        d,
+        "--out",
+        out_rec.to_str().unwrap(),
+        "--thresholds",
+        "0.5,0.9",
+        "--min-frames",
+        "4,6",
+        "--recordings",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_rec.join("operating_point_snn.json")).unwrap()).unwrap();
+    assert_eq!(r["data"], "recorded scans");
+    assert_eq!(
+        (&r["rows"], &r["words"], &r["chosen"]["min_frames"]),
+        (&v["rows"], &v["words"], &v["chosen"]["min_frames"])
+    );
+    assert!(r.get("spec").is_none());
     // the reader now reads there: eval words names the point
     let seg = dir.path().join("snn-segment.safetensors");
     let cls = dir.path().join("snn-words.safetensors");
@@ -463,8 +732,8 @@ fn calibrate_reader_chooses_on_the_validation_words_and_records_the_point() {
 /// recorded in the model file), gives word for word the lines the committed table
 /// (docs/results/nominal/words.json, `braille words-report --trials 30`) read from the same
 /// scans (the same seed, trial 0 of each row), the table's WER is its counts', and the README
-/// quotes its range. (The committed table predates word accuracy as 1 - WER: its
-/// `word_accuracy` is percent correct until `bash scripts/words.sh --report-only` runs again.)
+/// quotes its range; the table's word accuracy is 1 - WER and its percent correct hits over
+/// printed words, both from its counts.
 #[test]
 fn the_committed_word_table_reads_again_from_its_first_scans() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -511,12 +780,17 @@ fn the_committed_word_table_reads_again_from_its_first_scans() {
         let v: serde_json::Value = serde_json::from_str(&out).unwrap();
         let got = v["examples"].as_array().unwrap();
         assert_eq!([&got[0], &got[1]], want, "{arch}: the lines read now against the committed table's");
-        // the table's WER is its counts'
+        // the table's WER, word accuracy and percent correct are its counts'
         for b in row["by_spell"].as_array().unwrap() {
             let w = &b["counts"]["word_edits"];
             let n = |k: &str| w[k].as_u64().unwrap() as f64;
             let wer = (n("substitutions") + n("deletions") + n("insertions")) / n("reference");
             assert_eq!(b["word_error_rate"].as_f64().unwrap(), wer, "{arch} {}", b["spell"]);
+            // (to the last bits: the table computes them from the counts in another order)
+            let accuracy = b["word_accuracy"].as_f64().unwrap();
+            assert!((accuracy - (1.0 - wer)).abs() < 1e-12, "{arch} {}: {accuracy} against 1 - WER", b["spell"]);
+            let correct = b["percent_correct"].as_f64().unwrap();
+            assert!((correct - n("hits") / n("reference")).abs() < 1e-12, "{arch} {}: {correct}", b["spell"]);
         }
     }
     // the README's EV row: each reader's lowest and highest word accuracy with the lexicon over

@@ -72,13 +72,238 @@ pub fn validation_words_board() -> BoardKind {
     BoardKind::Text(validation_word_rows(VALIDATION_SEED, 4, 25))
 }
 
+/// Where a letter stands in its row: the first of the row, the first of a later word, inside a
+/// word, or the last of a word (a one-letter word's letter counts as a start). The all-letters
+/// boards hold every letter at each place, and the word scores count letters by it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LetterPlace {
+    RowStart,
+    WordStart,
+    Middle,
+    WordEnd,
+}
+
+impl LetterPlace {
+    pub const ALL: [LetterPlace; 4] =
+        [LetterPlace::RowStart, LetterPlace::WordStart, LetterPlace::Middle, LetterPlace::WordEnd];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            LetterPlace::RowStart => "row start",
+            LetterPlace::WordStart => "word start",
+            LetterPlace::Middle => "middle",
+            LetterPlace::WordEnd => "word end",
+        }
+    }
+
+    /// Its index in [`LetterPlace::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The place of letter `i` of word `word` (0 the row's first) of `len` letters.
+    pub fn of(word: usize, i: usize, len: usize) -> LetterPlace {
+        match (word, i) {
+            (0, 0) => LetterPlace::RowStart,
+            (_, 0) => LetterPlace::WordStart,
+            _ if i + 1 == len => LetterPlace::WordEnd,
+            _ => LetterPlace::Middle,
+        }
+    }
+}
+
+/// Which held-out words an all-letters board draws from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeldOut {
+    /// The unseen test words ([`unseen_word_rows`]' slice) and every other word of TextBlob's
+    /// list past the validation words: `ALL-LETTERS`, a test board.
+    Test,
+    /// The validation words' slice and the other half of the list past it: `VAL-LETTERS`.
+    Validation,
+}
+
+impl HeldOut {
+    /// The board's name on the command line.
+    pub fn board_name(self) -> &'static str {
+        match self {
+            HeldOut::Test => "ALL-LETTERS",
+            HeldOut::Validation => "VAL-LETTERS",
+        }
+    }
+}
+
+/// Times an all-letters board holds each letter at each [`LetterPlace`], where the held-out
+/// words allow.
+pub const ALL_LETTERS_TIMES: usize = 3;
+
+/// An all-letters board: its rows, and the (letter, place) cells its words could not fill
+/// [`ALL_LETTERS_TIMES`] times (letter, place, times held).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AllLetters {
+    pub rows: Vec<String>,
+    pub short: Vec<(char, LetterPlace, usize)>,
+}
+
+impl AllLetters {
+    /// The rows joined by `/`, as a text board takes them.
+    pub fn text(&self) -> String {
+        self.rows.join("/")
+    }
+}
+
+/// The held-out words of `which`, by falling frequency: none a training row, the EV board or
+/// the other kind can hold, and no Roman numeral (TextBlob's list has XII, XIV, ...).
+fn held_out_pool(which: HeldOut) -> Vec<String> {
+    let all = word_pool(0, usize::MAX, &EV_WORDS);
+    let (slice, rest) = match which {
+        HeldOut::Test => (TRAINING_WORDS..2 * TRAINING_WORDS, 0),
+        HeldOut::Validation => (2 * TRAINING_WORDS..3 * TRAINING_WORDS, 1),
+    };
+    let past = all.get(3 * TRAINING_WORDS..).unwrap_or_default();
+    all[slice]
+        .iter()
+        .chain(past.iter().skip(rest).step_by(2))
+        .filter(|w| !w.bytes().all(|b| matches!(b, b'I' | b'V' | b'X')))
+        .cloned()
+        .collect()
+}
+
+/// Rows of held-out words that hold every letter at every [`LetterPlace`] at least `times`
+/// times where the words allow, each row at most `max_chars` long, by a fixed rule (no seed):
+/// row `r` starts with the most frequent word beginning with letter `r mod 26` (26 `times` rows;
+/// every row's first word is chosen before the rows are filled), and every later word is the one
+/// that fills the most (letter, place) cells still short, the more frequent of equals.
+/// Each word is used once, unless it alone fills a cell (no unused word begins a row with the
+/// letter, or fills the cell and fits): then up to `times` times, in as many rows. Rows are filled to `max_chars` with the most frequent
+/// words that fit once nothing is short.
+pub fn all_letters_rows(words: &[String], times: usize, max_chars: usize) -> AllLetters {
+    let cell = |c: u8, place: LetterPlace| (c - b'A') as usize * 4 + place.index();
+    let mut need = vec![times; 26 * 4];
+    // Cells a word fills if placed first in its row or after another word.
+    let cells = |w: &str, first: bool| -> Vec<usize> {
+        let b = w.as_bytes();
+        (0..b.len()).map(|i| cell(b[i], LetterPlace::of(usize::from(!first), i, b.len()))).collect()
+    };
+    let gain = |need: &[usize], cs: &[usize]| {
+        let mut taken: Vec<usize> = Vec::with_capacity(cs.len());
+        cs.iter()
+            .filter(|&&c| {
+                let before = taken.iter().filter(|&&t| t == c).count();
+                taken.push(c);
+                need[c] > before
+            })
+            .count()
+    };
+    // Uses of each word: once while unused ones serve, `times` at most, once a row.
+    let mut uses = vec![0u8; words.len()];
+    // First every row's first word, so that the rare letters' few words begin rows before they
+    // fill a later word's place.
+    let mut rows: Vec<(String, Vec<usize>)> = Vec::with_capacity(26 * times);
+    for r in 0..26 * times {
+        let letter = b'A' + (r % 26) as u8;
+        let fits = |w: &String| w.len() <= max_chars && w.as_bytes()[0] == letter;
+        // The most frequent unused word beginning with the letter; else a used one. (Not the one
+        // that fills most: that would load the first words with the rare letters, and the first
+        // word's score would measure the letters, not the place.)
+        let best = |n: u8| (0..words.len()).find(|&k| uses[k] == n && fits(&words[k]));
+        let Some(first) = (0..times as u8).find_map(best) else { continue };
+        uses[first] += 1;
+        cells(&words[first], true).into_iter().for_each(|c| need[c] = need[c].saturating_sub(1));
+        rows.push((words[first].clone(), vec![first]));
+    }
+    for (row, in_row) in &mut rows {
+        loop {
+            let room = max_chars.saturating_sub(row.len() + 1);
+            let best = |n: u8| {
+                words
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, w)| uses[k] == n && w.len() <= room && !in_row.contains(&k))
+                    .map(|(k, w)| (gain(&need, &cells(w, false)), std::cmp::Reverse(k)))
+                    .max()
+            };
+            // A used word again only when it fills a cell no unused word can.
+            let next = match best(0) {
+                Some((g, k)) if g > 0 => Some(k.0),
+                unused => (1..times as u8).filter_map(best).find(|&(g, _)| g > 0).or(unused).map(|(_, k)| k.0),
+            };
+            let Some(k) = next else { break };
+            uses[k] += 1;
+            in_row.push(k);
+            cells(&words[k], false).into_iter().for_each(|c| need[c] = need[c].saturating_sub(1));
+            row.push(' ');
+            row.push_str(&words[k]);
+        }
+    }
+    let rows = rows.into_iter().map(|(row, _)| row).collect();
+    let short = (0..26u8)
+        .flat_map(|l| LetterPlace::ALL.into_iter().map(move |p| (l, p)))
+        .filter(|&(l, p)| need[cell(b'A' + l, p)] > 0)
+        .map(|(l, p)| ((b'A' + l) as char, p, times - need[cell(b'A' + l, p)]))
+        .collect();
+    AllLetters { rows, short }
+}
+
+/// Training rows that hold every letter at every [`LetterPlace`] `times` times where the training
+/// words allow ([`all_letters_rows`] over the [`TRAINING_WORDS`] random word rows draw from, no
+/// Roman numeral), rows of at most `max_chars`: the rare letters' share of a training set.
+pub fn training_letter_rows(times: usize, max_chars: usize) -> AllLetters {
+    let words: Vec<String> = word_pool(0, TRAINING_WORDS, &EV_WORDS)
+        .into_iter()
+        .filter(|w| !w.bytes().all(|b| matches!(b, b'I' | b'V' | b'X')))
+        .collect();
+    all_letters_rows(&words, times, max_chars)
+}
+
+/// The all-letters board of `which` ([`all_letters_rows`] over its held-out words,
+/// [`ALL_LETTERS_TIMES`] times, rows of at most 25 characters as the unseen-words boards), made
+/// once per process.
+pub fn all_letters(which: HeldOut) -> &'static AllLetters {
+    static TEST: std::sync::OnceLock<AllLetters> = std::sync::OnceLock::new();
+    static VALIDATION: std::sync::OnceLock<AllLetters> = std::sync::OnceLock::new();
+    let lock = match which {
+        HeldOut::Test => &TEST,
+        HeldOut::Validation => &VALIDATION,
+    };
+    lock.get_or_init(|| all_letters_rows(&held_out_pool(which), ALL_LETTERS_TIMES, 25))
+}
+
+/// The all-letters board of `which` as a text board.
+pub fn all_letters_board(which: HeldOut) -> BoardKind {
+    BoardKind::Text(all_letters(which).text())
+}
+
+/// A board's name as the command line gives it: the generated boards' names (VAL-WORDS,
+/// ALL-LETTERS, VAL-LETTERS) in place of their text.
+pub fn board_name(kind: &BoardKind) -> String {
+    if let BoardKind::Text(t) = kind {
+        if *kind == validation_words_board() {
+            return "VAL-WORDS".into();
+        }
+        for h in [HeldOut::Test, HeldOut::Validation] {
+            if *t == all_letters(h).text() {
+                return h.board_name().into();
+            }
+        }
+    }
+    kind.name()
+}
+
 /// A board named as the command line names it: the simulator's boards
-/// ([`BoardKind`]'s `FromStr`), and `VAL-WORDS` ([`validation_words_board`]).
+/// ([`BoardKind`]'s `FromStr`), `VAL-WORDS` ([`validation_words_board`]), and the all-letters
+/// boards `ALL-LETTERS` (test) and `VAL-LETTERS` (validation; [`all_letters_board`]).
 pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
     if s.eq_ignore_ascii_case("VAL-WORDS") {
         return Ok(validation_words_board());
     }
-    s.parse::<BoardKind>().map_err(|e| format!("{e}, or VAL-WORDS"))
+    if s.eq_ignore_ascii_case("ALL-LETTERS") {
+        return Ok(all_letters_board(HeldOut::Test));
+    }
+    if s.eq_ignore_ascii_case("VAL-LETTERS") {
+        return Ok(all_letters_board(HeldOut::Validation));
+    }
+    s.parse::<BoardKind>().map_err(|e| format!("{e}, VAL-WORDS, ALL-LETTERS or VAL-LETTERS"))
 }
 
 /// Words of the EV board, kept out of the random word rows so that EV stays a test board.
@@ -115,6 +340,102 @@ mod tests {
         assert_eq!(parse_board("val-words"), Ok(validation_words_board()));
         assert_eq!(parse_board("RAB"), Ok(BoardKind::Rab));
         assert!(parse_board("XYZ").unwrap_err().contains("VAL-WORDS"));
+    }
+
+    /// Counts of (letter, place) over rows of text.
+    fn places(rows: &[String]) -> std::collections::HashMap<(char, LetterPlace), usize> {
+        let mut n = std::collections::HashMap::new();
+        for row in rows {
+            for (w, word) in row.split(' ').enumerate() {
+                for (i, c) in word.chars().enumerate() {
+                    *n.entry((c, LetterPlace::of(w, i, word.len()))).or_insert(0) += 1;
+                }
+            }
+        }
+        n
+    }
+
+    #[test]
+    fn a_small_all_letters_board_by_hand() {
+        // Three letters' worth of words: row 0 must start with A, row 1 with B, row 2 with C.
+        let words: Vec<String> = ["ABBA", "BAA", "AB", "BA", "CAB"].map(String::from).to_vec();
+        let b = all_letters_rows(&words, 1, 9);
+        // First words: the most frequent beginning with each letter, ABBA, BAA, CAB. Then the rows
+        // are filled: after ABBA only AB and BA fit, one cell short each (A or B at a word's start;
+        // CAB filled B at a word's end), AB the more frequent; BA after BAA; nothing is left.
+        assert_eq!(b.rows, ["ABBA AB", "BAA BA", "CAB"]);
+        assert!(b.short.contains(&('D', LetterPlace::RowStart, 0)));
+        assert!(b.short.contains(&('Z', LetterPlace::RowStart, 0)));
+        // a word serves once at one time: at two, CAB begins the second row C as well
+        let twice = all_letters_rows(&words, 2, 9);
+        assert!(twice.rows[3].starts_with("AB"), "{:?}", twice.rows);
+        assert!(twice.rows[5].starts_with("CAB"), "{:?}", twice.rows);
+        assert!(!b.short.iter().any(|&(c, p, _)| c == 'A' && p == LetterPlace::RowStart));
+    }
+
+    #[test]
+    fn all_letters_boards_hold_every_letter_at_every_place_from_held_out_words() {
+        let training: std::collections::HashSet<String> = word_pool(0, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let validation_words: std::collections::HashSet<String> =
+            word_pool(2 * TRAINING_WORDS, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let test = all_letters(HeldOut::Test);
+        let val = all_letters(HeldOut::Validation);
+        let words = |b: &AllLetters| -> std::collections::HashSet<String> {
+            b.rows.iter().flat_map(|r| r.split(' ').map(String::from)).collect()
+        };
+        let (tw, vw) = (words(test), words(val));
+        assert!(tw.is_disjoint(&vw), "test and validation boards share {:?}", tw.intersection(&vw).collect::<Vec<_>>());
+        for w in tw.iter().chain(&vw) {
+            assert!(!training.contains(w) && !EV_WORDS.contains(&w.as_str()), "{w} could be in a training row");
+        }
+        assert!(tw.is_disjoint(&validation_words), "a test word is a validation word");
+        for b in [test, val] {
+            assert_eq!(b.rows.len(), 26 * ALL_LETTERS_TIMES);
+            let n = places(&b.rows);
+            for (r, row) in b.rows.iter().enumerate() {
+                assert!(row.len() <= 25, "{row}");
+                assert_eq!(row.as_bytes()[0], b'A' + (r % 26) as u8, "{row}");
+            }
+            for c in 'A'..='Z' {
+                for p in LetterPlace::ALL {
+                    let have = n.get(&(c, p)).copied().unwrap_or(0);
+                    match b.short.iter().find(|s| s.0 == c && s.1 == p) {
+                        Some(&(_, _, k)) => assert_eq!(have, k),
+                        None => assert!(have >= ALL_LETTERS_TIMES, "{c} at {}: {have}", p.name()),
+                    }
+                }
+            }
+        }
+        // English words hardly end in J or Q, and the validation words hold one word beginning
+        // with X (XIPHI), which begins the three X rows (a word serves three times at most) and
+        // is left for no later word's start; every other cell is filled.
+        assert_eq!(test.short, vec![('J', LetterPlace::WordEnd, 0)]);
+        assert_eq!(val.short, vec![('Q', LetterPlace::WordEnd, 0), ('X', LetterPlace::WordStart, 0)]);
+        let pool = held_out_pool(HeldOut::Validation);
+        assert_eq!(pool.iter().filter(|w| w.starts_with('X')).collect::<Vec<_>>(), ["XIPHI"]);
+        assert!(!pool.iter().any(|w| w.ends_with('Q')));
+        assert_eq!(parse_board("ALL-LETTERS"), Ok(BoardKind::Text(test.text())));
+        assert_eq!(board_name(&parse_board("all-letters").unwrap()), "ALL-LETTERS");
+        assert_eq!(board_name(&parse_board("VAL-LETTERS").unwrap()), "VAL-LETTERS");
+        assert_eq!(board_name(&parse_board("val-words").unwrap()), "VAL-WORDS");
+        assert_eq!(board_name(&BoardKind::Ev), "EV");
+        assert_eq!(parse_board("val-letters"), Ok(BoardKind::Text(val.text())));
+        assert_eq!(all_letters_rows(&held_out_pool(HeldOut::Test), ALL_LETTERS_TIMES, 25), *test, "a fixed rule");
+    }
+
+    #[test]
+    fn training_letter_rows_draw_on_training_words_only() {
+        let training: std::collections::HashSet<String> = word_pool(0, TRAINING_WORDS, &EV_WORDS).into_iter().collect();
+        let b = training_letter_rows(3, 22);
+        // no training word begins with X (but Roman numerals, left out): three rows fewer
+        assert_eq!(b.rows.len(), 75);
+        for w in b.rows.iter().flat_map(|r| r.split(' ')) {
+            assert!(training.contains(w), "{w} is not a training word");
+        }
+        assert!(b.rows.iter().all(|r| r.len() <= 22));
+        // the frequent words hold no word ending in J, Q or Z, and few beginning with X
+        assert!(b.short.iter().all(|&(c, _, _)| matches!(c, 'J' | 'Q' | 'X' | 'Z')), "{:?}", b.short);
+        assert!(b.short.contains(&('X', LetterPlace::RowStart, 0)), "{:?}", b.short);
     }
 
     #[test]

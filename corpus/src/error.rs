@@ -32,9 +32,19 @@ pub enum Error {
     Json { path: PathBuf, source: serde_json::Error },
     #[error(transparent)]
     Recordings(Box<crate::recordings::Error>),
+    /// Something wrong with one recorded scan, named by its file.
+    #[error("{}: {source}", path.display())]
+    Scan { path: PathBuf, source: Box<Error> },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// This error, named by the recorded scan `path` it happened in.
+    pub fn in_file(self, path: &std::path::Path) -> Error {
+        Error::Scan { path: path.to_path_buf(), source: Box::new(self) }
+    }
+}
 
 impl From<pipeline::Error> for Error {
     fn from(e: pipeline::Error) -> Self {

@@ -163,6 +163,18 @@ impl Recordings {
         Ok(Recordings { dir: dir.to_path_buf(), recordings })
     }
 
+    /// The commanded (speed, depth) pairs of `role`'s scans, by speed then depth.
+    pub fn conditions(&self, role: Role) -> Vec<(f64, f64)> {
+        let mut out: Vec<(f64, f64)> = Vec::new();
+        for r in self.role(role) {
+            if !out.contains(&(r.speed_mm_s, r.depth_mm)) {
+                out.push((r.speed_mm_s, r.depth_mm));
+            }
+        }
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        out
+    }
+
     /// The scans of one role, in the manifest's order.
     pub fn role(&self, role: Role) -> impl Iterator<Item = &Recording> {
         self.recordings.iter().filter(move |r| r.role == role)

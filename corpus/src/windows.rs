@@ -87,6 +87,40 @@ pub struct CharSetSpec {
     /// background as well ([`blank_cell_starts`]); false before 2026-11-25.
     #[serde(default)]
     pub blank_cells: bool,
+    /// Scans at several speeds and depths in place of `speed_mm_s` and `depth_mm`, one per trial
+    /// ([`Sweep::at`]); `None`: every scan at `speed_mm_s` and `depth_mm`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<Sweep>,
+}
+
+/// Training scans spread over speeds and depths: trial `k` of a row at speed
+/// `speeds_mm_s[k mod S]` and depth `depths_mm[(k + k / S) mod D]`, so that consecutive trials
+/// change both and `S * D` trials hold every pairing once (the scans stay as many; each is its
+/// own seed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sweep {
+    pub speeds_mm_s: Vec<f64>,
+    pub depths_mm: Vec<f64>,
+}
+
+impl Sweep {
+    /// The speed and depth of trial `trial`.
+    pub fn at(&self, trial: u64) -> (f64, f64) {
+        let (s, d) = (self.speeds_mm_s.len().max(1) as u64, self.depths_mm.len().max(1) as u64);
+        let speed = self.speeds_mm_s.get((trial % s) as usize).copied().unwrap_or(8.0);
+        let depth = self.depths_mm.get(((trial + trial / s) % d) as usize).copied().unwrap_or(1.5);
+        (speed, depth)
+    }
+}
+
+impl CharSetSpec {
+    /// The speed and depth of trial `trial`'s scans.
+    pub fn condition(&self, trial: u64) -> (f64, f64) {
+        match &self.sweep {
+            Some(s) => s.at(trial),
+            None => (self.speed_mm_s, self.depth_mm),
+        }
+    }
 }
 
 /// The letter index of the 26 classes (`A` = 0).
@@ -126,16 +160,43 @@ pub fn scan_windows_with(
     jitter_ms: f64,
     blank_cells: bool,
 ) -> Result<Option<Vec<CharSample>>> {
-    let (row, speed_mm_s) = (scan.row, scan.speed_mm_s);
     let s = sim::simulate(board, sensor, scan)?;
     let chars: Vec<char> = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).map(|c| c.letter).collect();
-    let l = label(&s.events, sensor.camera.resolution, speed_mm_s, chars.len(), cfg)?;
+    let id = ScanId { board: board.kind.name(), row: scan.row, trial };
+    let blank = |windows: &[CharWindow]| blank_cell_starts(&s.truth.characters, windows);
+    let blank: Option<&BlankStarts> = if blank_cells { Some(&blank) } else { None };
+    label_scan(&s.events, sensor.camera.resolution, scan.speed_mm_s, &chars, cfg, task, jitter_ms, blank, id)
+}
+
+/// Where a character's window would start over each blank cell of a scan, given the labeler's
+/// windows of its lettered cells.
+pub type BlankStarts<'a> = dyn Fn(&[CharWindow]) -> Vec<i64> + 'a;
+
+/// The labelled windows of one scan's events (`None` when the labeler's window count is not the
+/// number of lettered cells `chars`, in reading order): each character's window (and, with
+/// `jitter_ms`, the windows shifted either way), or for segmentation the paper's negatives and
+/// background from the rest of the scan; with `blank_starts`, where a character's window would
+/// start over each blank cell, those as background too. `speed_mm_s` scales the labeler's
+/// durations: the truth's, or a recording's commanded speed.
+#[allow(clippy::too_many_arguments)]
+pub fn label_scan(
+    events: &[encoders::Event],
+    resolution: encoders::Resolution,
+    speed_mm_s: f64,
+    chars: &[char],
+    cfg: &LabelerConfig,
+    task: Task,
+    jitter_ms: f64,
+    blank_starts: Option<&BlankStarts>,
+    id: ScanId,
+) -> Result<Option<Vec<CharSample>>> {
+    let l = label(events, resolution, speed_mm_s, chars.len(), cfg)?;
     if !l.count_matched {
         return Ok(None);
     }
     let mut out = Vec::with_capacity(chars.len());
     let scaled = |ms: f64| (ms * 1e3 * cfg.reference_speed_mm_s / speed_mm_s).round() as i64;
-    for (k, (w, &letter)) in l.windows.iter().zip(&chars).enumerate() {
+    for (k, (w, &letter)) in l.windows.iter().zip(chars).enumerate() {
         let mut windows = Vec::new();
         match task {
             Task::Chars => {
@@ -168,7 +229,7 @@ pub fn scan_windows_with(
             // lift-off, and between characters, where the second column of one and the first of
             // the next look like a character). Candidates every 50 ms (scaled) at least 170 ms
             // from every character's window; two per character, evenly spread.
-            let (t0, t1) = (s.events.first().map_or(0, |e| e.t_us), s.events.last().map_or(0, |e| e.t_us));
+            let (t0, t1) = (events.first().map_or(0, |e| e.t_us), events.last().map_or(0, |e| e.t_us));
             let span = scaled(cfg.window_ms);
             let guard = scaled(170.0);
             let mut candidates = Vec::new();
@@ -187,8 +248,8 @@ pub fn scan_windows_with(
                 windows.push((0, CharWindow { t_start_us: t, t_end_us: t + span, ..w.clone() }));
                 k += stride;
             }
-            if blank_cells {
-                for t in blank_cell_starts(&s.truth.characters, &l.windows) {
+            if let Some(blank_starts) = blank_starts {
+                for t in blank_starts(&l.windows) {
                     if t >= t0 && t + span <= t1 {
                         windows.push((0, CharWindow { t_start_us: t, t_end_us: t + span, ..w.clone() }));
                     }
@@ -196,11 +257,44 @@ pub fn scan_windows_with(
             }
         }
         for (class, w) in windows {
-            let map = window_heatmap(&s.events, sensor.camera.resolution, speed_mm_s, &w, cfg)?;
-            out.push(CharSample { letter, class, map, scan: ScanId { board: board.kind.name(), row, trial } });
+            let map = window_heatmap(events, resolution, speed_mm_s, &w, cfg)?;
+            out.push(CharSample { letter, class, map, scan: id.clone() });
         }
     }
     Ok(Some(out))
+}
+
+/// [`blank_cell_starts`] for a scan with no truth but its printed row (a recording): each blank
+/// cell of `text` (a word space, and one and two cells past either end) placed between the
+/// windows of the lettered cells around it in proportion to the cells between them (the slide's
+/// speed taken as even over a few cells). `windows` are the labeler's, one per lettered cell.
+pub fn blank_cell_starts_from_text(text: &str, windows: &[CharWindow]) -> Vec<i64> {
+    let cells: Vec<char> = text.chars().collect();
+    let lettered: Vec<(f64, f64)> = cells
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| !c.is_whitespace())
+        .zip(windows)
+        .map(|((i, _), w)| (i as f64, w.t_start_us as f64))
+        .collect();
+    if lettered.len() < 2 {
+        return Vec::new();
+    }
+    let at = |i: f64| -> f64 {
+        // between the lettered cells around i, or from the two nearest at either end
+        let k = lettered.partition_point(|p| p.0 < i).clamp(1, lettered.len() - 1);
+        let (a, b) = (lettered[k - 1], lettered[k]);
+        a.1 + (b.1 - a.1) * (i - a.0) / (b.0 - a.0)
+    };
+    let (first, last) = (lettered[0].0, lettered[lettered.len() - 1].0);
+    let mut blank: Vec<f64> = cells
+        .iter()
+        .enumerate()
+        .filter(|(i, c)| c.is_whitespace() && (first..last).contains(&(*i as f64)))
+        .map(|(i, _)| i as f64)
+        .collect();
+    blank.extend([first - 2.0, first - 1.0, last + 1.0, last + 2.0]);
+    blank.into_iter().map(|i| at(i).round() as i64).collect()
 }
 
 /// Where a character's window would start over each blank cell of a scan: every word space, and
@@ -288,6 +382,18 @@ pub fn build_many(spec: &CharSetSpec, inputs: &[&CharInput], progress: &dyn Prog
     build_many_in(spec, &spec.world.setup(), inputs, progress)
 }
 
+/// The first of the models' inputs, which must all label with the same labeler (one set of
+/// windows serves them all).
+fn first_of_one_labeler<'a>(inputs: &[&'a CharInput]) -> Result<&'a CharInput> {
+    let Some(&first) = inputs.first() else {
+        return Err(Error::NoInputs);
+    };
+    if inputs.iter().any(|i| i.labeler != first.labeler) {
+        return Err(Error::LabelersDiffer);
+    }
+    Ok(first)
+}
+
 /// [`build_many`] with the world's preset replaced by `setup` (a robustness sweep's nuisance
 /// levels); the world still picks the sensor builds and the scan seeds.
 pub fn build_many_in(
@@ -296,25 +402,20 @@ pub fn build_many_in(
     inputs: &[&CharInput],
     progress: &dyn Progress,
 ) -> Result<Windows> {
-    let Some(first) = inputs.first() else {
-        return Err(Error::NoInputs);
-    };
-    if inputs.iter().any(|i| i.labeler != first.labeler) {
-        return Err(Error::LabelersDiffer);
-    }
+    let first = first_of_one_labeler(inputs)?;
     let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
     let list = scans(spec, setup)?;
     let printed =
         list.iter().map(|(board, row, _)| board.rows[*row].chars().filter(|&c| class_of(c).is_some()).count()).sum();
     progress.start("simulating scans", list.len() as u64);
-    type Kept = (usize, Vec<Vec<f32>>, ScanId);
     let per_scan: Vec<Option<Vec<Kept>>> = list
         .par_iter()
         .map(|(board, row, trial)| -> Result<_> {
             let w = &spec.world;
-            let seed = w.scan_seed(spec.seed, &board.kind, *row, *trial, spec.speed_mm_s, spec.depth_mm);
+            let (speed_mm_s, depth_mm) = spec.condition(*trial);
+            let seed = w.scan_seed(spec.seed, &board.kind, *row, *trial, speed_mm_s, depth_mm);
             let sensor = &sensors[(*trial % sensors.len() as u64) as usize];
-            let scan = setup.scan(spec.speed_mm_s, spec.depth_mm, *row, seed);
+            let scan = setup.scan(speed_mm_s, depth_mm, *row, seed);
             let r = scan_windows_with(
                 board,
                 sensor,
@@ -326,18 +427,31 @@ pub fn build_many_in(
                 spec.blank_cells,
             )?;
             progress.inc();
-            let Some(samples) = r else { return Ok(None) };
-            let mut kept = Vec::with_capacity(samples.len());
-            for s in samples {
-                let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
-                kept.push((s.class, crops, s.scan));
-            }
-            Ok(Some(kept))
+            r.map(|samples| crop_all(samples, inputs)).transpose()
         })
         .collect::<Result<_>>()?;
     progress.finish();
+    Ok(gather(per_scan, inputs, printed))
+}
+
+/// A window's class, its crop for each input, and its scan.
+type Kept = (usize, Vec<Vec<f32>>, ScanId);
+
+fn crop_all(samples: Vec<CharSample>, inputs: &[&CharInput]) -> Result<Vec<Kept>> {
+    samples
+        .into_iter()
+        .map(|s| {
+            let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
+            Ok((s.class, crops, s.scan))
+        })
+        .collect()
+}
+
+/// The windows of every scan in order (`None`: a scan the labeler miscounted) as one set per input.
+fn gather(per_scan: Vec<Option<Vec<Kept>>>, inputs: &[&CharInput], printed: usize) -> Windows {
     let mut sets: Vec<ImageSet> = inputs.iter().map(|i| ImageSet { shape: i.shape(), ..ImageSet::default() }).collect();
     let mut origin = Vec::new();
+    let scans = per_scan.len();
     let skipped_scans = per_scan.iter().filter(|s| s.is_none()).count();
     for (class, crops, scan) in per_scan.into_iter().flatten().flatten() {
         for (set, counts) in sets.iter_mut().zip(crops) {
@@ -346,7 +460,50 @@ pub fn build_many_in(
         }
         origin.push(scan);
     }
-    Ok(Windows { sets, origin, scans: list.len(), skipped_scans, printed })
+    Windows { sets, origin, scans, skipped_scans, printed }
+}
+
+/// The labelled windows of recorded scans (a lab's recordings folder, docs/recordings.md), as
+/// [`build_many`] makes them of simulated ones: each scan labelled by the paper's pipeline with
+/// its character count from the manifest's `text` and its durations from the commanded
+/// `speed_mm_s` (labels for training and scoring; a reader never gets them), and with
+/// `blank_cells` the blank cells placed from the text ([`blank_cell_starts_from_text`]). A scan
+/// is read from its file, labelled, cropped and let go: memory holds the crops. A window's
+/// [`ScanId`] names the file, with row 0 and the manifest line as its trial.
+pub fn recorded_windows(
+    rec: &crate::recordings::Recordings,
+    scans: &[&crate::recordings::Recording],
+    inputs: &[&CharInput],
+    task: Task,
+    jitter_ms: f64,
+    blank_cells: bool,
+    progress: &dyn Progress,
+) -> Result<Windows> {
+    let first = first_of_one_labeler(inputs)?;
+    let letters = |r: &crate::recordings::Recording| -> Vec<char> {
+        r.text.chars().filter(|c| !c.is_whitespace()).map(|c| c.to_ascii_uppercase()).collect()
+    };
+    let printed = scans.iter().map(|r| letters(r).iter().filter(|&&c| class_of(c).is_some()).count()).sum();
+    progress.start("labelling recorded scans", scans.len() as u64);
+    let per_scan: Vec<Option<Vec<Kept>>> = scans
+        .par_iter()
+        .map(|r| -> Result<_> {
+            let path = rec.path(r);
+            let (info, events) = encoders::formats::read_all(&path, &encoders::OpenOptions::default())?;
+            let resolution = info.resolution.unwrap_or(encoders::Resolution::DVXPLORER);
+            let text = r.text.to_uppercase();
+            let blank = |windows: &[CharWindow]| blank_cell_starts_from_text(&text, windows);
+            let blank: Option<&BlankStarts> = if blank_cells { Some(&blank) } else { None };
+            let id = ScanId { board: r.file.display().to_string(), row: 0, trial: r.line };
+            let samples =
+                label_scan(&events, resolution, r.speed_mm_s, &letters(r), &first.labeler, task, jitter_ms, blank, id)
+                    .map_err(|e| e.in_file(&path))?;
+            progress.inc();
+            samples.map(|samples| crop_all(samples, inputs)).transpose()
+        })
+        .collect::<Result<_>>()?;
+    progress.finish();
+    Ok(gather(per_scan, inputs, printed))
 }
 
 /// The training protocol's windows, split by whole scans.
@@ -360,17 +517,28 @@ pub struct TrainingWindows {
     pub skipped_scans: usize,
 }
 
+/// Which training scans: the boards' rows and how each is scanned.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrainingScans {
+    /// Scans per board row.
+    pub trials: u64,
+    pub seed: u64,
+    /// Rows of random words (beyond the paper: letters with neighbours at the cell spacing, as in
+    /// words; the single-letter boards spread their letters over the row).
+    pub word_rows: usize,
+    /// Rows that hold every letter at every place this many times
+    /// ([`crate::boards::training_letter_rows`], the rare letters' share; 0: none).
+    pub letter_rows: usize,
+    /// Scans spread over speeds and depths (`None`: the paper's 8 mm/s and 1.5 mm).
+    pub sweep: Option<Sweep>,
+}
+
 /// The training protocol's windows in `world` (its training sensor builds): SAB and UN at 8 mm/s
-/// and 1.5 mm (the paper's), plus
-/// `word_rows` rows of random words (beyond the paper: letters with neighbours at the cell
-/// spacing, as in words; the single-letter boards spread their letters over the row), split by
-/// whole scans (every fifth trial goes to validation when there are five or more), so no scan
-/// feeds both.
-#[allow(clippy::too_many_arguments)]
+/// and 1.5 mm (the paper's; or over `scans.sweep`), plus the word and all-letters rows of
+/// `scans`, split by whole scans (every fifth trial goes to validation when there are five or
+/// more), so no scan feeds both.
 pub fn training_windows(
-    trials: u64,
-    seed: u64,
-    word_rows: usize,
+    scans: &TrainingScans,
     input: &CharInput,
     task: Task,
     jitter_ms: f64,
@@ -378,10 +546,14 @@ pub fn training_windows(
     world: &World,
     progress: &dyn Progress,
 ) -> Result<TrainingWindows> {
+    let TrainingScans { trials, seed, word_rows, letter_rows, ref sweep } = *scans;
     let mut boards = vec![BoardKind::Sab, BoardKind::Un];
     if word_rows > 0 {
         let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
         boards.push(BoardKind::Text(text));
+    }
+    if letter_rows > 0 {
+        boards.push(BoardKind::Text(crate::boards::training_letter_rows(letter_rows, 22).text()));
     }
     let spec = CharSetSpec {
         boards,
@@ -393,11 +565,71 @@ pub fn training_windows(
         jitter_ms,
         world: world.clone(),
         blank_cells,
+        sweep: sweep.clone(),
     };
     let (all, w) = build(&spec, input, progress)?;
     let (val, train): (Vec<usize>, Vec<usize>) =
         (0..all.len()).partition(|&i| trials >= 5 && w.origin[i].trial % 5 == 4);
     Ok(TrainingWindows { all, train, val, scans: w.scans, skipped_scans: w.skipped_scans })
+}
+
+/// A lab's training windows from its recordings folder: the `train` scans' windows to train on,
+/// the `val` scans' to choose checkpoints by (whole scans, as the simulated split), each scan
+/// labelled by the paper's pipeline from the manifest's text and commanded speed
+/// ([`recorded_windows`]). The folder must hold scans of both roles.
+pub fn recorded_training_windows(
+    rec: &crate::recordings::Recordings,
+    input: &CharInput,
+    task: Task,
+    jitter_ms: f64,
+    blank_cells: bool,
+    progress: &dyn Progress,
+) -> Result<TrainingWindows> {
+    use crate::recordings::Role;
+    let of = |role: Role| -> Result<Windows> {
+        let scans: Vec<&crate::recordings::Recording> = rec.role(role).collect();
+        if scans.is_empty() {
+            return Err(Error::Setting {
+                name: "recordings folder",
+                value: format!("{}: no {} scans in its manifest", rec.dir.display(), role.name()),
+                expected: "scans of role `train` to train on and of role `val` to choose checkpoints by",
+            });
+        }
+        recorded_windows(rec, &scans, &[input], task, jitter_ms, blank_cells, progress)
+    };
+    let (mut t, mut v) = (of(Role::Train)?, of(Role::Val)?);
+    let (mut all, val_set) = (t.sets.remove(0), v.sets.remove(0));
+    let train: Vec<usize> = (0..all.len()).collect();
+    let val: Vec<usize> = (all.len()..all.len() + val_set.len()).collect();
+    all.data.extend(val_set.data);
+    all.labels.extend(val_set.labels);
+    Ok(TrainingWindows { all, train, val, scans: t.scans + v.scans, skipped_scans: t.skipped_scans + v.skipped_scans })
+}
+
+/// The training and validation windows of `tw` as labelled spike trains for an SNN, each dense
+/// crop let go as soon as its train is made (the crops and the trains are never all in memory
+/// together: the peak is the larger of the two, not their sum).
+pub fn snn_sets(input: &CharInput, tw: TrainingWindows, dt_us: i64, task: Task) -> (SpikeSet, SpikeSet) {
+    let TrainingWindows { mut all, train, val, .. } = tw;
+    let [frames2, h, w] = input.shape();
+    let mut convert = |idx: &[usize]| -> SpikeSet {
+        let mut trains = Vec::with_capacity(idx.len());
+        for chunk in idx.chunks(256) {
+            let crops: Vec<Vec<f32>> = chunk.iter().map(|&i| std::mem::take(&mut all.data[i])).collect();
+            trains.par_extend(crops.into_par_iter().map(|c| input.spikes(&c, dt_us)));
+        }
+        SpikeSet {
+            n_inputs: 2 * h * w,
+            steps: frames2 / 2,
+            dt_us,
+            classes: task.classes(),
+            trains,
+            labels: idx.iter().map(|&i| all.labels[i]).collect(),
+            dropped_events: 0,
+        }
+    };
+    let (t, v) = (convert(&train), convert(&val));
+    (t, v)
 }
 
 /// The windows `idx` of `raw` as labelled spike trains for an SNN.
@@ -417,6 +649,48 @@ pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, tas
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sweep_walks_every_pairing_of_speed_and_depth() {
+        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0], depths_mm: vec![1.5, 1.0, 0.6] };
+        let at: Vec<(f64, f64)> = (0..10).map(|k| s.at(k)).collect();
+        assert_eq!(
+            at,
+            [
+                (8.0, 1.5),
+                (16.0, 1.0),
+                (32.0, 0.6),
+                (8.0, 1.0),
+                (16.0, 0.6),
+                (32.0, 1.5),
+                (8.0, 0.6),
+                (16.0, 1.5),
+                (32.0, 1.0),
+                (8.0, 1.5)
+            ]
+        );
+        // four speeds and three depths: twelve trials hold all twelve pairings, five hold five
+        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0], depths_mm: vec![1.5, 1.0, 0.6] };
+        let mut all: Vec<(u64, u64)> = (0..12).map(|k| s.at(k)).map(|(v, d)| (v as u64, (d * 10.0) as u64)).collect();
+        all.sort();
+        all.dedup();
+        assert_eq!(all.len(), 12);
+        assert_eq!(s.at(4), (8.0, 0.6));
+    }
+
+    #[test]
+    fn a_recordings_blank_cells_sit_between_its_lettered_cells() {
+        // "AB CD": lettered cells 0, 1, 3, 4 with windows starting 100 us a cell apart
+        let w = |t: i64| CharWindow { t_max_us: t, peaks: 2, t_start_us: t, t_end_us: t + 350 };
+        let windows = [w(0), w(100), w(300), w(400)];
+        // the word space between B and D, then two cells before A and two after D
+        assert_eq!(blank_cell_starts_from_text("AB CD", &windows), vec![200, -200, -100, 500, 600]);
+        // an uneven slide: the space is placed in proportion between its neighbours
+        let uneven = [w(0), w(100), w(500), w(600)];
+        assert_eq!(blank_cell_starts_from_text("AB CD", &uneven)[0], 300);
+        // one lettered cell gives no pitch to place anything by
+        assert!(blank_cell_starts_from_text("A", &[w(0)]).is_empty());
+    }
 
     #[test]
     fn blank_cells_sit_where_a_character_window_would() {

@@ -26,6 +26,12 @@ pub const TEST_SENSORS: [u64; 2] = [101, 102];
 pub struct World {
     pub realism: Realism,
     pub sensors: Vec<u64>,
+    /// The sensor mount's compliance in um per N, in place of the preset's mount: 0 for a rigid
+    /// mount (no stick-slip), else `sim::StickSlip::LIGHT_MOUNT` at that compliance; `None` for
+    /// the preset's (`nominal`: 10 um/N). The same scans (seeds) with another mount, so that what
+    /// stick-slip costs is measured pair by pair.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mount_compliance_um_per_n: Option<f64>,
 }
 
 impl Default for World {
@@ -59,14 +65,14 @@ impl World {
     /// The simulator before its nuisances: one sensor build (seed 1) for training and test, and
     /// the scan seeds of then. The shipped models and tables were made in it.
     pub fn clean() -> World {
-        World { realism: Realism::Clean, sensors: vec![1] }
+        World { realism: Realism::Clean, sensors: vec![1], mount_compliance_um_per_n: None }
     }
 
     /// Training scans at `realism`: the training builds ([`TRAIN_SENSORS`]; `clean` has one).
     pub fn train(realism: Realism) -> World {
         match realism {
             Realism::Clean => World::clean(),
-            _ => World { realism, sensors: TRAIN_SENSORS.to_vec() },
+            _ => World { realism, sensors: TRAIN_SENSORS.to_vec(), mount_compliance_um_per_n: None },
         }
     }
 
@@ -74,12 +80,22 @@ impl World {
     pub fn test(realism: Realism) -> World {
         match realism {
             Realism::Clean => World::clean(),
-            _ => World { realism, sensors: TEST_SENSORS.to_vec() },
+            _ => World { realism, sensors: TEST_SENSORS.to_vec(), mount_compliance_um_per_n: None },
         }
     }
 
+    /// The preset's setup, with the mount in place of its own when one is given.
     pub fn setup(&self) -> Setup {
-        self.realism.setup()
+        let mut setup = self.realism.setup();
+        if let Some(c) = self.mount_compliance_um_per_n {
+            setup.scan.stick_slip = (c > 0.0).then(|| sim::StickSlip::light_mount_with_compliance(c));
+        }
+        setup
+    }
+
+    /// This world with the mount's compliance set (see [`World::mount_compliance_um_per_n`]).
+    pub fn with_mount(self, compliance_um_per_n: Option<f64>) -> World {
+        World { mount_compliance_um_per_n: compliance_um_per_n, ..self }
     }
 
     /// The sensor build that scans trial `trial`.

@@ -54,3 +54,52 @@ fn raw1350s_headline_is_the_mean_of_its_three_shipped_seeds() {
 fn th10s_headline_is_the_mean_of_its_three_shipped_seeds() {
     check("th10", "th10-warmup");
 }
+
+/// Golden test of the README's Table I row (SIMULATED): the shipped NormAug ResNet and SNN read
+/// the first trial's RAB scans at 1.5 mm again (the report's seed and sensor builds), letter for
+/// letter as the committed report (docs/results/nominal/chars.json, `bash scripts/table1.sh`)
+/// records them; the report's figure is its confusion's diagonal over every printed character,
+/// and the README quotes the two figures.
+#[test]
+fn table_ones_row_reads_its_first_rab_scans_again() {
+    use corpus::windows::{CharSetSpec, Task};
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root().join("docs/results/nominal/chars.json")).unwrap())
+            .unwrap();
+    let world: corpus::World = serde_json::from_value(report["world"].clone()).unwrap();
+    let at = report["depths_mm"].as_array().unwrap().iter().position(|d| d.as_f64() == Some(1.5)).unwrap();
+    let printed = report["printed"][at].as_f64().unwrap();
+    let mut figures = Vec::new();
+    for key in ["normaug", "snn"] {
+        let entry = report["entries"].as_array().unwrap().iter().find(|e| e["key"] == key).unwrap();
+        let spec = CharSetSpec {
+            boards: vec![sim::BoardKind::Rab],
+            speed_mm_s: report["speed_mm_s"].as_f64().unwrap(),
+            depth_mm: 1.5,
+            trials: 1,
+            seed: report["seed"].as_u64().unwrap(),
+            task: Task::Chars,
+            jitter_ms: 0.0,
+            world: world.clone(),
+            blank_cells: false,
+            sweep: None,
+        };
+        let model = root().join(entry["model"].as_str().unwrap());
+        let e = experiments::eval::chars::eval(&model, &spec, &()).unwrap();
+        let committed = &entry["scores"][at]["first_trial"];
+        assert!(committed.as_array().is_some_and(|a| !a.is_empty()), "{key}: the report records trial 0");
+        assert_eq!(&serde_json::to_value(&e.score.first_trial).unwrap(), committed, "{key}: trial 0 read again");
+        let confusion = entry["scores"][at]["confusion"].as_array().unwrap();
+        let right: u64 = confusion.iter().enumerate().map(|(i, row)| row[i].as_u64().unwrap()).sum();
+        let all = entry["accuracy_all"][at].as_f64().unwrap();
+        // (to the last bits: the report sums the diagonal in another order)
+        assert!(
+            (all - right as f64 / printed).abs() < 1e-12,
+            "{key}: the figure {all} is the diagonal over every printed character"
+        );
+        figures.push(format!("{:.2}%", 100.0 * all));
+    }
+    let quoted = format!("| {} / {};", figures[0], figures[1]);
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    assert!(readme.contains(&quoted), "the README quotes Table I's row as the report gives it: {quoted}");
+}

@@ -325,8 +325,9 @@ pub fn evaluate(model: &Resnet, set: &ImageSet, batch_size: usize) -> (f64, f64,
     (loss / n, hits as f64 / n, preds)
 }
 
-/// Trains a ResNet: Adam, seeded shuffling and initialisation, `augment` applied to each training
-/// image each time it is drawn, the best validation epoch kept.
+/// Trains a ResNet: Adam, seeded shuffling and initialisation (or the weights of `init`, a
+/// trained model's tensors of the same `cfg`, to fine-tune it), `augment` applied to each
+/// training image each time it is drawn, the best validation epoch kept.
 #[cfg(feature = "train")]
 pub fn train(
     cfg: &ResnetConfig,
@@ -334,14 +335,18 @@ pub fn train(
     val: &ImageSet,
     tc: &crate::train::TrainConfig,
     augment: &(dyn Fn(&[f32], &mut rand_chacha::ChaCha8Rng) -> Vec<f32> + Sync),
+    init: Option<&[::snn::model_file::NamedTensor]>,
     observer: &mut dyn crate::train::Observer,
-) -> (Resnet, Vec<crate::train::EpochReport>) {
+) -> Result<(Resnet, Vec<crate::train::EpochReport>)> {
     use burn::optim::{AdamConfig, GradientsParams};
     use rand::SeedableRng;
     use rand::seq::SliceRandom;
     let device = Device::flex().autodiff();
     device.seed(tc.seed);
     let mut model = cfg.init(&device);
+    if let Some(tensors) = init {
+        model = load_tensors(model, tensors)?;
+    }
     let mut optim = AdamConfig::new().init();
     let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(tc.seed);
@@ -392,7 +397,7 @@ pub fn train(
         }
         history.push(report);
     }
-    (best.0.unwrap_or_else(|| model.valid()), history)
+    Ok((best.0.unwrap_or_else(|| model.valid()), history))
 }
 
 /// The model's tensors by their dotted field names (burn's safetensors naming).
@@ -416,6 +421,12 @@ pub fn to_tensors(model: &Resnet) -> Result<Vec<::snn::model_file::NamedTensor>>
 
 /// A model of `cfg` holding `tensors`; every tensor must be used and none missing.
 pub fn from_tensors(cfg: &ResnetConfig, tensors: &[::snn::model_file::NamedTensor]) -> Result<Resnet> {
+    Ok(load_tensors(cfg.init(&Device::flex()), tensors)?.valid())
+}
+
+/// `model` with its tensors replaced by `tensors` (on the model's device); every tensor must be
+/// used and none missing.
+pub fn load_tensors(mut model: Resnet, tensors: &[::snn::model_file::NamedTensor]) -> Result<Resnet> {
     use burn::store::{ModuleSnapshot, SafetensorsStore};
     let bytes: Vec<(String, Vec<u8>, Vec<usize>)> = tensors
         .iter()
@@ -428,7 +439,6 @@ pub fn from_tensors(cfg: &ResnetConfig, tensors: &[::snn::model_file::NamedTenso
         })
         .collect::<std::result::Result<Vec<_>, _>>()?;
     let st = safetensors::serialize(views, None)?;
-    let mut model = cfg.init(&Device::flex());
     let r = model
         .load_from(&mut SafetensorsStore::from_bytes(Some(st)))
         .map_err(|e| Error::Tensors { tensor: None, what: format!("tensors do not fit the config: {e}") })?;
@@ -444,5 +454,5 @@ pub fn from_tensors(cfg: &ResnetConfig, tensors: &[::snn::model_file::NamedTenso
             ),
         });
     }
-    Ok(model.valid())
+    Ok(model)
 }

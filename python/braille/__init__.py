@@ -8,7 +8,8 @@ The Rust engine of the ``braille`` project, in process:
   event-driven engine, one sample or a batch in parallel with the GIL released, and NIR export
   with chips' rules;
 * the virtual Evetac: a simulated scan of a Braille board row (SIMULATED data) with its truth;
-* the word reader, on a whole array or incrementally.
+* the word reader, on a whole array or incrementally;
+* a lab's recordings folder (a manifest and event files): checked, its scans and their events.
 
 Errors of the Rust library arrive as :class:`BrailleError` (or ``FileNotFoundError``,
 ``FileExistsError``, ``OSError`` when a file operation failed) with the library's message, which
@@ -21,6 +22,8 @@ from ._braille import (
     EventFileReader,
     Network,
     Reader,
+    Recording,
+    Recordings,
     RunResult,
     Scan,
     Word,
@@ -40,6 +43,8 @@ __all__ = [
     "EventFileReader",
     "Network",
     "Reader",
+    "Recording",
+    "Recordings",
     "RunResult",
     "Scan",
     "Word",

@@ -1,6 +1,7 @@
 """Type stubs of the native module (``braille._braille``); see each function's docstring."""
 
 import os
+from pathlib import Path
 from typing import Any, Iterator, Literal, Optional, Sequence, Union
 
 import numpy as np
@@ -179,3 +180,32 @@ class Reader:
     def spell(self) -> str: ...
     @property
     def timing(self) -> dict[str, Any]: ...
+
+class Recording:
+    """One scan of a recordings folder: its manifest line (labels for training and scoring; a
+    reader gets the events only)."""
+
+    file: Path
+    path: Path
+    role: Literal["train", "val", "test"]
+    text: str
+    speed_mm_s: float
+    depth_mm: float
+    extra: dict[str, str]
+    line: int
+
+    def events(self) -> Events:
+        """The scan's events, read whole."""
+
+class Recordings:
+    """A recordings folder (docs/recordings.md): the manifest, checked on opening."""
+
+    def __init__(self, dir: PathLike) -> None: ...
+    @property
+    def dir(self) -> Path: ...
+    def scans(self, role: Optional[Literal["train", "val", "test"]] = None) -> list[Recording]:
+        """The scans of `role`, or all, in the manifest's order."""
+    def check(self) -> dict[str, Any]:
+        """Reads every event file through; the summary `braille recordings check --json` prints."""
+    def __len__(self) -> int: ...
+

@@ -2,7 +2,8 @@
 //!
 //! Everything here is a thin layer over the Rust crates: event files ([`encoders`]), the
 //! event-driven engine and NIR ([`snn`], [`pipeline::network`]), the virtual Evetac
-//! ([`corpus::scans`]) and the word reader ([`pipeline`]). Events cross the boundary as NumPy
+//! ([`corpus::scans`]), a lab's recordings folder ([`corpus::recordings`]) and the word reader
+//! ([`pipeline`]). Events cross the boundary as NumPy
 //! structured arrays with Tonic's fields `x, y, t, p`; work runs with the GIL released; every Rust
 //! error arrives as a Python exception carrying the same message.
 
@@ -15,6 +16,7 @@ mod errors;
 mod events;
 mod network;
 mod reader;
+mod recordings;
 mod simulate;
 
 #[pymodule]
@@ -36,5 +38,7 @@ fn _braille(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<reader::Reader>()?;
     m.add_class::<reader::WordStream>()?;
     m.add_class::<reader::Word>()?;
+    m.add_class::<recordings::Recordings>()?;
+    m.add_class::<recordings::Recording>()?;
     Ok(())
 }

@@ -47,6 +47,11 @@ impl StickSlip {
     pub const LIGHT_MOUNT: StickSlip =
         StickSlip { static_excess: 0.2, mount_stiffness_n_per_m: 3e4, mount_mass_kg: 1.0, mount_damping_ratio: 0.1 };
 
+    /// The middle of the assumed range of mounts: 100 kN/m (10 um/N, the logarithmic middle of
+    /// 10^4-10^6 N/m), otherwise [`StickSlip::LIGHT_MOUNT`]. At 1.5 mm depth slips recur at 8 mm/s
+    /// (every 0.9 mm), not from 16 mm/s (`nominal`; docs/results/stick_slip.md).
+    pub const MID_MOUNT: StickSlip = StickSlip { mount_stiffness_n_per_m: 1e5, ..StickSlip::LIGHT_MOUNT };
+
     /// [`StickSlip::LIGHT_MOUNT`] with the mount's compliance set instead, in um per N (the axis
     /// `braille robustness` sweeps and `braille simulate --mount-compliance-um-per-n` takes).
     pub fn light_mount_with_compliance(um_per_n: f64) -> StickSlip {
@@ -71,7 +76,9 @@ pub struct Contact {
     pub modulus_pa: f64,
     pub poisson_ratio: f64,
     pub thickness_m: f64,
-    /// The face's contact area (the field of view), m^2.
+    /// The face's contact area (the field of view), m^2. A build's optics scale its view by a
+    /// few per cent (`SensorVariation::fov_rel_sigma`), and the area with it: within the spread
+    /// of its modulus.
     pub area_m2: f64,
 }
 

@@ -117,10 +117,11 @@ impl Realism {
             depth_wander_sigma_mm: pick(0.03, 0.06),
             // Stick-slip shows only through the mount's compliance, which no source gives for the
             // paper's arm: from a stiff, damped mount (one slip before the text and a constant lag,
-            // invisible to a reader) to a light one (slips every few mm). `nominal` leaves it out;
-            // `harsh` takes a light, lightly damped mount (assumed; docs/simulator.md), and
-            // `braille robustness` sweeps the compliance.
-            stick_slip: edge.then_some(StickSlip::LIGHT_MOUNT),
+            // invisible to a reader) to a light one (slips every few mm). `nominal` takes the
+            // logarithmic middle of the assumed 10^4-10^6 N/m (10 um/N: at 1.5 mm slips recur at
+            // 8 mm/s, not from 16), `harsh` the light end (30 kN/m); both lightly damped (0.1,
+            // assumed; docs/simulator.md). `braille robustness` sweeps the compliance.
+            stick_slip: Some(if edge { StickSlip::LIGHT_MOUNT } else { StickSlip::MID_MOUNT }),
             ..ScanConfig::default()
         };
         let variation = SensorVariation {
@@ -132,6 +133,10 @@ impl Realism {
             noise_rate_sigma_decades: pick(0.1, 0.2),
             hot_pixel_fraction: pick(0.0003, 0.001),
             hot_pixel_hz_range: (10.0, 100.0),
+            // The optics' scale: a lens's focal length within +-5% (a common tolerance of board
+            // lenses) and the camera-to-gel distance within a printed mount's +-0.2 mm of about
+            // 25 mm (assumed): +-5% taken as 2 sigma at `nominal`, as 1 sigma at `harsh`.
+            fov_rel_sigma: pick(0.025, 0.05),
         };
         Setup { realism: self, camera, gel, geometry, scan, variation }
     }
@@ -183,6 +188,14 @@ mod tests {
         let (a, b) = (s.sensor(r, 1).unwrap(), s.sensor(r, 2).unwrap());
         assert_ne!(a.camera.background_dn, b.camera.background_dn);
         assert_ne!(a.gel.dynamics.thickness_mm, b.gel.dynamics.thickness_mm);
+        // Each build has its own optics, drawn apart from the rest of the build: without the
+        // optics' spread the build is the same but for its field of view.
+        assert_ne!(a.camera.fov_width_mm, b.camera.fov_width_mm);
+        let flat = Setup { variation: SensorVariation { fov_rel_sigma: 0.0, ..s.variation.clone() }, ..s.clone() };
+        let a0 = flat.sensor(r, 1).unwrap();
+        assert_eq!(a0.camera.fov_width_mm, 18.6);
+        assert_eq!(CameraConfig { fov_width_mm: 18.6, ..a.camera.clone() }, a0.camera);
+        assert_eq!(a.gel, a0.gel);
         let again = s.sensor(r, 1).unwrap();
         assert_eq!(a.camera, again.camera);
         assert_eq!(a.threshold_on, again.threshold_on);

@@ -197,8 +197,9 @@ pub struct ScanTruth {
 
 impl ScanTruth {
     /// The board's speed under the sensor at stream time `t_s`, mm/s: the mean speed and its
-    /// swings during the slide, 0 before and after it. (The gel's surface follows it with the
-    /// lag of its dynamics.)
+    /// swings during the slide, 0 before and after it: the arm's. (The gel's surface follows it
+    /// with the lag of its dynamics; with stick-slip the camera sticks and jumps about it, see
+    /// [`ScanTruth::stick_slip`].)
     pub fn speed_at_mm_s(&self, t_s: f64) -> f64 {
         let tl = &self.timeline;
         if !(tl.slide_start_s..=tl.slide_end_s).contains(&t_s) {

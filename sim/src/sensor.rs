@@ -308,6 +308,12 @@ pub struct SensorVariation {
     /// 10 Hz); rates are drawn log-uniform in the range.
     pub hot_pixel_fraction: f64,
     pub hot_pixel_hz_range: (f64, f64),
+    /// Relative spread of the field of view's width on the gel, the optics' scale in mm per pixel
+    /// (assumed: a hand-assembled build's lens and mount; docs/simulator.md). Drawn from a stream
+    /// of its own and clipped at 3 sigma. Files written before it existed read 0 (every build
+    /// with the nominal 18.6 mm).
+    #[serde(default)]
+    pub fov_rel_sigma: f64,
 }
 
 impl Default for SensorVariation {
@@ -321,6 +327,7 @@ impl Default for SensorVariation {
             noise_rate_sigma_decades: 0.0,
             hot_pixel_fraction: 0.0,
             hot_pixel_hz_range: (10.0, 10.0),
+            fov_rel_sigma: 0.0,
         }
     }
 }
@@ -344,6 +351,7 @@ impl SensorVariation {
         check("noise_rate_sigma_decades", self.noise_rate_sigma_decades, 0.0..2.0, "in [0, 2) decades")?;
         check("hot_pixel_fraction", self.hot_pixel_fraction, 0.0..0.1, "in [0, 0.1)")?;
         range("hot_pixel_hz_range", self.hot_pixel_hz_range, 1e5)?;
+        check("fov_rel_sigma", self.fov_rel_sigma, 0.0..0.2, "in [0, 0.2)")?;
         Ok(())
     }
 
@@ -380,6 +388,12 @@ impl SensorVariation {
                 .sample(&mut rng) as usize;
             let (lo, hi) = self.hot_pixel_hz_range;
             camera.hot_pixel_hz = (lo.ln() + (hi.ln() - lo.ln()) * rng.random::<f64>()).exp();
+        }
+        if self.fov_rel_sigma > 0.0 {
+            // A stream of its own, so that the draws above do not move with the optics.
+            let mut optics = ChaCha8Rng::seed_from_u64(seed ^ 0x4f50_5449_4353_4d4d);
+            let z = unit.sample(&mut optics).clamp(-3.0, 3.0);
+            camera.fov_width_mm *= 1.0 + self.fov_rel_sigma * z;
         }
         Ok((camera, gel))
     }

@@ -64,8 +64,10 @@ fn nuisances_are_drawn_per_trial_and_clean_scans_keep_their_events() {
     assert_eq!(a.truth.depth_profile_mm.len(), 3);
     assert!(a.truth.depth_profile_mm.iter().all(|d| (d - 1.0).abs() < 0.3), "{:?}", a.truth.depth_profile_mm);
     assert_eq!(a.events, simulate(&board, &sensor, &setup.scan(16.0, 1.0, 0, 1)).unwrap().events);
-    // A hand-held slide changes speed along the row but keeps its mean and never stops.
-    let hand = ScanConfig { speed_variation: 0.4, ..setup.scan(16.0, 1.0, 0, 1) };
+    // A hand-held slide changes speed along the row but keeps its mean and never stops. (Without
+    // the mount's stick-slip: the truth's speed is the arm's, and a slipping camera jumps about
+    // it by up to a jump, 0.1 mm at `nominal`; the mount's own tests check those.)
+    let hand = ScanConfig { speed_variation: 0.4, stick_slip: None, ..setup.scan(16.0, 1.0, 0, 1) };
     let h = simulate(&board, &sensor, &hand).unwrap();
     let slide = h.truth.timeline.slide_end_s - h.truth.timeline.slide_start_s;
     assert!((slide * 16.0 / 195.0 - 1.0).abs() < 0.2, "{slide} s for 195 mm at 16 mm/s on average");

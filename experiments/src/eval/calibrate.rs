@@ -82,7 +82,13 @@ pub struct Calibration {
     pub data: &'static str,
     pub segmenter: String,
     pub classifier: String,
-    pub spec: CalibrationSpec,
+    /// The validation scans, in words.
+    pub scans: String,
+    /// The simulated validation scans' spec (none for a recordings folder).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spec: Option<CalibrationSpec>,
+    /// The speeds the scores are grouped by (a folder's commanded speeds).
+    pub speeds_mm_s: Vec<f64>,
     /// Printed words per speed (over all scans).
     pub words: Vec<usize>,
     pub rows: Vec<CalibrationRow>,
@@ -146,58 +152,178 @@ pub fn calibrate(
             expected: "at least one of each",
         });
     }
-    let grid: Vec<OperatingPoint> = spec
-        .thresholds
+    let grid = grid_of(&spec.thresholds, &spec.min_frames)?;
+    let setup = spec.world.setup();
+    let board = spec.world.board(&setup, &spec.board)?;
+    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    let jobs: Vec<(usize, usize, u64)> = (0..spec.speeds_mm_s.len())
+        .flat_map(|s| (0..board.rows.len()).flat_map(move |r| (0..spec.trials).map(move |t| (s, r, t))))
+        .collect();
+    let load = |k: usize| -> Result<Scan> {
+        let (s, row, trial) = jobs[k];
+        let speed = spec.speeds_mm_s[s];
+        let seed = spec.world.scan_seed(spec.seed, &spec.board, row, trial, speed, spec.depth_mm);
+        let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+        let scan = sim::simulate(&board, sensor, &setup.scan(speed, spec.depth_mm, row, seed))?;
+        let truth = scan.truth.row_text.split_whitespace().map(str::to_string).collect();
+        Ok(Scan { speed: s, events: scan.events, resolution: sensor.camera.resolution, truth })
+    };
+    let reads =
+        read_grid(models, &grid, jobs.len(), &load, "reading validation scans at every operating point", progress)?;
+    let scans = format!(
+        "SIMULATED validation words ({}), {} world, sensor builds {:?}, seed {}, {} scans per row at {:?} mm/s, {} mm, speed estimated",
+        spec.board.name(),
+        spec.world.realism,
+        spec.world.sensors,
+        spec.seed,
+        spec.trials,
+        spec.speeds_mm_s,
+        spec.depth_mm
+    );
+    let mut c = choose_point(
+        segmenter,
+        classifier,
+        &grid,
+        &spec.speeds_mm_s,
+        &reads,
+        scans,
+        (&spec.thresholds, &spec.min_frames),
+    );
+    c.spec = Some(spec.clone());
+    Ok(c)
+}
+
+/// Sweeps the grid of `thresholds` and `min_frames` on the `val` scans of a lab's recordings
+/// folder (docs/recordings.md) for the pair `models`, grouped by commanded speed (a speed's depths
+/// together), and chooses by [`RULE`] (`braille calibrate-reader --recordings`). The reader gets
+/// the events only; the manifest's text scores it.
+pub fn calibrate_recordings(
+    models: &ReaderModels,
+    segmenter: &str,
+    classifier: &str,
+    rec: &corpus::recordings::Recordings,
+    thresholds: &[f32],
+    min_frames: &[usize],
+    progress: &dyn Progress,
+) -> Result<Calibration> {
+    let role = corpus::recordings::Role::Val;
+    let scans: Vec<&corpus::recordings::Recording> = rec.role(role).collect();
+    if scans.is_empty() {
+        return Err(crate::Error::Data {
+            path: rec.dir.clone(),
+            what: "no `val` scans in its manifest: the reader's operating point is chosen on them".into(),
+        });
+    }
+    let mut speeds: Vec<f64> = rec.conditions(role).into_iter().map(|c| c.0).collect();
+    speeds.dedup();
+    let grid = grid_of(thresholds, min_frames)?;
+    let load = |k: usize| -> Result<Scan> {
+        let r = scans[k];
+        let path = rec.path(r);
+        let (info, events) =
+            encoders::formats::read_all(&path, &encoders::OpenOptions::default()).map_err(corpus::Error::from)?;
+        Ok(Scan {
+            speed: speeds.iter().position(|&v| v == r.speed_mm_s).expect("every val speed is listed"),
+            events,
+            resolution: info.resolution.unwrap_or(encoders::Resolution::DVXPLORER),
+            truth: r.text.split_whitespace().map(str::to_uppercase).collect(),
+        })
+    };
+    let reads =
+        read_grid(models, &grid, scans.len(), &load, "reading recorded val scans at every operating point", progress)?;
+    let text = format!(
+        "recorded scans of {}: its {} `val` scans at {:?} mm/s (commanded), speed estimated",
+        rec.dir.display(),
+        scans.len(),
+        speeds
+    );
+    let mut c = choose_point(segmenter, classifier, &grid, &speeds, &reads, text, (thresholds, min_frames));
+    c.data = "recorded scans";
+    Ok(c)
+}
+
+/// Every point of `thresholds` with every shortest segment, checked.
+fn grid_of(thresholds: &[f32], min_frames: &[usize]) -> Result<Vec<OperatingPoint>> {
+    if thresholds.is_empty() || min_frames.is_empty() {
+        return Err(crate::Error::Setting {
+            name: "calibration grid",
+            value: format!("{} thresholds, {} frame counts", thresholds.len(), min_frames.len()),
+            expected: "at least one of each",
+        });
+    }
+    let grid: Vec<OperatingPoint> = thresholds
         .iter()
         .flat_map(|&t| {
-            spec.min_frames.iter().map(move |&m| OperatingPoint {
-                present_threshold: t,
-                min_frames: m,
-                calibration: None,
-            })
+            min_frames.iter().map(move |&m| OperatingPoint { present_threshold: t, min_frames: m, calibration: None })
         })
         .collect();
     for p in &grid {
         p.validate()?;
     }
-    let setup = spec.world.setup();
-    let board = spec.world.board(&setup, &spec.board)?;
-    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    Ok(grid)
+}
+
+/// One validation scan: its speed's index, its events and the words printed.
+struct Scan {
+    speed: usize,
+    events: Vec<encoders::Event>,
+    resolution: encoders::Resolution,
+    truth: Vec<String>,
+}
+
+/// Per scan: its speed, the printed words, and per grid point the words read (raw, lexicon).
+type Read = (usize, (Vec<String>, Vec<(Vec<String>, Vec<String>)>));
+
+/// Reads scans `0..n` (each loaded by `load`, in parallel) at every point of `grid`, each scan's
+/// network outputs computed once ([`Memo`]).
+fn read_grid(
+    models: &ReaderModels,
+    grid: &[OperatingPoint],
+    n: usize,
+    load: &(dyn Fn(usize) -> Result<Scan> + Sync),
+    what: &str,
+    progress: &dyn Progress,
+) -> Result<Vec<Read>> {
     let speller = Speller::new(Spell::Lexicon);
-    let jobs: Vec<(usize, usize, u64)> = (0..spec.speeds_mm_s.len())
-        .flat_map(|s| (0..board.rows.len()).flat_map(move |r| (0..spec.trials).map(move |t| (s, r, t))))
-        .collect();
-    progress.start("reading validation scans at every operating point", jobs.len() as u64);
-    // per job: the printed words, then per grid point the words read (raw, lexicon)
-    type Lines = (Vec<String>, Vec<(Vec<String>, Vec<String>)>);
-    let reads: Vec<(usize, Lines)> = jobs
-        .par_iter()
-        .map(|&(s, row, trial)| -> Result<(usize, Lines)> {
-            let speed = spec.speeds_mm_s[s];
-            let seed = spec.world.scan_seed(spec.seed, &spec.board, row, trial, speed, spec.depth_mm);
-            let sensor = &sensors[(trial % sensors.len() as u64) as usize];
-            let scan = sim::simulate(&board, sensor, &setup.scan(speed, spec.depth_mm, row, seed))?;
-            let truth: Vec<String> = scan.truth.row_text.split_whitespace().map(str::to_string).collect();
+    progress.start(what, n as u64);
+    let reads = (0..n)
+        .into_par_iter()
+        .map(|k| -> Result<Read> {
+            let scan = load(k)?;
             let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
             let mut out = Vec::with_capacity(grid.len());
-            for p in &grid {
+            for p in grid {
                 let cfg: ReaderConfig = models.config(Timing::ESTIMATED).with_operating_point(p);
-                let r = read_all(&scan.events, cfg, sensor.camera.resolution, &seg, &cls, &speller)
-                    .map_err(crate::Error::from)?;
+                let r =
+                    read_all(&scan.events, cfg, scan.resolution, &seg, &cls, &speller).map_err(crate::Error::from)?;
                 out.push((
                     r.words.iter().map(|w| w.raw.clone()).collect(),
                     r.words.iter().map(|w| w.text.clone()).collect(),
                 ));
             }
             progress.inc();
-            Ok((s, (truth, out)))
+            Ok((scan.speed, (scan.truth, out)))
         })
         .collect::<Result<_>>()?;
     progress.finish();
-    let n_speeds = spec.speeds_mm_s.len();
+    Ok(reads)
+}
+
+/// Scores every point of `grid` on `reads` per speed and chooses by [`RULE`].
+#[allow(clippy::too_many_arguments)]
+fn choose_point(
+    segmenter: &str,
+    classifier: &str,
+    grid: &[OperatingPoint],
+    speeds_mm_s: &[f64],
+    reads: &[Read],
+    scans: String,
+    (thresholds, min_frames): (&[f32], &[usize]),
+) -> Calibration {
+    let n_speeds = speeds_mm_s.len();
     let mut metrics = vec![vec![(WordMetrics::default(), WordMetrics::default()); n_speeds]; grid.len()];
     let mut words = vec![0usize; n_speeds];
-    for (s, (truth, per_point)) in &reads {
+    for (s, (truth, per_point)) in reads {
         words[*s] += truth.len();
         for (g, (raw, lex)) in per_point.iter().enumerate() {
             metrics[g][*s].0.add_line(truth, raw);
@@ -227,36 +353,29 @@ pub fn calibrate(
         min_frames: b.min_frames,
         calibration: Some(PointCalibration {
             command: "braille calibrate-reader".into(),
-            data: format!(
-                "SIMULATED validation words ({}), {} world, sensor builds {:?}, seed {}, {} scans per row at {:?} mm/s, {} mm, speed estimated",
-                spec.board.name(),
-                spec.world.realism,
-                spec.world.sensors,
-                spec.seed,
-                spec.trials,
-                spec.speeds_mm_s,
-                spec.depth_mm
-            ),
+            data: scans.clone(),
             classifier: classifier.to_string(),
             rule: RULE.to_string(),
             mean_word_accuracy_none: b.mean_none,
             mean_word_accuracy_lexicon: b.mean_lexicon,
             grid: CalibrationGrid {
-                thresholds: spec.thresholds.iter().map(|&t| f32_as_printed(t)).collect(),
-                min_frames: spec.min_frames.clone(),
+                thresholds: thresholds.iter().map(|&t| f32_as_printed(t)).collect(),
+                min_frames: min_frames.to_vec(),
             },
         }),
     };
-    Ok(Calibration {
+    Calibration {
         data: "simulated (virtual Evetac)",
         segmenter: segmenter.to_string(),
         classifier: classifier.to_string(),
-        spec: spec.clone(),
+        scans,
+        spec: None,
+        speeds_mm_s: speeds_mm_s.to_vec(),
         words,
         rows,
         chosen,
         rule: RULE,
-    })
+    }
 }
 
 /// The row [`RULE`] picks.
@@ -278,22 +397,32 @@ pub fn choose(rows: &[CalibrationRow]) -> usize {
 
 /// The grid as Markdown.
 pub fn markdown(c: &Calibration) -> String {
-    let s = &c.spec;
     let best = choose(&c.rows);
-    let speeds: Vec<String> = s.speeds_mm_s.iter().map(|v| format!("{v} mm/s")).collect();
+    let speeds: Vec<String> = c.speeds_mm_s.iter().map(|v| format!("{v} mm/s")).collect();
+    let kind = if c.data.starts_with("simulated") { "SIMULATED" } else { "RECORDED" };
+    let scans = match &c.spec {
+        Some(s) => format!(
+            "`VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board",
+            s.board.name(),
+            s.world.realism,
+            s.world.sensors,
+            s.seed,
+            s.trials,
+            speeds.join(", "),
+            c.words.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(" / "),
+            s.depth_mm
+        ),
+        None => format!(
+            "{} ({} printed words per speed)",
+            c.scans,
+            c.words.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(" / ")
+        ),
+    };
     let mut md = format!(
-        "# The reader's operating point: {} (SIMULATED)\n\nSegmentation network `{}`, character classifier `{}`. Scans: `VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board. Each cell: word accuracy (1 - WER) over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
+        "# The reader's operating point: {} ({kind})\n\nSegmentation network `{}`, character classifier `{}`. Scans: {scans}. Each cell: word accuracy (1 - WER) over every printed word without spelling / with the lexicon decoder. Rule: {}.\n\nChosen: **threshold {}, {} frames** (mean {:.3} without spelling, {:.3} with the lexicon). The paper's point (0.5, 4) is marked *paper*.\n\n",
         c.segmenter,
         c.segmenter,
         c.classifier,
-        s.board.name(),
-        s.world.realism,
-        s.world.sensors,
-        s.seed,
-        s.trials,
-        speeds.join(", "),
-        c.words.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(" / "),
-        s.depth_mm,
         c.rule,
         c.chosen.present_threshold,
         c.chosen.min_frames,

@@ -6,7 +6,7 @@ use crate::Progress;
 use crate::error::Result;
 use crate::eval::scoring::Confusion;
 use crate::eval::tactile::{async_capable, snn_accuracy};
-use corpus::windows::{CharSetSpec, Task, build, snn_set};
+use corpus::windows::{CharSetSpec, ScanId, Task, build, snn_set};
 use learn::resnet::ImageSet;
 use learn::snn::{SnnParams, SnnTwin};
 use pipeline::input::CharInput;
@@ -41,6 +41,51 @@ pub struct Score {
     pub spikes_per_sample: Option<f64>,
     pub input_events_per_sample: Option<f64>,
     pub accuracy_async: Option<f64>,
+    /// The class read for each window, in the set's order.
+    #[serde(skip)]
+    pub predictions: Vec<usize>,
+    /// What the classifier read on each scan of trial 0 (filled where the windows' scans are
+    /// known, [`Score::with_first_trial`]): a small slice of the score that a golden test can
+    /// recompute from the model and the seed.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub first_trial: Vec<ScanRead>,
+}
+
+/// What a classifier read on one scan: the letters of the windows the labeler found, in order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ScanRead {
+    pub board: String,
+    pub row: usize,
+    pub truth: String,
+    pub read: String,
+}
+
+impl Score {
+    /// The score with [`Score::first_trial`] filled from the windows' scans (`origin`, one per
+    /// window, in the order scored) and the windows' true classes.
+    pub fn with_first_trial(mut self, origin: &[ScanId], labels: &[usize]) -> Score {
+        let letter = |c: usize| char::from(b'a' + c as u8);
+        let mut reads: Vec<ScanRead> = Vec::new();
+        for ((scan, &truth), &pred) in origin.iter().zip(labels).zip(&self.predictions) {
+            if scan.trial != 0 {
+                continue;
+            }
+            match reads.last_mut() {
+                Some(r) if r.board == scan.board && r.row == scan.row => {}
+                _ => reads.push(ScanRead {
+                    board: scan.board.clone(),
+                    row: scan.row,
+                    truth: String::new(),
+                    read: String::new(),
+                }),
+            }
+            let r = reads.last_mut().expect("pushed above");
+            r.truth.push(letter(truth));
+            r.read.push(letter(pred));
+        }
+        self.first_trial = reads;
+        self
+    }
 }
 
 impl CharModel {
@@ -72,8 +117,8 @@ impl CharModel {
                     data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
                     labels: raw.labels.clone(),
                 };
-                let (loss, accuracy, preds) = learn::resnet::evaluate(&m.model, &set, 32);
-                let confusion = Confusion::from_pairs(26, set.labels.iter().copied().zip(preds));
+                let (loss, accuracy, predictions) = learn::resnet::evaluate(&m.model, &set, 32);
+                let confusion = Confusion::from_pairs(26, set.labels.iter().copied().zip(predictions.iter().copied()));
                 Ok(Score {
                     n: set.len(),
                     accuracy,
@@ -84,6 +129,8 @@ impl CharModel {
                     spikes_per_sample: None,
                     input_events_per_sample: None,
                     accuracy_async: None,
+                    predictions,
+                    first_trial: vec![],
                 })
             }
             Model::Snn(model) => {
@@ -116,6 +163,8 @@ impl CharModel {
                     spikes_per_sample: Some(stepped.spikes_per_sample),
                     input_events_per_sample: Some(stepped.input_events_per_sample),
                     accuracy_async,
+                    predictions: stepped.predictions.iter().map(|p| p.0).collect(),
+                    first_trial: vec![],
                 })
             }
         }
@@ -145,13 +194,13 @@ pub struct CharEval {
 pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<CharEval> {
     let m = CharModel::load(path)?;
     let (raw, w) = build(spec, &m.input, progress)?;
-    let score = m.score(&raw)?;
+    let score = m.score(&raw)?.with_first_trial(&w.origin, &raw.labels);
     let right = crate::reports::chars::right(&score);
     Ok(CharEval {
         data: "simulated (virtual Evetac)",
         arch: m.arch(),
         model: path.display().to_string(),
-        board: spec.boards.iter().map(|b| b.name()).collect::<Vec<_>>().join(","),
+        board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
         speed_mm_s: spec.speed_mm_s,
         depth_mm: spec.depth_mm,
         scans: w.scans,
@@ -162,13 +211,50 @@ pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<
     })
 }
 
+/// Scores the model at `path` on the windows of a recordings folder's scans of `role` (the
+/// labeler told each scan's character count and commanded speed by the manifest, as for
+/// simulated scans), one score per commanded speed and depth (`braille eval chars
+/// --recordings`).
+pub fn eval_recordings(
+    path: &Path,
+    rec: &corpus::recordings::Recordings,
+    role: corpus::recordings::Role,
+    progress: &dyn Progress,
+) -> Result<Vec<CharEval>> {
+    let m = CharModel::load(path)?;
+    let mut out = Vec::new();
+    for (speed_mm_s, depth_mm) in rec.conditions(role) {
+        let scans: Vec<&corpus::recordings::Recording> =
+            rec.role(role).filter(|r| r.speed_mm_s == speed_mm_s && r.depth_mm == depth_mm).collect();
+        let mut w = corpus::windows::recorded_windows(rec, &scans, &[&m.input], Task::Chars, 0.0, false, progress)?;
+        let raw = w.sets.remove(0);
+        let score = m.score(&raw)?;
+        let right = crate::reports::chars::right(&score);
+        out.push(CharEval {
+            data: "recorded scans",
+            arch: m.arch(),
+            model: path.display().to_string(),
+            board: format!("{} ({} scans)", rec.dir.display(), role.name()),
+            speed_mm_s,
+            depth_mm,
+            scans: w.scans,
+            skipped_scans: w.skipped_scans,
+            printed: w.printed,
+            accuracy_all: w.accuracy_all(right),
+            score,
+        });
+    }
+    Ok(out)
+}
+
 /// The line `braille eval chars` prints.
 impl std::fmt::Display for CharEval {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let s = &self.score;
         writeln!(
             f,
-            "SIMULATED {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped), {} printed characters: {} accuracy {:.2}% of the windows, {:.2}% of all printed, macro F1 {:.3}, loss {:.3}{}",
+            "{} {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped), {} printed characters: {} accuracy {:.2}% of the windows, {:.2}% of all printed, macro F1 {:.3}, loss {:.3}{}",
+            if self.data.starts_with("simulated") { "SIMULATED" } else { "RECORDED" },
             self.board,
             self.speed_mm_s,
             self.depth_mm,

@@ -33,16 +33,20 @@ pub enum Nuisance {
     /// Compliance of the sensor's mount, um per N, with stick-slip of the gel on the board's face
     /// (`sim::StickSlip::LIGHT_MOUNT` but for the stiffness; 0: no stick-slip, a rigid mount).
     MountCompliance,
+    /// Width of the field of view on the gel, mm: the optics' scale (18.6 the design's), every
+    /// build at this width.
+    FieldOfView,
 }
 
 impl Nuisance {
-    pub const ALL: [Nuisance; 6] = [
+    pub const ALL: [Nuisance; 7] = [
         Nuisance::NoiseRate,
         Nuisance::Misalignment,
         Nuisance::DepthDrift,
         Nuisance::Speed,
         Nuisance::SensorBuild,
         Nuisance::MountCompliance,
+        Nuisance::FieldOfView,
     ];
 
     pub fn label(self) -> &'static str {
@@ -53,6 +57,7 @@ impl Nuisance {
             Nuisance::Speed => "speed (mm/s)",
             Nuisance::SensorBuild => "sensor build (seed)",
             Nuisance::MountCompliance => "mount compliance with stick-slip (um/N)",
+            Nuisance::FieldOfView => "field of view on the gel (mm)",
         }
     }
 
@@ -66,6 +71,8 @@ impl Nuisance {
             Nuisance::SensorBuild => vec![1.0, 2.0, 3.0, 4.0, 101.0, 102.0],
             // Rigid, then 1 MN/m down to 20 kN/m (33: `harsh`'s mount).
             Nuisance::MountCompliance => vec![0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 33.0, 50.0],
+            // The design's 18.6 mm +-5% and +-10% (`nominal`'s builds: 2.5% sigma).
+            Nuisance::FieldOfView => vec![16.74, 17.67, 18.6, 19.53, 20.46],
         }
     }
 
@@ -85,6 +92,10 @@ impl Nuisance {
             Nuisance::SensorBuild => spec.world.sensors = vec![level as u64],
             Nuisance::MountCompliance => {
                 setup.scan.stick_slip = (level > 0.0).then(|| sim::StickSlip::light_mount_with_compliance(level))
+            }
+            Nuisance::FieldOfView => {
+                setup.camera.fov_width_mm = level;
+                setup.variation.fov_rel_sigma = 0.0;
             }
         }
     }
@@ -161,6 +172,7 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
                 jitter_ms: 0.0,
                 world: World::test(spec.base),
                 blank_cells: false,
+                sweep: None,
             };
             nuisance.apply(&mut setup, &mut set_spec, level);
             let windows = build_many_in(&set_spec, &setup, &inputs, progress)?;

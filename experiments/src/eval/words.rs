@@ -372,7 +372,15 @@ pub fn eval_words(
 ) -> Result<EvalWords> {
     let lines = read_scans(spec, &[readers], &[timing], progress)?;
     let score = score(readers.classifier.arch(), timing, 0, &lines, spec.condition());
-    Ok(EvalWords::of("simulated (virtual Evetac)", spec.board.name(), files, readers, Some(builds), spell, score))
+    Ok(EvalWords::of(
+        "simulated (virtual Evetac)",
+        corpus::boards::board_name(&spec.board),
+        files,
+        readers,
+        Some(builds),
+        spell,
+        score,
+    ))
 }
 
 impl EvalWords {
@@ -451,8 +459,52 @@ impl std::fmt::Display for EvalWords {
             self.correct_letters,
             s.stream_s,
             s.read_s
-        )
+        )?;
+        let counts = &s.by_spell.iter().find(|b| b.spell == self.spell).expect("every spelling is scored").counts;
+        writeln!(f, "{}", letters_line(counts))
     }
+}
+
+/// Per-letter accuracy (the five lowest), by place in the row, words by place, and the most
+/// frequent confusions of one spelling's counts, on one line.
+pub fn letters_line(counts: &WordMetrics) -> String {
+    use crate::eval::scoring::LetterPlace;
+    let l = &counts.letter_scores;
+    let pct = |t: crate::eval::scoring::Tally| {
+        if t.printed == 0 { "–".to_string() } else { format!("{:.1}%", 100.0 * t.rate()) }
+    };
+    let mut letters: Vec<(char, crate::eval::scoring::Tally)> =
+        (0..26).map(|k| ((b'A' + k as u8) as char, l.by_letter[k])).filter(|(_, t)| t.printed > 0).collect();
+    letters.sort_by(|a, b| a.1.rate().total_cmp(&b.1.rate()).then(a.0.cmp(&b.0)));
+    let lowest: Vec<String> =
+        letters.iter().take(5).map(|(c, t)| format!("{c} {} of {}", pct(*t), t.printed)).collect();
+    let confusions: Vec<String> = l
+        .confusions()
+        .iter()
+        .take(6)
+        .map(|p| {
+            let read = match p.read {
+                Some(' ') => "space".to_string(),
+                Some(c) => c.to_string(),
+                None => "nothing".to_string(),
+            };
+            format!("{}->{} {}", p.printed, read, p.count)
+        })
+        .collect();
+    format!(
+        "letters: {} of {} printed; lowest {}; by place: row start {}, word start {}, middle {}, word end {}; words by place: first {}, middle {}, last {}; confusions: {}",
+        pct(l.total()),
+        l.total().printed,
+        lowest.join(", "),
+        pct(l.at(LetterPlace::RowStart)),
+        pct(l.at(LetterPlace::WordStart)),
+        pct(l.at(LetterPlace::Middle)),
+        pct(l.at(LetterPlace::WordEnd)),
+        pct(counts.word_places.first),
+        pct(counts.word_places.middle),
+        pct(counts.word_places.last),
+        if confusions.is_empty() { "none".to_string() } else { confusions.join(", ") }
+    )
 }
 
 /// The scans of one role of a recordings folder, read by each of `readers` with each of
@@ -500,15 +552,8 @@ pub fn eval_recordings(
     progress: &dyn Progress,
 ) -> Result<Vec<EvalWords>> {
     let read = read_recordings(rec, role, &[readers], &[timing], progress)?;
-    let mut conditions: Vec<(f64, f64)> = Vec::new();
-    for (r, _) in &read {
-        if !conditions.contains(&(r.speed_mm_s, r.depth_mm)) {
-            conditions.push((r.speed_mm_s, r.depth_mm));
-        }
-    }
-    conditions.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let mut out = Vec::new();
-    for (speed_mm_s, depth_mm) in conditions {
+    for (speed_mm_s, depth_mm) in rec.conditions(role) {
         let lines: Vec<Vec<LineRead>> = read
             .iter()
             .filter(|(r, _)| r.speed_mm_s == speed_mm_s && r.depth_mm == depth_mm)

@@ -1,7 +1,8 @@
 //! The whole report (`braille report`): every results table and figure regenerated into one
 //! folder, with an index. Each part calls the library function its own command calls and writes
 //! the same files: the simulator's physics checks, the labeling pipeline, a simulated scan as a
-//! heat map and an event raster, Table I and the depth curve, the speed table, the SNN against the
+//! heat map and an event raster, Table I and the depth curve, the speed table, every letter at
+//! every place in a row, the SNN against the
 //! ResNet on one stream (latency histograms, SynOps and energy), the real iCub results and the
 //! engine's benchmark.
 
@@ -152,6 +153,24 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
         };
         let r = crate::reports::words::words_report(&models, &spec, progress)?;
         crate::reports::figures::write_words_report(&r, out)
+    })?;
+    step(&mut times, progress, "every letter at every place", "[letters.md](letters.md)", || {
+        let spec = crate::reports::letters::LettersReportSpec {
+            held_out: corpus::boards::HeldOut::Test,
+            speeds_mm_s: if q { vec![32.0] } else { vec![8.0, 16.0, 24.0, 32.0, 48.0] },
+            depths_mm: if q { vec![1.0] } else { vec![0.6, 1.0, 1.5] },
+            trials: 1,
+            focus_speed_mm_s: if q { 32.0 } else { 16.0 },
+            focus_depth_mm: 1.0,
+            focus_trials: if q { 1 } else { 4 },
+            seed: corpus::world::TEST_SEED,
+            world: test_world.clone(),
+            first_rows: q.then_some(4),
+        };
+        let readers: Vec<pipeline::shipped::ReaderFiles> =
+            [Arch::Resnet, Arch::Snn].into_iter().map(|a| pipeline::shipped::reader_in(&models, a)).collect();
+        let r = crate::reports::letters::letters_report(&readers, &spec, progress)?;
+        crate::reports::figures::write_letters_report(&r, out).map(|_| ())
     })?;
     let runs = step(
         &mut times,

@@ -122,6 +122,7 @@ pub fn chars_report(
             jitter_ms: 0.0,
             world: world.clone(),
             blank_cells: false,
+            sweep: None,
         };
         let (scores, w) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter_mut().zip(scores) {
@@ -156,6 +157,7 @@ pub fn chars_report(
             jitter_ms: 0.0,
             world: world.clone(),
             blank_cells: false,
+            sweep: None,
         };
         let (row, w) = score_all(&spec, &chars, progress)?;
         for (e, s) in entries.iter_mut().zip(&row) {
@@ -436,7 +438,11 @@ pub fn score_all(spec: &CharSetSpec, models: &[&CharModel], progress: &dyn Progr
         }
         Windows { sets, ..last }
     };
-    let scores: Vec<Score> = models.iter().zip(&w.sets).map(|(m, set)| m.score(set)).collect::<Result<_>>()?;
+    let scores: Vec<Score> = models
+        .iter()
+        .zip(&w.sets)
+        .map(|(m, set)| Ok(m.score(set)?.with_first_trial(&w.origin, &set.labels)))
+        .collect::<Result<_>>()?;
     let n = scores.first().map_or(0, |s| s.n);
     if scores.iter().any(|s| s.n != n) {
         return Err(Error::WindowCounts { counts: scores.iter().map(|s| s.n).collect() });
@@ -444,7 +450,6 @@ pub fn score_all(spec: &CharSetSpec, models: &[&CharModel], progress: &dyn Progr
     Ok((scores, w))
 }
 
-/// Windows classified right: the confusion matrix's diagonal.
 /// Windows classified right: the diagonal of the score's confusion matrix
 /// ([`crate::eval::scoring::Confusion::correct`]).
 pub fn right(s: &Score) -> usize {

@@ -111,6 +111,7 @@ fn chars_spec(trials: u64, realism: sim::Realism) -> CharSetSpec {
         jitter_ms: 0.0,
         world: World::test(realism),
         blank_cells: false,
+        sweep: None,
     }
 }
 

@@ -390,6 +390,17 @@ fn plot_confusion(confusion: &[Vec<u32>], title: &str, path: &Path) -> Drawn {
     Ok(())
 }
 
+/// The all-letters report's files in `out`: `letters.md` and `letters.json` (`val_letters.*`
+/// for the validation board); the Markdown's path.
+pub fn write_letters_report(r: &crate::reports::letters::LettersReport, out: &Path) -> Result<PathBuf> {
+    create_dir(out)?;
+    let stem = if r.board == "VAL-LETTERS" { "val_letters" } else { "letters" };
+    crate::write_json(&out.join(format!("{stem}.json")), r, true)?;
+    let md = out.join(format!("{stem}.md"));
+    write(&md, &crate::reports::letters::markdown(r))?;
+    Ok(md)
+}
+
 /// The report's three files in `out`.
 pub fn write_words_report(r: &WordsReport, out: &Path) -> Result<()> {
     create_dir(out)?;

@@ -6,4 +6,5 @@ pub mod chars;
 pub mod chips;
 pub mod figures;
 pub mod icub;
+pub mod letters;
 pub mod words;

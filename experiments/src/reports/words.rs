@@ -327,6 +327,16 @@ pub fn markdown(r: &WordsReport) -> String {
             s.registration_delay_ms_max
         );
     }
+    let _ = writeln!(
+        m,
+        "\n## Letters and places (estimated timing, before spelling)\n\nEvery printed letter scored in the line's character alignment: the five lowest letters, letters by place in the row, printed words by place (percent correct), and the most frequent confusions. The EV board holds few letters (`braille letters-report` reads a board that holds every letter at every place: [letters.md](letters.md)).\n"
+    );
+    for (board, scores) in [("EV", &r.scores), ("unseen words", &r.unseen)] {
+        for s in scores.iter().filter(|s| s.timing == TimingMode::Estimated && s.speed_variation == 0.0) {
+            let none = &s.by_spell.iter().find(|b| b.spell == Spell::None).expect("every spelling is scored").counts;
+            let _ = writeln!(m, "- {board}, {}, {}: {}", condition(s), s.arch, crate::eval::words::letters_line(none));
+        }
+    }
     let _ = writeln!(m, "\n## What was read (first two lines per condition and architecture, estimated timing)\n");
     for s in r.scores.iter().filter(|s| s.timing == TimingMode::Estimated) {
         for (t, raw, lex) in s.examples.iter().take(2) {

@@ -6,7 +6,7 @@ use crate::Progress;
 use crate::error::{Error, Result};
 use crate::eval::tactile::snn_accuracy;
 use crate::train::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe};
-use corpus::windows::{snn_set, training_windows};
+use corpus::windows::training_windows;
 use encoders::dataset::{Dataset, Split};
 use encoders::sigma_delta::SigmaDeltaConfig;
 use learn::data::{SpikeSet, TactileEncoding};
@@ -252,7 +252,7 @@ pub fn train_on(
         skipped_scans: None,
     };
     let spec = network_spec(r, &[data.encoding.n_inputs()], data.classes.len())?;
-    let fit = fit(r, spec, &train, &val, observer)?;
+    let fit = fit(r, spec, &train, &val, None, observer)?;
     let scored = match eval_test {
         EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
         EvalTest::No => None,
@@ -281,7 +281,18 @@ pub fn train_on(
 /// Trains the recipe on the SIMULATED character windows (SAB and UN, 8 mm/s, 1.5 mm, the same
 /// scans and validation split as the ResNet with the same trials and seed), the windows' events
 /// fed as input spikes, one step per 10 ms frame.
-pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn Progress) -> Result<TrainedSnn> {
+///
+/// With `recordings`, the windows come from a lab's recordings folder instead
+/// ([`corpus::windows::recorded_training_windows`]: its `train` scans, its `val` scans for
+/// checkpoints; the recipe's scans, seed and word rows do not apply). With `init`, training
+/// starts from that model's weights (fine-tuning; it must have the recipe's network and input).
+pub fn train_windows(
+    r: &SnnRecipe,
+    recordings: Option<&corpus::recordings::Recordings>,
+    init: Option<&Path>,
+    observer: &mut dyn Observer,
+    progress: &dyn Progress,
+) -> Result<TrainedSnn> {
     let pool = crate::train::resnet::check_pool(r.pool)?;
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
@@ -292,15 +303,30 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         augment: pipeline::augment::AugmentConfig::default(),
     };
     let world = corpus::world::World::train(r.realism);
-    let tw =
-        training_windows(r.trials, r.seed, r.word_rows, &input, r.task, r.jitter_ms, r.blank_cells, &world, progress)?;
-    let train = snn_set(&input, &tw.all, &tw.train, r.dt_us, r.task);
-    let val = snn_set(&input, &tw.all, &tw.val, r.dt_us, r.task);
-    let summary = DataSummary {
-        data: format!(
-            "SIMULATED training windows ({} realism, sensor builds {:?}): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words",
-            r.realism, world.sensors, r.word_rows
+    let (tw, data) = match recordings {
+        Some(rec) => (
+            corpus::windows::recorded_training_windows(rec, &input, r.task, r.jitter_ms, r.blank_cells, progress)?,
+            format!(
+                "recorded scans of {} (docs/recordings.md): its `train` scans, its `val` scans for checkpoints",
+                rec.dir.display()
+            ),
         ),
+        None => (
+            training_windows(&r.training_scans(), &input, r.task, r.jitter_ms, r.blank_cells, &world, progress)?,
+            format!(
+                "SIMULATED training windows ({} realism, sensor builds {:?}): SAB and UN, {} rows of random words, all-letters rows {} times, at {}",
+                r.realism,
+                world.sensors,
+                r.word_rows,
+                r.letter_rows,
+                conditions(&r.training_scans())
+            ),
+        ),
+    };
+    let (scans, skipped_scans) = (tw.scans, tw.skipped_scans);
+    let (train, val) = corpus::windows::snn_sets(&input, tw, r.dt_us, r.task);
+    let summary = DataSummary {
+        data: data.clone(),
         classes: train.classes.len(),
         inputs: train.n_inputs,
         steps: train.steps,
@@ -309,13 +335,30 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
         validation: val.len(),
         test: None,
         input_events_per_sample: events_per_sample(&train),
-        scans: Some(tw.scans),
-        skipped_scans: Some(tw.skipped_scans),
+        scans: Some(scans),
+        skipped_scans: Some(skipped_scans),
     };
     let [_, h, w] = input.shape();
     let shape = if r.conv.is_empty() { vec![train.n_inputs] } else { vec![2, h, w] };
     let spec = network_spec(r, &shape, train.classes.len())?;
-    let fit = fit(r, spec, &train, &val, observer)?;
+    let start = match init {
+        Some(path) => {
+            let m = pipeline::models::load_snn(path)?;
+            let bad = |what: String| Error::Model { path: path.to_path_buf(), what };
+            if m.config.network != spec {
+                return Err(bad(
+                    "its network (layers, sizes or neurons) is not the recipe's: fine-tuning keeps the network".into(),
+                ));
+            }
+            let want = serde_json::to_value(&input).map_err(|source| Error::Json { path: out_name(), source })?;
+            if m.preprocess != want || m.config.dt_us != r.dt_us {
+                return Err(bad("its input (crop, pooling, centring, step) is not the recipe's".into()));
+            }
+            Some(m.network.weights())
+        }
+        None => None,
+    };
+    let fit = fit(r, spec, &train, &val, start, observer)?;
     let scored = snn_accuracy(&fit.network, &fit.config, &val, Mode::Stepped)?;
     let model = SnnModel {
         preprocess: serde_json::to_value(&input).map_err(|source| Error::Json { path: out_name(), source })?,
@@ -324,12 +367,19 @@ pub fn train_windows(r: &SnnRecipe, observer: &mut dyn Observer, progress: &dyn 
             r,
             &fit,
             serde_json::json!({
-                "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+                "data": if recordings.is_some() {
+                    data
+                } else {
+                    format!("simulated (virtual Evetac): SAB and UN boards, {}", conditions(&r.training_scans()))
+                },
+                "sweep": r.training_scans().sweep,
+                "init": init.map(|p| p.display().to_string()),
                 "task": r.task,
                 "jitter_ms": r.jitter_ms,
                 "blank_cells": r.blank_cells,
                 "word_rows": r.word_rows,
-                "scans": tw.scans,
+                "letter_rows": r.letter_rows,
+                "scans": scans,
                 "train_windows": train.len(),
                 "val_windows": val.len(),
             }),
@@ -375,11 +425,22 @@ impl Fit {
 }
 
 /// Trains `spec` from the recipe's seeded initialisation.
-fn fit(r: &SnnRecipe, spec: NetworkSpec, train: &SpikeSet, val: &SpikeSet, observer: &mut dyn Observer) -> Result<Fit> {
+/// Trains `spec` by the recipe from seeded initial weights, or from `start` (fine-tuning).
+fn fit(
+    r: &SnnRecipe,
+    spec: NetworkSpec,
+    train: &SpikeSet,
+    val: &SpikeSet,
+    start: Option<Vec<snn::spec::LayerWeights>>,
+    observer: &mut dyn Observer,
+) -> Result<Fit> {
     let cfg = r.train_config();
     let mut twin = SnnTwin::new(spec.clone(), r.surrogate(), r.readout)?;
     twin.clamped_readout_gradient = r.readout_gradient == ReadoutGradient::Clamped;
-    let init = spec.init_with_recurrent_gain(r.seed, r.init_gain, r.recurrent_init_gain.unwrap_or(r.init_gain))?;
+    let init = match start {
+        Some(w) => w,
+        None => spec.init_with_recurrent_gain(r.seed, r.init_gain, r.recurrent_init_gain.unwrap_or(r.init_gain))?,
+    };
     let started = std::time::Instant::now();
     let outcome = learn::train::train(&twin, &init, train, val, &cfg, observer)?;
     let seconds = started.elapsed().as_secs_f64();
@@ -519,5 +580,13 @@ impl std::fmt::Display for TrainedSnn {
                 100.0 * a.unwrap_or(f64::NAN)
             ),
         }
+    }
+}
+
+/// The speeds and depths of training scans, as a summary names them.
+pub fn conditions(scans: &corpus::windows::TrainingScans) -> String {
+    match &scans.sweep {
+        None => "8 mm/s, 1.5 mm".to_string(),
+        Some(s) => format!("{:?} mm/s x {:?} mm, one pairing per trial", s.speeds_mm_s, s.depths_mm),
     }
 }

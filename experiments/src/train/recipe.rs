@@ -102,6 +102,13 @@ pub struct SnnRecipe {
     pub trials: u64,
     /// Rows of random words added to the training boards.
     pub word_rows: usize,
+    /// Rows of training words that hold every letter at every place in a row this many times,
+    /// added to the training boards (0: none; `corpus::boards::training_letter_rows`).
+    pub letter_rows: usize,
+    /// Training scans spread over these speeds and depths, one pairing per trial
+    /// (`corpus::windows::Sweep`; empty: the paper's 8 mm/s and 1.5 mm).
+    pub train_speeds_mm_s: Vec<f64>,
+    pub train_depths_mm: Vec<f64>,
     /// The simulator's nuisances for the simulated windows (training sensor builds beyond
     /// `clean`).
     pub realism: sim::Realism,
@@ -186,6 +193,9 @@ impl Default for SnnRecipe {
             realism: sim::Realism::Nominal,
             trials: 10,
             word_rows: 0,
+            letter_rows: 0,
+            train_speeds_mm_s: Vec::new(),
+            train_depths_mm: Vec::new(),
             pool: 2,
             center: true,
             dt_us: 10_000,
@@ -267,9 +277,21 @@ impl SnnRecipe {
             },
             // models/clean/snn-chars.safetensors: the paper's training protocol (SAB and UN)
             "chars" => SnnRecipe { trials: 40, epochs: 30, ..windows },
-            // models/clean/snn-words.safetensors: also word rows and shifted windows; no time stretch
-            // (chosen on the VAL board, docs/training.md)
-            "words" => SnnRecipe { word_rows: 80, trials: 5, jitter_ms: 40.0, epochs: 12, ..windows },
+            // models/REALISM/snn-words.safetensors: shifted windows, no time stretch, 10 scans per
+            // board row; since 2026-11-27 the all-letters rows three times instead of 80 rows of
+            // random words, and the trials swept over 8-48 mm/s and 0.6-1.5 mm (chosen on
+            // VAL-LETTERS and VAL-WORDS, docs/log/letters-2026-11-27.md; before, `--words 80
+            // --letter-rows 0` at 8 mm/s and 1.5 mm, chosen on VAL, docs/results/nominal/
+            // words_recipe.md; the shipped `clean` model was trained before that, `--trials 5`)
+            "words" => SnnRecipe {
+                letter_rows: 3,
+                train_speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0],
+                train_depths_mm: vec![1.5, 1.0, 0.6],
+                trials: 10,
+                jitter_ms: 40.0,
+                epochs: 12,
+                ..windows
+            },
             // models/clean/snn-segment.safetensors: character present against background; blank cells
             // as background too since 2026-11-25 (chosen on VAL-WORDS, docs/reading.md; the
             // shipped `clean` model was trained before, `--blank-cells false`)
@@ -338,6 +360,17 @@ impl SnnRecipe {
         }
     }
 
+    /// The simulated training scans the recipe asks for.
+    pub fn training_scans(&self) -> corpus::windows::TrainingScans {
+        corpus::windows::TrainingScans {
+            trials: self.trials,
+            seed: self.seed,
+            word_rows: self.word_rows,
+            letter_rows: self.letter_rows,
+            sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm),
+        }
+    }
+
     /// The training loop's configuration.
     pub fn train_config(&self) -> learn::train::TrainConfig {
         learn::train::TrainConfig {
@@ -365,6 +398,14 @@ impl SnnRecipe {
             ..learn::train::TrainConfig::default()
         }
     }
+}
+
+/// Training scans over `speeds` and `depths` (`None` when both are empty or the paper's one
+/// condition, 8 mm/s and 1.5 mm).
+pub fn sweep(speeds: &[f64], depths: &[f64]) -> Option<corpus::windows::Sweep> {
+    let speeds = if speeds.is_empty() { vec![8.0] } else { speeds.to_vec() };
+    let depths = if depths.is_empty() { vec![1.5] } else { depths.to_vec() };
+    (speeds != [8.0] || depths != [1.5]).then_some(corpus::windows::Sweep { speeds_mm_s: speeds, depths_mm: depths })
 }
 
 #[cfg(test)]

@@ -50,14 +50,33 @@ pub struct ResnetTraining {
     pub pool: usize,
     pub trials: u64,
     pub word_rows: usize,
+    /// Rows that hold every letter at every place this many times (0: none).
+    pub letter_rows: usize,
+    /// Training scans over speeds and depths (`None`: 8 mm/s, 1.5 mm).
+    pub sweep: Option<corpus::windows::Sweep>,
     /// The simulator's nuisances (training sensor builds beyond `clean`).
     pub realism: sim::Realism,
     pub train: learn::train::TrainConfig,
 }
 
+impl ResnetTraining {
+    /// The simulated training scans it asks for.
+    pub fn scans(&self) -> corpus::windows::TrainingScans {
+        corpus::windows::TrainingScans {
+            trials: self.trials,
+            seed: self.train.seed,
+            word_rows: self.word_rows,
+            letter_rows: self.letter_rows,
+            sweep: self.sweep.clone(),
+        }
+    }
+}
+
 /// A trained ResNet with its per-epoch history.
 pub struct TrainedResnet {
     pub model: ResnetModel,
+    /// Where the windows came from, as the summary names it.
+    pub data: String,
     /// The training's world and word rows, as the summary names them.
     pub realism: sim::Realism,
     pub word_rows: usize,
@@ -70,9 +89,13 @@ pub struct TrainedResnet {
 }
 
 /// Trains a ResNet on the training protocol's windows (SAB and UN at 8 mm/s, 1.5 mm, plus word
-/// rows), whole scans held out for validation.
+/// rows), whole scans held out for validation; or, with `recordings`, on a lab's recorded scans
+/// (its `train` scans, its `val` scans for checkpoints). With `init`, training starts from that
+/// model's weights (fine-tuning: the same preset, input and classes).
 pub fn train_resnet(
     t: &ResnetTraining,
+    recordings: Option<&corpus::recordings::Recordings>,
+    init: Option<&std::path::Path>,
     observer: &mut dyn learn::train::Observer,
     progress: &dyn Progress,
 ) -> Result<TrainedResnet> {
@@ -84,17 +107,12 @@ pub fn train_resnet(
     let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool)? };
     let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment: AugmentConfig::default() };
     let world = corpus::world::World::train(t.realism);
-    let tw = training_windows(
-        t.trials,
-        t.train.seed,
-        t.word_rows,
-        &input,
-        t.task,
-        t.jitter_ms,
-        t.blank_cells,
-        &world,
-        progress,
-    )?;
+    let tw = match recordings {
+        Some(rec) => {
+            corpus::windows::recorded_training_windows(rec, &input, t.task, t.jitter_ms, t.blank_cells, progress)?
+        }
+        None => training_windows(&t.scans(), &input, t.task, t.jitter_ms, t.blank_cells, &world, progress)?,
+    };
     // the windows move into the two sets (no copy: the training set is most of the memory)
     let mut all = tw.all;
     let mut pick = |idx: &[usize], prepared: bool| ImageSet {
@@ -116,18 +134,41 @@ pub fn train_resnet(
         ResnetPreset::Paper => ResnetConfig::paper(input.shape(), classes.len()),
         ResnetPreset::Tiny => ResnetConfig::tiny(input.shape(), classes.len()),
     };
+    let data = match recordings {
+        Some(rec) => {
+            format!("recorded scans of {}: its `train` scans, its `val` scans for checkpoints", rec.dir.display())
+        }
+        None => format!("simulated (virtual Evetac): SAB and UN boards, {}", crate::train::fit::conditions(&t.scans())),
+    };
     let started = std::time::Instant::now();
     let augment = |img: &[f32], rng: &mut rand_chacha::ChaCha8Rng| input.prepare(img, Some(rng));
-    let (model, history) = learn::resnet::train(&config, &train_set, &val, &t.train, &augment, observer);
+    let start = match init {
+        Some(path) => {
+            let bad = |what: &str| Error::Model { path: path.to_path_buf(), what: what.into() };
+            let pipeline::models::Model::Resnet(m) = pipeline::models::load(path)? else {
+                return Err(bad("holds an SNN; a ResNet fine-tunes a ResNet"));
+            };
+            if m.config != config || m.input != input || m.classes != classes {
+                return Err(bad("its preset, input or classes are not this training's: fine-tuning keeps them"));
+            }
+            Some(learn::resnet::to_tensors(&m.model)?)
+        }
+        None => None,
+    };
+    let (model, history) =
+        learn::resnet::train(&config, &train_set, &val, &t.train, &augment, start.as_deref(), observer)?;
     let best = history.iter().map(|h| h.val_accuracy).fold(f64::NAN, f64::max);
     let provenance = serde_json::json!({
-        "data": "simulated (virtual Evetac): SAB and UN boards, 8 mm/s, 1.5 mm",
+        "data": data,
+        "init": init.map(|p| p.display().to_string()),
         "realism": t.realism,
         "sensor_builds": world.sensors,
         "task": t.task,
         "jitter_ms": t.jitter_ms,
         "blank_cells": t.blank_cells,
         "word_rows": t.word_rows,
+        "letter_rows": t.letter_rows,
+        "sweep": t.sweep,
         "scans": tw.scans,
         "train_windows": train_set.len(),
         "val_windows": val.len(),
@@ -137,6 +178,16 @@ pub fn train_resnet(
         "peak_rss_mb": crate::peak_rss_mb(),
     });
     Ok(TrainedResnet {
+        data: match recordings {
+            Some(rec) => format!("recorded scans of {} (`train`; `val` for checkpoints)", rec.dir.display()),
+            None => format!(
+                "SIMULATED training windows ({} realism): SAB and UN, {} rows of random words, all-letters rows {} times, at {}",
+                t.realism,
+                t.word_rows,
+                t.letter_rows,
+                crate::train::fit::conditions(&t.scans())
+            ),
+        },
         realism: t.realism,
         word_rows: t.word_rows,
         model: ResnetModel { config, input, model, classes, provenance, operating_point: None },
@@ -154,15 +205,15 @@ impl std::fmt::Display for TrainedResnet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "SIMULATED training windows ({} realism): SAB and UN at 8 mm/s, 1.5 mm, {} rows of random words: {} scans ({} skipped: window count off), {} training and {} validation windows of {:?}",
-            self.realism,
-            self.word_rows,
+            "{}: {} scans ({} skipped: window count off), {} training and {} validation windows of {:?}",
+            self.data,
             self.scans,
             self.skipped_scans,
             self.train_windows,
             self.val_windows,
             self.model.input.shape()
         )?;
-        writeln!(f, "best validation accuracy {:.2}% (SIMULATED)", 100.0 * self.best_val_accuracy)
+        let kind = if self.data.starts_with("recorded") { "RECORDED" } else { "SIMULATED" };
+        writeln!(f, "best validation accuracy {:.2}% ({kind})", 100.0 * self.best_val_accuracy)
     }
 }
