@@ -404,6 +404,14 @@ fn letters_report_reads_the_all_letters_board() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("val_letters.json")).unwrap()).unwrap();
     assert_eq!((v["board"].as_str(), v["seed"].as_u64()), (Some("VAL-LETTERS"), Some(2_000_003)));
     assert_eq!(v["sensor_builds"], serde_json::json!([1, 2, 3, 4]));
+    // the per-letter tables' condition (16 mm/s, 1 mm by default) is read beside a grid without it
+    assert_eq!(v["scores"].as_array().unwrap().len(), 2);
+    assert_eq!(
+        (v["speeds_mm_s"].clone(), v["depths_mm"].clone()),
+        (serde_json::json!([64.0]), serde_json::json!([1.5]))
+    );
+    let md = std::fs::read_to_string(dir.path().join("val_letters.md")).unwrap();
+    assert!(md.contains("## Per letter at 16 mm/s and 1 mm") && md.contains("--speeds 64 --depths 1.5"), "{md}");
 }
 
 #[test]

@@ -51,6 +51,10 @@ pub struct LettersReport {
     pub realism: sim::Realism,
     pub sensor_builds: Vec<u64>,
     pub seed: u64,
+    /// The grid of conditions; the per-letter tables' condition is read beside it when the grid
+    /// does not hold it.
+    pub speeds_mm_s: Vec<f64>,
+    pub depths_mm: Vec<f64>,
     pub trials: u64,
     pub focus_speed_mm_s: f64,
     pub focus_depth_mm: f64,
@@ -75,23 +79,27 @@ pub fn letters_report(
     let refs: Vec<&ReaderModels> = models.iter().collect();
     let board: &AllLetters = corpus::boards::all_letters(spec.held_out);
     let rows = &board.rows[..spec.first_rows.unwrap_or(usize::MAX).min(board.rows.len())];
+    // the grid, then the per-letter tables' condition where the grid does not hold it
+    let mut conditions: Vec<(f64, f64)> =
+        spec.depths_mm.iter().flat_map(|&d| spec.speeds_mm_s.iter().map(move |&v| (d, v))).collect();
+    if !conditions.contains(&(spec.focus_depth_mm, spec.focus_speed_mm_s)) {
+        conditions.push((spec.focus_depth_mm, spec.focus_speed_mm_s));
+    }
     let mut scores = Vec::new();
-    for &depth_mm in &spec.depths_mm {
-        for &speed_mm_s in &spec.speeds_mm_s {
-            let focus = speed_mm_s == spec.focus_speed_mm_s && depth_mm == spec.focus_depth_mm;
-            let ws = WordsSpec {
-                board: sim::BoardKind::Text(rows.join("/")),
-                speed_mm_s,
-                speed_variation: 0.0,
-                depth_mm,
-                trials: if focus { spec.focus_trials } else { spec.trials },
-                seed: spec.seed,
-                world: spec.world.clone(),
-            };
-            let lines = read_scans(&ws, &refs, &[TimingMode::Estimated], progress)?;
-            for (k, m) in models.iter().enumerate() {
-                scores.push(score(m.classifier.arch(), TimingMode::Estimated, k, &lines, ws.condition()));
-            }
+    for (depth_mm, speed_mm_s) in conditions {
+        let focus = speed_mm_s == spec.focus_speed_mm_s && depth_mm == spec.focus_depth_mm;
+        let ws = WordsSpec {
+            board: sim::BoardKind::Text(rows.join("/")),
+            speed_mm_s,
+            speed_variation: 0.0,
+            depth_mm,
+            trials: if focus { spec.focus_trials } else { spec.trials },
+            seed: spec.seed,
+            world: spec.world.clone(),
+        };
+        let lines = read_scans(&ws, &refs, &[TimingMode::Estimated], progress)?;
+        for (k, m) in models.iter().enumerate() {
+            scores.push(score(m.classifier.arch(), TimingMode::Estimated, k, &lines, ws.condition()));
         }
     }
     Ok(LettersReport {
@@ -103,6 +111,8 @@ pub fn letters_report(
         realism: spec.world.realism,
         sensor_builds: spec.world.sensors.clone(),
         seed: spec.seed,
+        speeds_mm_s: spec.speeds_mm_s.clone(),
+        depths_mm: spec.depths_mm.clone(),
         trials: spec.trials,
         focus_speed_mm_s: spec.focus_speed_mm_s,
         focus_depth_mm: spec.focus_depth_mm,
@@ -144,19 +154,7 @@ fn pct(t: Tally) -> String {
 pub fn markdown(r: &LettersReport) -> String {
     let mut m = String::new();
     let realism = format!("{:?}", r.realism).to_lowercase();
-    let speeds: Vec<f64> = {
-        let mut v: Vec<f64> = r.scores.iter().map(|s| s.speed_mm_s).collect();
-        v.dedup();
-        v.sort_by(f64::total_cmp);
-        v.dedup();
-        v
-    };
-    let depths: Vec<f64> = {
-        let mut v: Vec<f64> = r.scores.iter().map(|s| s.depth_mm).collect();
-        v.sort_by(f64::total_cmp);
-        v.dedup();
-        v
-    };
+    let (speeds, depths) = (&r.speeds_mm_s, &r.depths_mm);
     let list = |v: &[f64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",");
     let validation = r.board == "VAL-LETTERS";
     let _ = writeln!(
@@ -187,8 +185,8 @@ pub fn markdown(r: &LettersReport) -> String {
         r.focus_trials,
         r.focus_speed_mm_s,
         r.focus_depth_mm,
-        list(&speeds),
-        list(&depths),
+        list(speeds),
+        list(depths),
         r.trials,
         r.focus_trials,
         if validation { " --validation" } else { "" },
@@ -273,8 +271,8 @@ pub fn markdown(r: &LettersReport) -> String {
     );
     let _ = writeln!(m, "| depth | speed | {} |", archs.iter().map(|a| format!("{a}")).collect::<Vec<_>>().join(" | "));
     let _ = writeln!(m, "| --- | --- |{}", " --- |".repeat(archs.len()));
-    for &d in &depths {
-        for &v in &speeds {
+    for &d in depths {
+        for &v in speeds {
             let cells: Vec<String> = archs
                 .iter()
                 .map(|&a| match r.get(a, v, d) {
