@@ -50,6 +50,6 @@ if torch_train:
     print(f"; the peers' process (all three frameworks): {torch_train['process_peak_rss_mb']:.0f} MB, {torch_train['rss_before_build_mb']:.0f} MB before building the networks")
 else:
     print()
-print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train["truncation_cosine"]:.4f} against the exact one on the first batch (whole epochs of the shipped recipes: docs/results/trainers.md) "
+print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train['truncation_cosine']:.4f} against the exact one on the first batch (whole epochs of the shipped recipes: docs/results/trainers.md) "
       f"(relative error {ours_train['truncation_relative_error']:.3f}), {100 * ours_train['kept_fraction']:.1f}% of neuron-steps kept")
 print(f"\nsynaptic events per sample (ours): {ours_infer['synops_per_sample']:.0f}; input events per sample: {ours_infer['input_events_per_sample']:.0f}")
