@@ -527,6 +527,30 @@ fn train_and_fine_tune_on_a_recordings_folder() {
             assert_eq!(c1, val_score(&tuned).0, "{arch}");
         }
     }
+    // a model whose windows an earlier labeler cut (the shipped `clean` SNN, before the running
+    // median) fine-tunes on windows cut by this one, and records this labeler
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let clean = root.join("models/clean/snn-chars.safetensors");
+    assert!(!header(&clean).contains("despike_bins"), "the clean model predates the running median");
+    let tuned = dir.path().join("clean-tuned.safetensors");
+    let o = braille(&[
+        "train",
+        "--arch",
+        "snn",
+        "--recipe",
+        "chars",
+        "--recordings",
+        recs,
+        "--epochs",
+        "1",
+        "--quiet",
+        "--init",
+        clean.to_str().unwrap(),
+        "--out",
+        tuned.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert!(header(&tuned).contains("despike_bins"), "{}", header(&tuned));
     // a start of another network, or of another architecture, is refused by name
     let snn = dir.path().join("snn-1.safetensors");
     let o = braille(&[

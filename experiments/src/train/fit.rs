@@ -351,7 +351,17 @@ pub fn train_windows(
                 ));
             }
             let want = serde_json::to_value(&input).map_err(|source| Error::Json { path: out_name(), source })?;
-            if m.preprocess != want || m.config.dt_us != r.dt_us {
+            // the labeler that cut the model's training windows is not its input: a model from
+            // an earlier labeler (a `clean` model, say) fine-tunes on windows cut by this one,
+            // which the new model records
+            let without_labeler = |v: &serde_json::Value| {
+                let mut v = v.clone();
+                if let Some(o) = v.as_object_mut() {
+                    o.remove("labeler");
+                }
+                v
+            };
+            if without_labeler(&m.preprocess) != without_labeler(&want) || m.config.dt_us != r.dt_us {
                 return Err(bad("its input (crop, pooling, centring, step) is not the recipe's".into()));
             }
             Some(m.network.weights())
