@@ -208,6 +208,11 @@ pub struct Tally {
 }
 
 impl Tally {
+    /// The rate as a percentage with one decimal, a dash when nothing was printed (tables).
+    pub fn percent(&self) -> String {
+        if self.printed == 0 { "–".into() } else { format!("{:.1}%", 100.0 * self.rate()) }
+    }
+
     fn add(&mut self, right: bool) {
         self.printed += 1;
         self.right += usize::from(right);
@@ -263,6 +268,17 @@ pub struct ConfusionPair {
     pub printed: char,
     pub read: Option<char>,
     pub count: u32,
+}
+
+impl ConfusionPair {
+    /// What was read, `space` for a split word and `nothing` when nothing was read.
+    pub fn read_as(&self, space: &str, nothing: &str) -> String {
+        match self.read {
+            Some(' ') => space.to_string(),
+            Some(c) => c.to_string(),
+            None => nothing.to_string(),
+        }
+    }
 }
 
 impl LetterScores {

@@ -470,9 +470,7 @@ impl std::fmt::Display for EvalWords {
 pub fn letters_line(counts: &WordMetrics) -> String {
     use crate::eval::scoring::LetterPlace;
     let l = &counts.letter_scores;
-    let pct = |t: crate::eval::scoring::Tally| {
-        if t.printed == 0 { "–".to_string() } else { format!("{:.1}%", 100.0 * t.rate()) }
-    };
+    let pct = |t: crate::eval::scoring::Tally| t.percent();
     let mut letters: Vec<(char, crate::eval::scoring::Tally)> =
         (0..26).map(|k| ((b'A' + k as u8) as char, l.by_letter[k])).filter(|(_, t)| t.printed > 0).collect();
     letters.sort_by(|a, b| a.1.rate().total_cmp(&b.1.rate()).then(a.0.cmp(&b.0)));
@@ -482,14 +480,7 @@ pub fn letters_line(counts: &WordMetrics) -> String {
         .confusions()
         .iter()
         .take(6)
-        .map(|p| {
-            let read = match p.read {
-                Some(' ') => "space".to_string(),
-                Some(c) => c.to_string(),
-                None => "nothing".to_string(),
-            };
-            format!("{}->{} {}", p.printed, read, p.count)
-        })
+        .map(|p| format!("{}->{} {}", p.printed, p.read_as("space", "nothing"), p.count))
         .collect();
     format!(
         "letters: {} of {} printed; lowest {}; by place: row start {}, word start {}, middle {}, word end {}; words by place: first {}, middle {}, last {}; confusions: {}",

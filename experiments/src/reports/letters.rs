@@ -147,7 +147,7 @@ fn spelled(s: &WordsScore, spell: Spell) -> &crate::eval::words::SpellScore {
 }
 
 fn pct(t: Tally) -> String {
-    if t.printed == 0 { "–".into() } else { format!("{:.1}%", 100.0 * t.rate()) }
+    t.percent()
 }
 
 /// The report as Markdown.
@@ -223,18 +223,8 @@ pub fn markdown(r: &LettersReport) -> String {
         let _ = writeln!(m, "\n### The most frequent confusions (printed → read; ␣ a split word, ∅ nothing read)\n");
         for s in &focus {
             let c = spelled(s, Spell::None).counts.letter_scores.confusions();
-            let top: Vec<String> = c
-                .iter()
-                .take(12)
-                .map(|p| {
-                    let read = match p.read {
-                        Some(' ') => "␣".to_string(),
-                        Some(x) => x.to_string(),
-                        None => "∅".to_string(),
-                    };
-                    format!("{}→{} {}", p.printed, read, p.count)
-                })
-                .collect();
+            let top: Vec<String> =
+                c.iter().take(12).map(|p| format!("{}→{} {}", p.printed, p.read_as("␣", "∅"), p.count)).collect();
             let _ = writeln!(m, "- {}: {}", s.arch, if top.is_empty() { "none".into() } else { top.join(", ") });
         }
         let _ = writeln!(
