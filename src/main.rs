@@ -28,6 +28,7 @@ mod sim_check;
 mod sim_dataset;
 mod simulate;
 mod train;
+mod translate;
 mod words_report;
 
 use clap::{Parser, Subcommand};
@@ -119,6 +120,9 @@ enum Command {
     /// Merge trained SNNs of one architecture into one network: the members side by side, their
     /// readouts summed at every step.
     Ensemble(ensemble::Args),
+    /// Print to Braille cells and back: the paper's letters, or Unified English Braille grade 1
+    /// or 2 (contracted) by liblouis's tables; `--spec` checks a code against liblouis's own tests.
+    Translate(translate::Args),
     /// Run the built-in demonstration: both readers on SIMULATED scans of the EV board (a sensor
     /// build no model saw), then real iCub recordings spelled into a stream, written to AEDAT4,
     /// read back and classified by the shipped SNN on the event-driven engine.
@@ -155,6 +159,7 @@ fn main() -> ExitCode {
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
         Command::Ensemble(a) => ensemble::run(a),
+        Command::Translate(a) => translate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

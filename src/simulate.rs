@@ -4,15 +4,21 @@
 use anyhow::Result;
 use corpus::scans::ScanSpec;
 use encoders::Resolution;
-use sim::{BoardKind, Direction, Realism};
+use pipeline::code::BrailleCode;
+use sim::{Direction, Realism};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Board: SAB, UN, RAB, VAL (validation), EV, VAL-WORDS, VAL-LETTERS (validation words and
-    /// letters), ALL-LETTERS, or text:"ANY WORDS" (`/` starts a new row; long rows wrap).
-    #[arg(long, default_value = "EV", value_parser = corpus::boards::parse_board)]
-    pub board: BoardKind,
+    /// letters), ALL-LETTERS, or text:"ANY WORDS" (`/` starts a new row; long rows wrap), its
+    /// print written in `--braille`'s code (Unicode Braille cells are printed as they are).
+    #[arg(long, default_value = "EV")]
+    pub board: String,
+    /// The Braille code a `text:` board's print is written in: the paper's letters, or Unified
+    /// English Braille uncontracted or contracted (liblouis's tables; `braille translate`).
+    #[arg(long, value_enum, default_value_t = BrailleCode::Grade1Letters)]
+    pub braille: BrailleCode,
     /// Sliding speed (the paper: 8-32 mm/s).
     #[arg(long, default_value_t = 8.0)]
     pub speed: f64,
@@ -73,7 +79,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let spec = ScanSpec {
-        board: args.board,
+        board: corpus::boards::parse_board_in(&args.board, args.braille)?,
         speed: args.speed,
         depth: args.depth,
         row: args.row,

@@ -3,6 +3,8 @@
 //! own slice of TextBlob's word list by a seeded rule (SIMULATED data).
 
 use crate::world::VALIDATION_SEED;
+use encoders::braille::Cell;
+use pipeline::code::BrailleCode;
 use sim::BoardKind;
 
 /// How many of TextBlob's most frequent words training rows draw from; the next as many are the
@@ -306,12 +308,55 @@ pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
     s.parse::<BoardKind>().map_err(|e| format!("{e}, VAL-WORDS, ALL-LETTERS or VAL-LETTERS"))
 }
 
+/// A board named as [`parse_board`] names it, with a `text:` board's print written in `code`:
+/// with the paper's letters it must hold letters and spaces only (any other character is an
+/// error naming it and its place); with UEB each row (`/` between rows) is translated to cells
+/// by liblouis's tables, the blank cell between words. The named boards are the paper's letter
+/// boards in every code.
+pub fn parse_board_in(s: &str, code: BrailleCode) -> crate::Result<BoardKind> {
+    let Some(text) = s.strip_prefix("text:") else {
+        return parse_board(s).map_err(|what| crate::Error::Board { board: s.to_string(), what });
+    };
+    let translator = code.translator()?;
+    let mut rows = Vec::new();
+    for row in text.split('/') {
+        let row = row.trim();
+        let cells = translator.to_cells(row)?;
+        rows.push(match code {
+            BrailleCode::Grade1Letters => row.to_string(),
+            _ => cells.iter().map(|&c| if c == Cell::EMPTY { ' ' } else { c.unicode() }).collect(),
+        });
+    }
+    if rows.iter().all(|r| r.trim().is_empty()) {
+        return Err(crate::Error::Board { board: s.to_string(), what: "text: needs some print".into() });
+    }
+    Ok(BoardKind::Text(rows.join("/")))
+}
+
 /// Words of the EV board, kept out of the random word rows so that EV stays a test board.
 pub const EV_WORDS: [&str; 9] = ["RIGHT", "LEFT", "EXIT", "OPEN", "PUSH", "PULL", "STOP", "HELP", "WATER"];
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_text_board_is_written_in_its_code() {
+        let g2 = parse_board_in("text:The children./and 12", BrailleCode::UebGrade2).unwrap();
+        assert_eq!(g2, BoardKind::Text("⠠⠮ ⠡⠝⠲/⠯ ⠼⠁⠃".into()));
+        let letters = parse_board_in("text:push pull", BrailleCode::Grade1Letters).unwrap();
+        assert_eq!(letters, BoardKind::Text("push pull".into()));
+        match parse_board_in("text:one, two", BrailleCode::Grade1Letters) {
+            Err(crate::Error::Pipeline(e)) => {
+                assert!(matches!(*e, pipeline::Error::Untranslatable { index: 3, character: ',', .. }), "{e}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(parse_board_in("RAB", BrailleCode::UebGrade2).unwrap(), BoardKind::Rab);
+        // The board prints the cells it was given.
+        let board = sim::Board::new(g2, sim::BoardGeometry::default(), 1).unwrap();
+        assert_eq!(board.cell(0), Cell(0b10_0000));
+    }
 
     #[test]
     fn word_rows_are_seeded_bounded_and_leave_out_the_excluded() {

@@ -4,6 +4,9 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// A board the command line named that cannot be printed.
+    #[error("board {board:?}: {what}")]
+    Board { board: String, what: String },
     /// A setting outside what it can be.
     #[error("{name} = {value}: expected {expected}")]
     Setting { name: &'static str, value: String, expected: &'static str },

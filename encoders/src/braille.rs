@@ -27,6 +27,18 @@ impl Cell {
     pub fn two_columns(self) -> bool {
         self.0 & 0b000111 != 0 && self.0 & 0b111000 != 0
     }
+
+    /// The cell a Unicode Braille pattern writes (U+2800-U+283F, whose low six bits are dots
+    /// 1-6 as here); `None` for anything else, eight-dot patterns included.
+    pub fn from_unicode(c: char) -> Option<Cell> {
+        let code = c as u32;
+        (0x2800..=0x283F).contains(&code).then(|| Cell((code - 0x2800) as u8))
+    }
+
+    /// The cell as a Unicode Braille pattern, U+2800 for the blank.
+    pub fn unicode(self) -> char {
+        char::from_u32(0x2800 + u32::from(self.0 & 0b11_1111)).unwrap_or('\u{2800}')
+    }
 }
 
 const fn cell(dots: &[u8]) -> Cell {
@@ -79,6 +91,12 @@ pub fn cell_of(c: char) -> Option<Cell> {
     }
 }
 
+/// The cell a board prints for a character: a letter (either case), a space, or a Unicode
+/// Braille pattern (U+2800-U+283F, six dots; U+2800 is the blank). `None` for anything else.
+pub fn cell_on_board(c: char) -> Option<Cell> {
+    cell_of(c).or_else(|| Cell::from_unicode(c))
+}
+
 /// The letter a cell spells, if any.
 pub fn letter_of(cell: Cell) -> Option<char> {
     LETTERS.iter().position(|&c| c == cell).map(|i| (b'A' + i as u8) as char)
@@ -105,5 +123,19 @@ mod tests {
         assert_eq!(cell_of('e').unwrap().dots().collect::<Vec<_>>(), vec![(0, 0), (1, 1)]);
         assert!(!cell_of('a').unwrap().two_columns());
         assert!(cell_of('w').unwrap().two_columns());
+    }
+
+    #[test]
+    fn unicode_braille_round_trips_all_64_cells() {
+        for bits in 0..64u8 {
+            assert_eq!(Cell::from_unicode(Cell(bits).unicode()), Some(Cell(bits)));
+        }
+        // w = dots 2456: U+2800 + 0b111010
+        assert_eq!(cell_of('w').unwrap().unicode(), '⠺');
+        assert_eq!(Cell::from_unicode('\u{2840}'), None);
+        assert_eq!(Cell::from_unicode('a'), None);
+        assert_eq!(cell_on_board('⠿'), Some(Cell(0b11_1111)));
+        assert_eq!(cell_on_board('q'), cell_of('Q'));
+        assert_eq!(cell_on_board(','), None);
     }
 }

@@ -60,6 +60,15 @@ pub enum Error {
     /// An event source that failed while it was read.
     #[error("reading {name}")]
     Read { name: String, source: Box<encoders::Error> },
+    /// A vendored Braille table that did not compile (a build fault, not the user's input).
+    #[error("Braille table {table}: {what}")]
+    BrailleTable { table: String, what: String },
+    /// Print a Braille code cannot write.
+    #[error("{code} cannot write {character:?} (character {index} of {text:?})")]
+    Untranslatable { code: crate::code::BrailleCode, text: String, index: usize, character: char },
+    /// Braille text holding a character that is no six-dot cell.
+    #[error("character {index}, {character:?}, is not a six-dot Braille cell (U+2800-U+283F) or a space")]
+    NotBraille { index: usize, character: char },
     /// A stream the reader refused (events out of order, outside the sensor).
     #[error("{name}")]
     Source { name: String, source: Box<Error> },

@@ -4,14 +4,16 @@
 //! typed headers) and run on windows ([`classify`]: a loaded model is shared, each stream owns its
 //! state), the streaming reader ([`reader`]) and a whole source read with bounded memory
 //! ([`source`]), the temporal filter ([`words`]), spelling ([`spelling`], [`lexicon`]), every
-//! shipped model named in one place ([`shipped`]), and any SNN or NIR graph run on events
-//! ([`network`]).
+//! shipped model named in one place ([`shipped`]), any SNN or NIR graph run on events
+//! ([`network`]), and the Braille codes from print to cells and back ([`code`]: the paper's
+//! letters, Unified English Braille grades 1 and 2 through liblouis's tables).
 //!
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
 
 pub mod augment;
 pub mod classify;
+pub mod code;
 pub mod error;
 pub mod input;
 pub mod labeling;

@@ -2,7 +2,7 @@
 //! as dots with positions and heights, including manufacturing tolerances drawn from the board's
 //! own seed.
 
-use crate::braille::{Cell, cell_of};
+use crate::braille::{Cell, cell_on_board};
 use crate::error::{Error, Result, check};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -23,7 +23,9 @@ pub enum BoardKind {
     Val,
     /// Everyday vocabulary: "RIGHT LEFT EXIT OPEN" / "PUSH PULL STOP HELP WATER", as text.
     Ev,
-    /// Any text; `/` starts a new row. Letters and spaces only.
+    /// Any text; `/` starts a new row. Letters (printed as capitals), spaces and Unicode Braille
+    /// cells (U+2800-U+283F), e.g. print translated by a Braille code
+    /// (`corpus::boards::in_code`).
     Text(String),
 }
 
@@ -66,8 +68,11 @@ impl std::str::FromStr for BoardKind {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         if let Some(text) = s.strip_prefix("text:") {
-            if let Some(bad) = text.chars().find(|&c| c != '/' && cell_of(c).is_none()) {
-                return Err(format!("text boards take letters, spaces and / (new row); {bad:?} is not one"));
+            if let Some(bad) = text.chars().find(|&c| c != '/' && cell_on_board(c).is_none()) {
+                return Err(format!(
+                    "text boards take letters, spaces, Unicode Braille cells and / (new row); {bad:?} is not one \
+                     (other print takes a Braille code: --braille ueb-g1 or ueb-g2)"
+                ));
             }
             if text.trim().is_empty() {
                 return Err("text: needs some letters".into());
@@ -279,7 +284,7 @@ impl Board {
             let mut word = None;
             let mut words = 0;
             for (i, c) in text.chars().enumerate() {
-                let cell = cell_of(c).ok_or(Error::NoCell(c))?;
+                let cell = cell_on_board(c).ok_or(Error::NoCell(c))?;
                 if c == ' ' {
                     word = None;
                 } else if word.is_none() {
@@ -326,7 +331,7 @@ impl Board {
     }
 
     pub fn cell(&self, character: usize) -> Cell {
-        cell_of(self.characters[character].letter).unwrap_or(Cell::EMPTY)
+        cell_on_board(self.characters[character].letter).unwrap_or(Cell::EMPTY)
     }
 
     /// Centre line of row `r`.

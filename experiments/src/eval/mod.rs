@@ -1,9 +1,10 @@
 //! Evaluation: one scoring module used by every protocol ([`scoring`]), character classifiers on
 //! simulated windows ([`chars`]), word reading on simulated scans ([`words`]), SNNs on tactile
 //! dataset folders ([`tactile`]), the labeler against the truth ([`labeling`]), the reader's
-//! operating point chosen on validation words ([`calibrate`]) and one nuisance at a time
-//! ([`robustness`]).
+//! operating point chosen on validation words ([`calibrate`]), one nuisance at a time
+//! ([`robustness`]) and a Braille code against liblouis's own test cases ([`braille_spec`]).
 
+pub mod braille_spec;
 pub mod calibrate;
 pub mod chars;
 pub mod labeling;
