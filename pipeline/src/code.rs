@@ -173,8 +173,8 @@ enum Way {
 }
 
 impl Translator {
-    /// Compile the code's tables (liblouis compiles them at the first translation and keeps
-    /// them; [`BrailleCode::translator`] shares one translator per code).
+    /// Compile the code's tables, which liblouis keeps for the process
+    /// ([`BrailleCode::translator`] shares one translator per code).
     pub fn new(code: BrailleCode) -> Result<Self> {
         let tables = match code.liblouis_table() {
             None => None,
