@@ -307,7 +307,7 @@ impl Translator {
         match &self.tables {
             None => cells.iter().map(|&c| if c == Cell::EMPTY { ' ' } else { letter_of(c).unwrap_or('?') }).collect(),
             Some(tables) => {
-                let braille: String = cells.iter().map(|c| c.unicode()).collect();
+                let braille = unicode(cells);
                 // The tables compiled when the translator was made: a failure here would be
                 // liblouis's own, and the cells read as nothing rather than stop a stream.
                 self.liblouis(tables, Way::Backward, &braille).unwrap_or_default()

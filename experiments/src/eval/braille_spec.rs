@@ -316,7 +316,8 @@ fn blank_as_space(s: &str) -> String {
 pub fn check_spec(path: &Path, code: BrailleCode) -> Result<SpecReport> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::Data { path: path.to_path_buf(), what: format!("cannot read: {e}") })?;
-    let cases = parse_spec(path)?;
+    let cases = parse_spec_text(&text)
+        .map_err(|(line, what)| Error::Data { path: path.to_path_buf(), what: format!("line {line}: {what}") })?;
     let translator = code.translator().map_err(|e| Error::Pipeline(Box::new(e)))?;
     let mut report = SpecReport {
         file: path.to_path_buf(),
