@@ -200,9 +200,17 @@ pub struct WordsArgs {
     classifier: Option<PathBuf>,
     /// Board: SAB, UN, RAB, VAL (validation), VAL-WORDS, VAL-LETTERS (validation words and letters),
     /// EV, ALL-LETTERS (every letter at every place), or text:"ANY WORDS"
-    /// (`/` starts a new row; long rows wrap).
-    #[arg(long, default_value = "EV", value_parser = corpus::boards::parse_board)]
-    board: BoardKind,
+    /// (`/` starts a new row; long rows wrap). With --braille ueb-g1/ueb-g2 also UEB-SENTENCES
+    /// (test) and VAL-UEB (validation), and text: takes any print [default: EV; UEB-SENTENCES
+    /// in UEB].
+    #[arg(long)]
+    board: Option<String>,
+    /// The Braille code the board is printed in and the reader reads: `grade1-letters` (the
+    /// paper's letters and its readers) or `ueb-g1`/`ueb-g2` (the cell readers of
+    /// models/REALISM/ueb/, scored on cells and on the print, exactly and blind to case and
+    /// punctuation).
+    #[arg(long, value_enum, default_value = "grade1-letters")]
+    braille: pipeline::code::BrailleCode,
     /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
     /// validation board, for choices).
     #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
@@ -251,7 +259,7 @@ pub struct WordsArgs {
 }
 
 fn words(args: WordsArgs) -> Result<()> {
-    let mut files = pipeline::shipped::reader_in(&args.realism.models_dir(), args.arch);
+    let mut files = pipeline::shipped::reader_for(&args.realism.models_dir(), args.arch, args.braille);
     files.segmenter = args.segmenter.clone().unwrap_or(files.segmenter);
     files.classifier = args.classifier.clone().unwrap_or(files.classifier);
     let readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
@@ -278,8 +286,16 @@ fn words(args: WordsArgs) -> Result<()> {
         }
         return Ok(());
     }
+    let board = corpus::boards::parse_print_board(
+        args.board.as_deref().unwrap_or(if args.braille == pipeline::code::BrailleCode::Grade1Letters {
+            "EV"
+        } else {
+            "UEB-SENTENCES"
+        }),
+        args.braille,
+    )?;
     let spec = WordsSpec {
-        board: args.board.clone(),
+        board: board.kind.clone(),
         speed_mm_s: args.speed,
         speed_variation: args.hand_variation,
         depth_mm: args.depth,
@@ -287,6 +303,15 @@ fn words(args: WordsArgs) -> Result<()> {
         seed: args.seed,
         world: args.realism.world(args.sensor_builds).with_mount(args.mount_compliance_um_per_n),
     };
+    if args.braille != pipeline::code::BrailleCode::Grade1Letters {
+        let r = experiments::eval::ueb::eval_ueb(&board, &spec, &readers, &files, args.timing, &Bar::default())?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            print!("{r}");
+        }
+        return Ok(());
+    }
     let r = experiments::eval::words::eval_words(
         &spec,
         &readers,

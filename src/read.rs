@@ -24,6 +24,11 @@ pub struct Args {
     arch: Arch,
     #[arg(long, value_enum, default_value = "lexicon")]
     spell: Spell,
+    /// The Braille code of the print: `grade1-letters` (the paper's letters and its readers) or
+    /// `ueb-g1`/`ueb-g2` (the cell readers of models/nominal/ueb/, each word's cells
+    /// back-translated to print).
+    #[arg(long, value_enum, default_value = "grade1-letters")]
+    braille: pipeline::code::BrailleCode,
     /// Where the scanning speed comes from: `estimated` from the events themselves, `paper` (the
     /// paper's fixed 10 ms bins, 70 ms and 1 s), or `given` with --speed.
     #[arg(long, value_enum, default_value_t = TimingMode::Estimated)]
@@ -53,12 +58,13 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let timing = Timing::from_mode(args.timing, args.speed)?;
     let pipeline::shipped::ReaderFiles { segmenter: ds, classifier: dc } =
-        pipeline::shipped::reader_in(&crate::common::default_models_dir(), args.arch);
+        pipeline::shipped::reader_for(&crate::common::default_models_dir(), args.arch, args.braille);
     let readers = ReaderModels::load(
         args.segmenter.as_deref().unwrap_or(&ds),
         args.model.as_deref().unwrap_or(&dc),
         args.snn_runner,
     )?;
+    let speller = pipeline::reader::Speller::in_code(args.spell, args.braille)?;
     let options = OpenOptions { resolution: args.resolution, stream_id: None };
     let mut source = formats::open_named(&args.file, &options, &args.live.options())?;
     let resolution = args.resolution.or(source.info().resolution).unwrap_or(Resolution::DVXPLORER);
@@ -70,7 +76,7 @@ pub fn run(args: Args) -> Result<()> {
             serde_json::to_string(w).expect("words serialise")
         } else {
             let c = w.chars.first().map_or(0, |c| c.t_start_us);
-            format!("{:>9.3} s  {:<12} (read {}, {} letters)", c as f64 / 1e6, w.text, w.raw, w.chars.len())
+            format!("{:>9.3} s  {:<12} (read {}, {} characters)", c as f64 / 1e6, w.text, w.raw, w.chars.len())
         };
         let io = |source| pipeline::Error::Io { path: "standard output".into(), source };
         writeln!(lock, "{line}").map_err(io)?;
@@ -78,7 +84,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let name = args.file.display().to_string();
     let s =
-        pipeline::source::read_source(source.as_mut(), &name, &readers, timing, resolution, args.spell, &mut on_word)?;
+        pipeline::source::read_source(source.as_mut(), &name, &readers, timing, resolution, &speller, &mut on_word)?;
     if args.json {
         println!("{}", serde_json::to_string(&s)?);
     } else {

@@ -25,7 +25,8 @@ pub struct Args {
     /// analog: raw.csv, split.csv). Without it, both architectures train on simulated windows.
     #[arg(long)]
     data: Option<PathBuf>,
-    /// The SNN's recipe: a preset (default, raw1350, th10, chars, words, segment) or a JSON file of
+    /// The SNN's recipe: a preset (default, raw1350, th10, chars, words, segment, cells,
+    /// cells-segment, xylo, speck) or a JSON file of
     /// one (missing fields take the defaults); the flags below override its fields. Without it,
     /// with --data: the recipe derived from the data (docs/training.md); without --data: `default`.
     #[arg(long)]
@@ -70,6 +71,12 @@ pub struct Args {
     /// Print the recipe the flags make, as JSON, and stop.
     #[arg(long)]
     print_recipe: bool,
+    /// Without --data: the Braille code of the training boards: `grade1-letters` (the paper's
+    /// letters: SAB, UN and letter and word rows) or `ueb-g1`/`ueb-g2` (every cell in seeded
+    /// orders and rows of UEB print; a character classifier then learns the 63 cells)
+    /// [recipe: `cells` and `cells-segment` ueb-g2, the others grade1-letters].
+    #[arg(long, value_enum)]
+    braille: Option<pipeline::code::BrailleCode>,
     /// Without --data: what to learn from the simulated windows.
     #[arg(long, value_enum)]
     task: Option<Task>,
@@ -268,6 +275,21 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, average_epochs <- a.average_epochs,
         dropout <- a.dropout, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
         patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff);
+    match a.braille {
+        Some(pipeline::code::BrailleCode::Grade1Letters) => {
+            r.cells = None;
+            if r.task == Task::Cells {
+                r.task = Task::Chars;
+            }
+        }
+        Some(code) => {
+            r.cells = Some(code);
+            if r.task == Task::Chars {
+                r.task = Task::Cells;
+            }
+        }
+        None => {}
+    }
     r.check_truncation |= a.check_truncation;
     r.interpolate |= a.interpolate;
     r.bias |= a.bias;
@@ -333,6 +355,7 @@ pub fn run(args: Args) -> Result<()> {
                 word_rows: r.word_rows,
                 letter_rows: r.letter_rows,
                 sweep: experiments::train::recipe::sweep(&r.train_speeds_mm_s, &r.train_depths_mm),
+                cells: r.cells,
                 realism: r.realism,
                 train: r.train_config(),
             };

@@ -843,3 +843,50 @@ fn the_committed_word_table_reads_again_from_its_first_scans() {
     let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
     assert!(readme.contains(&quoted), "the README quotes the EV row as the table gives it: {quoted}");
 }
+
+#[test]
+fn ueb_print_is_read_back_from_its_cells_and_scored_exactly_and_blind() {
+    // eval words in UEB: the cells of "The children, 12." are 2 + 3 + 4 = 9 (⠠⠮ ⠡⠝⠂ ⠼⠁⠃⠲)
+    let print = "The children, 12.";
+    let board = format!("text:{print}");
+    // the same print, speed and depth for eval words and for simulate
+    let common = ["--braille", "ueb-g2", "--board", &board, "--speed", "16", "--depth", "1.0"];
+    let o = braille(&[&["eval", "words", "--trials", "1", "--json"][..], &common].concat());
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        (v["code"].as_str(), v["cells_printed"].as_u64(), v["lines"].as_u64()),
+        (Some("ueb-g2"), Some(9), Some(1))
+    );
+    assert!(v["classifier"].as_str().unwrap().ends_with("ueb/snn-cells.safetensors"), "{}", v["classifier"]);
+    let ex = &v["examples"][0];
+    assert_eq!(ex[0], print);
+    let spells: Vec<&str> = v["by_spell"].as_array().unwrap().iter().map(|s| s["spell"].as_str().unwrap()).collect();
+    assert_eq!(spells, ["none", "textblob", "lexicon"]);
+    // what the lexicon read, scored exactly: all three words right only if the print is the same
+    let lexicon = &v["by_spell"][2];
+    let read = ex[2].as_str().unwrap();
+    assert_eq!(lexicon["word_accuracy"].as_f64() == Some(1.0), read == print, "{read:?}");
+    assert!(v["cell_error_rate"].as_f64().unwrap() < 0.25, "{v}");
+    // braille read in UEB: a simulated scan of the same print, read back to print from its events
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("ueb.aedat4");
+    let o = braille(&[&["simulate", "--out", file.to_str().unwrap()][..], &common].concat());
+    assert!(o.status.success(), "{}", text(&o).1);
+    let o = braille(&["read", file.to_str().unwrap(), "--braille", "ueb-g2", "--json"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let (words, summary) = lines(&out);
+    assert!(!words.is_empty(), "{out}");
+    // a word's raw reading is its cells; its text their print
+    assert!(
+        words.iter().all(|w| w["raw"].as_str().unwrap().chars().all(|c| ('\u{2801}'..='\u{283F}').contains(&c))),
+        "{out}"
+    );
+    assert_eq!(summary["spell"], "lexicon");
+    // the paper's letters cannot take this board
+    let o = braille(&["eval", "words", "--board", &board, "--trials", "1"]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("cannot write ','"), "{}", text(&o).1);
+}

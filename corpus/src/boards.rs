@@ -283,6 +283,9 @@ pub fn board_name(kind: &BoardKind) -> String {
         if *kind == validation_words_board() {
             return "VAL-WORDS".into();
         }
+        if let Some((_, name)) = sentence_boards().iter().find(|(b, _)| b == kind) {
+            return name.clone();
+        }
         for h in [HeldOut::Test, HeldOut::Validation] {
             if *t == all_letters(h).text() {
                 return h.board_name().into();
@@ -311,26 +314,255 @@ pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
 /// A board named as [`parse_board`] names it, with a `text:` board's print written in `code`:
 /// with the paper's letters it must hold letters and spaces only (any other character is an
 /// error naming it and its place); with UEB each row (`/` between rows) is translated to cells
-/// by liblouis's tables, the blank cell between words. The named boards are the paper's letter
-/// boards in every code.
+/// by liblouis's tables, the blank cell between words, and wrapped at spaces to rows of
+/// [`UEB_ROW_CELLS`] ([`PrintBoard`]). `UEB-SENTENCES` and `VAL-UEB` are the sentence boards
+/// ([`sentence_board`]; UEB only); the other named boards are the same in every code.
 pub fn parse_board_in(s: &str, code: BrailleCode) -> crate::Result<BoardKind> {
+    if let Some(which) = sentence_board_name(s) {
+        return Ok(sentence_board(which, needs_cells(s, code)?)?.kind);
+    }
     let Some(text) = s.strip_prefix("text:") else {
         return parse_board(s).map_err(|what| crate::Error::Board { board: s.to_string(), what });
     };
+    if code != BrailleCode::Grade1Letters {
+        return Ok(parse_print_board(s, code)?.kind);
+    }
     let translator = code.translator()?;
     let mut rows = Vec::new();
     for row in text.split('/') {
         let row = row.trim();
-        let cells = translator.to_cells(row)?;
-        rows.push(match code {
-            BrailleCode::Grade1Letters => row.to_string(),
-            _ => cells.iter().map(|&c| if c == Cell::EMPTY { ' ' } else { c.unicode() }).collect(),
-        });
+        // Unicode Braille cells are printed as they are, in any code
+        if !row.chars().all(|c| encoders::braille::cell_on_board(c).is_some()) {
+            translator.to_cells(row)?;
+        }
+        rows.push(row.to_string());
     }
     if rows.iter().all(|r| r.trim().is_empty()) {
         return Err(crate::Error::Board { board: s.to_string(), what: "text: needs some print".into() });
     }
     Ok(BoardKind::Text(rows.join("/")))
+}
+
+/// Cells a row of UEB holds on the simulated boards (the unseen-words boards' 25).
+pub const UEB_ROW_CELLS: usize = 25;
+
+/// Training rows that hold every raised-dot cell (the 63 patterns) `times` times, each time in
+/// its own seeded order, in runs of one to five cells (neighbours at the cell spacing, as in
+/// contracted text, and a blank between runs), rows of at most `max_chars` cells, joined by `/`
+/// as a text board takes them.
+pub fn training_cell_rows(seed: u64, times: usize, max_chars: usize) -> String {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut rows: Vec<String> = Vec::new();
+    for _ in 0..times {
+        let mut cells: Vec<char> = (1..64u8).map(|b| Cell(b).unicode()).collect();
+        for i in (1..cells.len()).rev() {
+            cells.swap(i, rng.random_range(0..=i));
+        }
+        let mut row = String::new();
+        let mut rest = &cells[..];
+        while !rest.is_empty() {
+            let run = rng.random_range(1..=5usize).min(rest.len());
+            let used = row.chars().count();
+            if used > 0 && used + 1 + run > max_chars {
+                rows.push(std::mem::take(&mut row));
+            }
+            if !row.is_empty() {
+                row.push(' ');
+            }
+            row.extend(&rest[..run]);
+            rest = &rest[run..];
+        }
+        rows.push(row);
+    }
+    rows.join("/")
+}
+
+/// A board of print in a Braille code: the rows as printed and the board of their cells, row
+/// for row (print wrapped at spaces so that each row's cells fit [`UEB_ROW_CELLS`]; the
+/// simulator wraps no further).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PrintBoard {
+    pub code: BrailleCode,
+    pub print_rows: Vec<String>,
+    pub kind: BoardKind,
+}
+
+impl PrintBoard {
+    /// `lines` of print translated through `code`, each wrapped at spaces into rows of at most
+    /// `max_cells` cells (a word longer than a row is an error naming it).
+    pub fn new(lines: &[&str], code: BrailleCode, max_cells: usize) -> crate::Result<PrintBoard> {
+        let t = code.translator()?;
+        let row_cells = |print: &str| -> crate::Result<String> {
+            Ok(t.to_cells(print)?.iter().map(|&c| if c == Cell::EMPTY { ' ' } else { c.unicode() }).collect())
+        };
+        let (mut print_rows, mut cell_rows) = (Vec::new(), Vec::new());
+        for line in lines {
+            let mut row: Vec<&str> = Vec::new();
+            for word in line.split_whitespace() {
+                let with = [row.as_slice(), &[word]].concat().join(" ");
+                if row.is_empty() || row_cells(&with)?.chars().count() <= max_cells {
+                    row.push(word);
+                    continue;
+                }
+                let print = row.join(" ");
+                cell_rows.push(row_cells(&print)?);
+                print_rows.push(print);
+                row = vec![word];
+            }
+            if !row.is_empty() {
+                let print = row.join(" ");
+                cell_rows.push(row_cells(&print)?);
+                print_rows.push(print);
+            }
+        }
+        if let Some((print, cells)) = print_rows.iter().zip(&cell_rows).find(|(_, c)| c.chars().count() > max_cells) {
+            return Err(crate::Error::Board {
+                board: print.clone(),
+                what: format!("{} cells in {code}, a row holds {max_cells}", cells.chars().count()),
+            });
+        }
+        if print_rows.is_empty() {
+            return Err(crate::Error::Board { board: lines.join("/"), what: "no print".into() });
+        }
+        Ok(PrintBoard { code, print_rows, kind: BoardKind::Text(cell_rows.join("/")) })
+    }
+}
+
+/// Everyday sentences in print, with capitals, digits and punctuation, that no training row
+/// holds: the test set (`UEB-SENTENCES`) and the validation set (`VAL-UEB`), 24 each.
+pub const TEST_SENTENCES: &str = include_str!("../../data/ueb/test_sentences.txt");
+pub const VALIDATION_SENTENCES: &str = include_str!("../../data/ueb/validation_sentences.txt");
+
+/// The sentence board of `which` in `code` (`UEB-SENTENCES` for the test, `VAL-UEB` for
+/// validation).
+pub fn sentence_board(which: HeldOut, code: BrailleCode) -> crate::Result<PrintBoard> {
+    let text = match which {
+        HeldOut::Test => TEST_SENTENCES,
+        HeldOut::Validation => VALIDATION_SENTENCES,
+    };
+    let lines: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    PrintBoard::new(&lines, code, UEB_ROW_CELLS)
+}
+
+/// Training rows of print for a Braille code: `rows` rows of random training words (the
+/// [`TRAINING_WORDS`] of [`random_word_rows`], none of EV's), each word lower case, capitalised
+/// (one in five) or in capitals (one in twenty), now and then a number (one in twelve), a
+/// possessive `'s` (one in thirty), a hyphenated pair (one in fifty) or quoted (one in forty),
+/// and punctuation after one word in four (`,` `.` `;` `:` `?` `!`). Seeded; each row's cells fit
+/// `max_cells`.
+pub fn ueb_training_board(seed: u64, rows: usize, code: BrailleCode, max_cells: usize) -> crate::Result<PrintBoard> {
+    use rand::{Rng, SeedableRng};
+    let words: Vec<String> =
+        word_pool(0, TRAINING_WORDS, &EV_WORDS).into_iter().map(|w| w.to_ascii_lowercase()).collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let pick = |rng: &mut rand_chacha::ChaCha8Rng| words[rng.random_range(0..words.len())].clone();
+    let word = |rng: &mut rand_chacha::ChaCha8Rng| -> String {
+        let roll: f64 = rng.random();
+        let mut w = if roll < 1.0 / 12.0 {
+            rng.random_range(0..2100u32).to_string()
+        } else {
+            let mut w = pick(rng);
+            if rng.random_bool(1.0 / 50.0) {
+                w = format!("{w}-{}", pick(rng));
+            }
+            if rng.random_bool(1.0 / 30.0) {
+                w.push_str("'s");
+            }
+            let case: f64 = rng.random();
+            if case < 0.05 {
+                w.to_ascii_uppercase()
+            } else if case < 0.25 {
+                let mut c = w.chars();
+                c.next().map(|f| f.to_ascii_uppercase().to_string() + c.as_str()).unwrap_or_default()
+            } else {
+                w
+            }
+        };
+        if rng.random_bool(0.25) {
+            const MARKS: [&str; 8] = [",", ",", ",", ".", ".", ";", ":", "?"];
+            let m = if rng.random_bool(0.1) { "!" } else { MARKS[rng.random_range(0..MARKS.len())] };
+            w.push_str(m);
+        }
+        if rng.random_bool(1.0 / 40.0) {
+            w = format!("\"{w}\"");
+        }
+        w
+    };
+    // a line of about two rows' words, wrapped by the board to rows that fit
+    let mut lines = Vec::new();
+    let mut made = 0;
+    while made < rows {
+        let line: Vec<String> = (0..8).map(|_| word(&mut rng)).collect();
+        lines.push(line.join(" "));
+        made += 2;
+    }
+    let refs: Vec<&str> = lines.iter().map(String::as_str).collect();
+    let mut b = PrintBoard::new(&refs, code, max_cells)?;
+    if let BoardKind::Text(t) = &b.kind {
+        let kept: Vec<&str> = t.split('/').take(rows).collect();
+        b.kind = BoardKind::Text(kept.join("/"));
+        b.print_rows.truncate(rows);
+    }
+    Ok(b)
+}
+
+/// The sentence boards in both grades of UEB with their names (made once per process).
+fn sentence_boards() -> &'static [(BoardKind, String)] {
+    static BOARDS: std::sync::OnceLock<Vec<(BoardKind, String)>> = std::sync::OnceLock::new();
+    BOARDS.get_or_init(|| {
+        let mut out = Vec::new();
+        for code in [BrailleCode::UebGrade1, BrailleCode::UebGrade2] {
+            for (which, name) in [(HeldOut::Test, "UEB-SENTENCES"), (HeldOut::Validation, "VAL-UEB")] {
+                if let Ok(b) = sentence_board(which, code) {
+                    out.push((b.kind, format!("{name} ({code})")));
+                }
+            }
+        }
+        out
+    })
+}
+
+/// The sentence boards' names: `UEB-SENTENCES` (test) and `VAL-UEB` (validation).
+pub fn sentence_board_name(s: &str) -> Option<HeldOut> {
+    if s.eq_ignore_ascii_case("UEB-SENTENCES") {
+        Some(HeldOut::Test)
+    } else if s.eq_ignore_ascii_case("VAL-UEB") {
+        Some(HeldOut::Validation)
+    } else {
+        None
+    }
+}
+
+/// `code`, when it writes more than the paper's letters (a board of punctuation and digits
+/// needs UEB).
+fn needs_cells(board: &str, code: BrailleCode) -> crate::Result<BrailleCode> {
+    match code {
+        BrailleCode::Grade1Letters => Err(crate::Error::Board {
+            board: board.to_string(),
+            what: "print with digits and punctuation: read it with --braille ueb-g1 or ueb-g2".into(),
+        }),
+        c => Ok(c),
+    }
+}
+
+/// A board as [`parse_board_in`] names it, with its print where it has one: a `text:` board in
+/// UEB and the sentence boards keep their print rows (what a reader of the code is scored
+/// against); any other board's print is its cells' rows.
+pub fn parse_print_board(s: &str, code: BrailleCode) -> crate::Result<PrintBoard> {
+    if let Some(which) = sentence_board_name(s) {
+        return sentence_board(which, needs_cells(s, code)?);
+    }
+    match (s.strip_prefix("text:"), code) {
+        (Some(text), BrailleCode::UebGrade1 | BrailleCode::UebGrade2) => {
+            let lines: Vec<&str> = text.split('/').map(str::trim).collect();
+            PrintBoard::new(&lines, code, UEB_ROW_CELLS)
+        }
+        _ => {
+            let kind = parse_board_in(s, code)?;
+            Ok(PrintBoard { code, print_rows: kind.rows().0, kind })
+        }
+    }
 }
 
 /// Words of the EV board, kept out of the random word rows so that EV stays a test board.
@@ -356,6 +588,54 @@ mod tests {
         // The board prints the cells it was given.
         let board = sim::Board::new(g2, sim::BoardGeometry::default(), 1).unwrap();
         assert_eq!(board.cell(0), Cell(0b10_0000));
+    }
+
+    #[test]
+    fn cell_boards_hold_every_cell_and_print_boards_keep_their_print_row_for_row() {
+        // every cell `times` times, in runs at the cell spacing, rows that fit
+        let rows = training_cell_rows(3, 4, 22);
+        assert_eq!(rows, training_cell_rows(3, 4, 22));
+        let mut n = std::collections::HashMap::new();
+        for r in rows.split('/') {
+            assert!(r.chars().count() <= 22, "{r}");
+            for c in r.chars().filter(|&c| c != ' ') {
+                *n.entry(c).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(n.len(), 63);
+        assert!(n.values().all(|&k| k == 4));
+        // the sentence boards: print rows and cell rows one for one, none too long
+        for which in [HeldOut::Test, HeldOut::Validation] {
+            let b = sentence_board(which, BrailleCode::UebGrade2).unwrap();
+            let BoardKind::Text(cells) = &b.kind else { panic!("a text board") };
+            let cell_rows: Vec<&str> = cells.split('/').collect();
+            assert_eq!(cell_rows.len(), b.print_rows.len());
+            let t = BrailleCode::UebGrade2.translator().unwrap();
+            for (print, cells) in b.print_rows.iter().zip(&cell_rows) {
+                assert!(cells.chars().count() <= UEB_ROW_CELLS, "{print}: {cells}");
+                assert_eq!(t.to_text(&pipeline::code::parse_cells(cells).unwrap()), *print);
+                let board =
+                    sim::Board::new(BoardKind::Text(cells.to_string()), sim::BoardGeometry::default(), 1).unwrap();
+                assert_eq!(board.rows.len(), 1, "the simulator wraps no further: {print}");
+            }
+        }
+        // no test sentence is a validation sentence
+        let val: Vec<&str> = VALIDATION_SENTENCES.lines().collect();
+        assert!(TEST_SENTENCES.lines().all(|l| !val.contains(&l)));
+        assert_eq!(
+            board_name(&sentence_board(HeldOut::Test, BrailleCode::UebGrade2).unwrap().kind),
+            "UEB-SENTENCES (ueb-g2)"
+        );
+        assert!(parse_board_in("UEB-SENTENCES", BrailleCode::Grade1Letters).is_err());
+        // training print: seeded, with capitals, digits and punctuation, rows that fit
+        let p = ueb_training_board(5, 30, BrailleCode::UebGrade2, 22).unwrap();
+        assert_eq!(p, ueb_training_board(5, 30, BrailleCode::UebGrade2, 22).unwrap());
+        assert_eq!(p.print_rows.len(), 30);
+        let print = p.print_rows.join(" ");
+        assert!(print.chars().any(|c| c.is_ascii_uppercase()), "{print}");
+        assert!(print.chars().any(|c| c.is_ascii_digit()), "{print}");
+        assert!(print.chars().any(|c| c.is_ascii_punctuation()), "{print}");
+        assert!(!print.split(' ').any(|w| EV_WORDS.contains(&w.to_uppercase().as_str())), "{print}");
     }
 
     #[test]

@@ -152,7 +152,14 @@ pub fn simulate_files(spec: &ScanSpec, progress: &dyn Progress) -> Result<Summar
     if jobs.len() > 1 {
         progress.start("simulating scans", jobs.len() as u64);
     }
-    let name = board.kind.name().replace(['/', ' ', ':', '"'], "_");
+    // the board's name in file names; a long text's first characters and a hash of the whole
+    let full = crate::boards::board_name(&board.kind);
+    let name = if full.chars().count() > 40 {
+        format!("{}_{:08x}", full.chars().take(32).collect::<String>(), sim::board::stable_hash(&full) as u32)
+    } else {
+        full
+    }
+    .replace(['/', ' ', ':', '"', '(', ')'], "_");
     let results: Vec<Result<(FileSummary, StreamStats)>> = jobs
         .par_iter()
         .map(|&(row, trial)| {

@@ -9,6 +9,7 @@ use crate::Progress;
 use crate::boards::{EV_WORDS, random_word_rows};
 use crate::error::{Error, Result};
 use crate::world::World;
+use encoders::braille::{Cell, cell_on_board};
 use encoders::heatmap::Heatmap;
 use learn::data::SpikeSet;
 use learn::resnet::ImageSet;
@@ -36,6 +37,11 @@ pub enum Task {
     /// The character classifier's: each character's window, labelled with its letter.
     #[default]
     Chars,
+    /// The cell classifier's (Unified English Braille and any other six-dot code): each
+    /// character's window, labelled with its cell, one of the 63 raised-dot patterns (class
+    /// `bits - 1`, named by its Unicode Braille pattern U+2801-U+283F; the blank is the word
+    /// space, which has no window). A letter board's letters are their Grade-1 cells.
+    Cells,
     /// The segmentation network's: each character's window is "character"; the paper's
     /// negatives are "background": the windows `[t_max - 170 ms, t_max + 10 ms]` and
     /// `[t_max + 340 ms, t_max + 520 ms]` on either side of the character's 350 ms window
@@ -48,9 +54,35 @@ impl Task {
     pub fn classes(self) -> Vec<String> {
         match self {
             Task::Chars => (b'A'..=b'Z').map(|c| (c as char).to_string()).collect(),
+            Task::Cells => (1..64u8).map(|b| Cell(b).unicode().to_string()).collect(),
             Task::Segment => vec!["background".into(), "character".into()],
         }
     }
+
+    /// The task of a classifier of `n` classes: 63 cells, 2 segmentation, else letters.
+    pub fn for_classes(n: usize) -> Task {
+        match n {
+            63 => Task::Cells,
+            2 => Task::Segment,
+            _ => Task::Chars,
+        }
+    }
+
+    /// The class a printed character's window is labelled with (segmentation: "character"), or
+    /// `None` when the task has no class for it (a blank; for letters, a cell that is no letter).
+    pub fn class_of(self, printed: char) -> Option<usize> {
+        match self {
+            Task::Chars => class_of(printed),
+            Task::Cells => cell_class_of(printed),
+            Task::Segment => cell_class_of(printed).map(|_| 1),
+        }
+    }
+}
+
+/// The cell class of a printed character (a letter as its Grade-1 cell, or a Unicode Braille
+/// pattern): `bits - 1` of its raised dots; `None` for the blank or anything else.
+pub fn cell_class_of(printed: char) -> Option<usize> {
+    cell_on_board(printed).filter(|&c| c != Cell::EMPTY).map(|c| c.0 as usize - 1)
 }
 
 /// One labelled window.
@@ -199,8 +231,8 @@ pub fn label_scan(
     for (k, (w, &letter)) in l.windows.iter().zip(chars).enumerate() {
         let mut windows = Vec::new();
         match task {
-            Task::Chars => {
-                if let Some(class) = class_of(letter) {
+            Task::Chars | Task::Cells => {
+                if let Some(class) = task.class_of(letter) {
                     windows.push((class, w.clone()));
                     if jitter_ms > 0.0 {
                         for d in [-jitter_ms, jitter_ms] {
@@ -405,8 +437,10 @@ pub fn build_many_in(
     let first = first_of_one_labeler(inputs)?;
     let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
     let list = scans(spec, setup)?;
-    let printed =
-        list.iter().map(|(board, row, _)| board.rows[*row].chars().filter(|&c| class_of(c).is_some()).count()).sum();
+    let printed = list
+        .iter()
+        .map(|(board, row, _)| board.rows[*row].chars().filter(|&c| spec.task.class_of(c).is_some()).count())
+        .sum();
     progress.start("simulating scans", list.len() as u64);
     let per_scan: Vec<Option<Vec<Kept>>> = list
         .par_iter()
@@ -483,7 +517,7 @@ pub fn recorded_windows(
     let letters = |r: &crate::recordings::Recording| -> Vec<char> {
         r.text.chars().filter(|c| !c.is_whitespace()).map(|c| c.to_ascii_uppercase()).collect()
     };
-    let printed = scans.iter().map(|r| letters(r).iter().filter(|&&c| class_of(c).is_some()).count()).sum();
+    let printed = scans.iter().map(|r| letters(r).iter().filter(|&&c| task.class_of(c).is_some()).count()).sum();
     progress.start("labelling recorded scans", scans.len() as u64);
     let per_scan: Vec<Option<Vec<Kept>>> = scans
         .par_iter()
@@ -531,6 +565,27 @@ pub struct TrainingScans {
     pub letter_rows: usize,
     /// Scans spread over speeds and depths (`None`: the paper's 8 mm/s and 1.5 mm).
     pub sweep: Option<Sweep>,
+    /// The boards of a cell reader (UEB): in place of SAB, UN and the letter and word rows,
+    /// `letter_rows` times every cell ([`crate::boards::training_cell_rows`]) and `word_rows`
+    /// rows of print in this code ([`crate::boards::ueb_training_board`]). `None`: the letters'.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells: Option<pipeline::code::BrailleCode>,
+}
+
+impl TrainingScans {
+    /// The training boards, as a summary names them.
+    pub fn boards(&self) -> String {
+        match self.cells {
+            Some(code) => format!(
+                "every cell {} times in seeded orders and {} rows of {code} print",
+                self.letter_rows, self.word_rows
+            ),
+            None => format!(
+                "SAB and UN, {} rows of random words, all-letters rows {} times",
+                self.word_rows, self.letter_rows
+            ),
+        }
+    }
 }
 
 /// The training protocol's windows in `world` (its training sensor builds): SAB and UN at 8 mm/s
@@ -546,15 +601,21 @@ pub fn training_windows(
     world: &World,
     progress: &dyn Progress,
 ) -> Result<TrainingWindows> {
-    let TrainingScans { trials, seed, word_rows, letter_rows, ref sweep } = *scans;
-    let mut boards = vec![BoardKind::Sab, BoardKind::Un];
-    if word_rows > 0 {
-        let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
-        boards.push(BoardKind::Text(text));
-    }
-    if letter_rows > 0 {
-        boards.push(BoardKind::Text(crate::boards::training_letter_rows(letter_rows, 22).text()));
-    }
+    let TrainingScans { trials, seed, word_rows, letter_rows, ref sweep, cells } = *scans;
+    let boards = match cells {
+        Some(code) => training_cell_boards(seed, letter_rows, word_rows, code)?,
+        None => {
+            let mut boards = vec![BoardKind::Sab, BoardKind::Un];
+            if word_rows > 0 {
+                let text = random_word_rows(seed ^ 0x5745_5244, word_rows, 22, &EV_WORDS);
+                boards.push(BoardKind::Text(text));
+            }
+            if letter_rows > 0 {
+                boards.push(BoardKind::Text(crate::boards::training_letter_rows(letter_rows, 22).text()));
+            }
+            boards
+        }
+    };
     let spec = CharSetSpec {
         boards,
         speed_mm_s: 8.0,
@@ -571,6 +632,30 @@ pub fn training_windows(
     let (val, train): (Vec<usize>, Vec<usize>) =
         (0..all.len()).partition(|&i| trials >= 5 && w.origin[i].trial % 5 == 4);
     Ok(TrainingWindows { all, train, val, scans: w.scans, skipped_scans: w.skipped_scans })
+}
+
+/// A cell reader's training boards: every cell `cell_times` times in seeded orders, and
+/// `print_rows` rows of print in `code` (rows of at most 22 cells, as the letters' word rows).
+pub fn training_cell_boards(
+    seed: u64,
+    cell_times: usize,
+    print_rows: usize,
+    code: pipeline::code::BrailleCode,
+) -> Result<Vec<BoardKind>> {
+    let mut boards = Vec::new();
+    if cell_times > 0 {
+        boards.push(BoardKind::Text(crate::boards::training_cell_rows(seed ^ 0x4345_4c4c, cell_times, 22)));
+    }
+    if print_rows > 0 {
+        boards.push(crate::boards::ueb_training_board(seed ^ 0x5545_4221, print_rows, code, 22)?.kind);
+    }
+    if boards.is_empty() {
+        return Err(Error::Board {
+            board: "cell training boards".into(),
+            what: "no rows: letter_rows and word_rows are 0".into(),
+        });
+    }
+    Ok(boards)
 }
 
 /// A lab's training windows from its recordings folder: the `train` scans' windows to train on,
@@ -649,6 +734,22 @@ pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, tas
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cells_are_labelled_by_their_dots_letters_as_their_grade_1_cells() {
+        assert_eq!(Task::Cells.classes().len(), 63);
+        assert_eq!(Task::Cells.classes()[0], "⠁");
+        assert_eq!(Task::Cells.class_of('⠁'), Some(0));
+        assert_eq!(Task::Cells.class_of('A'), Some(0));
+        assert_eq!(Task::Cells.class_of('⠿'), Some(62));
+        assert_eq!(Task::Cells.class_of(' '), None);
+        assert_eq!(Task::Cells.class_of('\u{2800}'), None);
+        assert_eq!(Task::Chars.class_of('⠁'), None);
+        assert_eq!(Task::Chars.class_of('B'), Some(1));
+        assert_eq!(Task::Segment.class_of('⠠'), Some(1));
+        assert_eq!(Task::for_classes(63), Task::Cells);
+        assert_eq!(Task::for_classes(26), Task::Chars);
+    }
 
     #[test]
     fn a_sweep_walks_every_pairing_of_speed_and_depth() {

@@ -26,14 +26,23 @@ pub enum Preprocess {
     #[default]
     #[cfg_attr(feature = "clap", value(name = "normaug"))]
     NormAug,
+    /// Normalisation and augmentation without the vertical centring: for the cell classifiers,
+    /// which tell dot 1 from dot 2 and dot 3 by its height in the row.
+    #[cfg_attr(feature = "clap", value(name = "scaleaug"))]
+    ScaleAug,
 }
 
 impl Preprocess {
+    /// Whether windows are centred vertically (and, for the ResNet, normalised).
     pub fn normalises(self) -> bool {
         matches!(self, Preprocess::Norm | Preprocess::NormAug)
     }
+    /// Whether counts are normalised (`ln(1 + c)`, the largest 1).
+    pub fn scales(self) -> bool {
+        matches!(self, Preprocess::Norm | Preprocess::NormAug | Preprocess::ScaleAug)
+    }
     pub fn augments(self) -> bool {
-        matches!(self, Preprocess::Aug | Preprocess::NormAug)
+        matches!(self, Preprocess::Aug | Preprocess::NormAug | Preprocess::ScaleAug)
     }
 }
 
@@ -175,6 +184,8 @@ pub fn prepare(map: &Heatmap, mode: Preprocess, cfg: &AugmentConfig, rng: Option
     let mut m = map.clone();
     if mode.normalises() {
         center_vertically(&mut m);
+    }
+    if mode.scales() {
         normalise(&mut m);
     }
     match (mode.augments(), rng) {

@@ -391,8 +391,11 @@ impl ReaderModels {
         if seg.classes() != ["background", "character"] {
             return Err(bad(segmenter, format!("not a segmentation network (classes {:?})", seg.classes())));
         }
-        if cls.classes().len() != 26 {
-            return Err(bad(classifier, format!("not a 26-letter character classifier (classes {:?})", cls.classes())));
+        if !matches!(cls.classes().len(), 26 | 63) {
+            return Err(bad(
+                classifier,
+                format!("not a character classifier of 26 letters or 63 cells (classes {:?})", cls.classes()),
+            ));
         }
         if seg.input().labeler != cls.input().labeler {
             return Err(bad(classifier, format!("windows its input unlike {}", segmenter.display())));

@@ -6,12 +6,14 @@
 //! ([`source`]), the temporal filter ([`words`]), spelling ([`spelling`], [`lexicon`]), every
 //! shipped model named in one place ([`shipped`]), any SNN or NIR graph run on events
 //! ([`network`]), and the Braille codes from print to cells and back ([`code`]: the paper's
-//! letters, Unified English Braille grades 1 and 2 through liblouis's tables).
+//! letters, Unified English Braille grades 1 and 2 through liblouis's tables; words of cells read
+//! back to print in [`cell_spell`]).
 //!
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
 
 pub mod augment;
+pub mod cell_spell;
 pub mod classify;
 pub mod code;
 pub mod error;

@@ -15,13 +15,16 @@
 //! The classifiers are behind [`WindowClassifier`], so the ResNet and the SNN read identical
 //! windows of identical streams.
 
+use crate::cell_spell::CellSpeller;
 use crate::classify::WindowModel;
+use crate::code::BrailleCode;
 use crate::error::{Error, Result};
 use crate::labeling::LabelerConfig;
 use crate::lexicon::LexiconDecoder;
 use crate::speed::{SpeedEstimate, SpeedEstimator, SpeedEstimatorConfig};
 use crate::spelling::Norvig;
 use crate::words::{Detection, FilterOutput, ReadChar, TemporalFilter, TemporalFilterConfig};
+use encoders::braille::{Cell as BrailleCell, cell_on_board};
 use encoders::pooling::PoolMap;
 use encoders::{Event, Resolution};
 use serde::{Deserialize, Serialize};
@@ -116,14 +119,47 @@ pub enum Speller {
     None,
     Textblob(Norvig),
     Lexicon(LexiconDecoder),
+    /// Words of cells in a Braille code (UEB), back-translated to print: as read
+    /// ([`Spell::None`]), then each run of letters corrected by TextBlob's corrector
+    /// ([`Spell::Textblob`]), or the beam over the cell probabilities scored by the lexicon
+    /// ([`Spell::Lexicon`], [`crate::cell_spell`]).
+    Cells {
+        spell: Spell,
+        speller: CellSpeller,
+        norvig: Option<Norvig>,
+    },
 }
 
 impl Speller {
+    /// The paper's letters' speller.
     pub fn new(spell: Spell) -> Speller {
         match spell {
             Spell::None => Speller::None,
             Spell::Textblob => Speller::Textblob(Norvig::textblob()),
             Spell::Lexicon => Speller::Lexicon(LexiconDecoder::textblob(Default::default())),
+        }
+    }
+
+    /// A speller of words printed in `code`: the letters' for the paper's letters, else words of
+    /// cells back-translated through the code's tables.
+    pub fn in_code(spell: Spell, code: BrailleCode) -> Result<Speller> {
+        Ok(match code {
+            BrailleCode::Grade1Letters => Speller::new(spell),
+            _ => Speller::Cells {
+                spell,
+                speller: CellSpeller::new(code, Default::default())?,
+                norvig: (spell == Spell::Textblob).then(Norvig::textblob),
+            },
+        })
+    }
+
+    /// How it corrects.
+    pub fn spell(&self) -> Spell {
+        match self {
+            Speller::None => Spell::None,
+            Speller::Textblob(_) => Spell::Textblob,
+            Speller::Lexicon(_) => Spell::Lexicon,
+            Speller::Cells { spell, .. } => *spell,
         }
     }
 
@@ -146,8 +182,41 @@ impl Speller {
                     .collect();
                 d.decode(&obs).0
             }
+            Speller::Cells { spell, speller, norvig } => {
+                // a letter classifier's letters are their Grade-1 cells
+                let cells: Vec<BrailleCell> =
+                    chars.iter().map(|c| cell_on_board(c.letter).unwrap_or(BrailleCell::EMPTY)).collect();
+                match (spell, norvig) {
+                    (Spell::Lexicon, _) => {
+                        let probs: Vec<Vec<f32>> = chars.iter().map(|c| c.probs.clone()).collect();
+                        speller.correct(&cells, &probs)
+                    }
+                    (Spell::Textblob, Some(n)) => correct_letter_runs(&speller.as_read(&cells), n),
+                    _ => speller.as_read(&cells),
+                }
+            }
         }
     }
+}
+
+/// Each run of ASCII letters in `text` corrected by `n` (in its case pattern); the rest kept.
+fn correct_letter_runs(text: &str, n: &Norvig) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut run = String::new();
+    for c in text.chars().chain(std::iter::once('\0')) {
+        if c.is_ascii_alphabetic() {
+            run.push(c);
+            continue;
+        }
+        if !run.is_empty() {
+            out.push_str(&n.correct(&run));
+            run.clear();
+        }
+        if c != '\0' {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// A finished word.
@@ -819,7 +888,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))
             .ok_or(Error::Mismatch { what: "the character classifier gave no probabilities" })?;
-        let letter = (b'A' + k.min(25) as u8) as char;
+        let letter = crate::words::Alphabet::of_classes(probs.len()).symbol(k);
         self.filter.detect(&Detection { t_us: t_end_us, letter, confidence: p }, Some(&probs), &mut self.pending);
         Ok(())
     }

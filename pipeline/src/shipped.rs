@@ -96,6 +96,22 @@ pub fn reader_in(dir: &Path, arch: Arch) -> ReaderFiles {
     ReaderFiles { segmenter: dir.join(format!("{s}.safetensors")), classifier: dir.join(format!("{c}.safetensors")) }
 }
 
+/// The reader of `arch` for a Braille code: the letters' ([`reader_in`]) for the paper's letters,
+/// else the cell reader in `dir`'s `ueb/` folder (`scripts/ueb/train.sh`): the segmentation
+/// network `snn-segment`, shared by both architectures (their classifiers read identical
+/// detections), and `snn-cells` or `resnet-lite-cells`.
+pub fn reader_for(dir: &Path, arch: Arch, code: crate::code::BrailleCode) -> ReaderFiles {
+    if code == crate::code::BrailleCode::Grade1Letters {
+        return reader_in(dir, arch);
+    }
+    let ueb = dir.join("ueb");
+    let (s, c) = match arch {
+        Arch::Resnet => ("snn-segment", "resnet-lite-cells"),
+        Arch::Snn => ("snn-segment", "snn-cells"),
+    };
+    ReaderFiles { segmenter: ueb.join(format!("{s}.safetensors")), classifier: ueb.join(format!("{c}.safetensors")) }
+}
+
 /// The paper's character classifier of `arch` in the folder `dir`, under its shipped name.
 pub fn chars_in(dir: &Path, arch: Arch) -> PathBuf {
     dir.join(format!("{}.safetensors", chars_name(arch)))

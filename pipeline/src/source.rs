@@ -74,7 +74,8 @@ fn since_arrival_us(arrivals: &VecDeque<(i64, Instant)>, t_us: i64, now: Instant
 /// Stream time the arrivals of chunks are kept for ([`ReadSummary::word_latency_ms_p50`]).
 const ARRIVALS_KEPT_US: i64 = 60_000_000;
 
-/// Reads `source` chunk by chunk with bounded memory (a file, standard input or a live stream as
+/// Reads `source` chunk by chunk with bounded memory, words spelled by `speller` (a cell
+/// reader's back-translated by its code: [`Speller::in_code`]) (a file, standard input or a live stream as
 /// it arrives), handing each word to `on_word` as it completes. `name` names the source in
 /// errors. A source that fails (a stalled sender, a truncated or garbled packet) ends the stream
 /// where it failed: the characters read until then are handed out as the last word, then the
@@ -85,13 +86,13 @@ pub fn read_source(
     readers: &ReaderModels,
     timing: Timing,
     resolution: encoders::Resolution,
-    spell: Spell,
+    speller: &Speller,
     on_word: &mut dyn FnMut(&ReadWord) -> Result<()>,
 ) -> Result<ReadSummary> {
     use crate::reader::ReadOutput;
-    let speller = Speller::new(spell);
+    let spell = speller.spell();
     let started = Instant::now();
-    let mut reader = readers.stream(timing, resolution, &speller)?;
+    let mut reader = readers.stream(timing, resolution, speller)?;
     let (mut out, mut text) = (Vec::new(), VecDeque::<String>::new());
     let (mut first, mut last) = (None, 0i64);
     let mut arrivals: VecDeque<(i64, Instant)> = VecDeque::new();

@@ -8,7 +8,7 @@
 
 use std::collections::HashMap;
 
-static TEXTBLOB_WORDS: &str = include_str!("../../data/spelling/en-spelling.txt");
+pub(crate) static TEXTBLOB_WORDS: &str = include_str!("../../data/spelling/en-spelling.txt");
 
 const ALPHABET: &[u8] = b"abcdefghijklmnopqrstuvwxyz";
 

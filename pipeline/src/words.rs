@@ -24,6 +24,36 @@ impl Default for TemporalFilterConfig {
     }
 }
 
+/// What a character classifier's classes stand for, known by their number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Alphabet {
+    /// 26 classes: the letters A..Z (the paper's).
+    Letters,
+    /// 63 classes: the raised-dot patterns of the six-dot cell, class `k` the cell of dots bits
+    /// `k + 1`, written as its Unicode Braille pattern (U+2801-U+283F).
+    Cells,
+    /// Any other classifier: class `k` reads as letter `k` (A, B, ...; the last letter beyond).
+    Other,
+}
+
+impl Alphabet {
+    pub fn of_classes(n: usize) -> Alphabet {
+        match n {
+            26 => Alphabet::Letters,
+            63 => Alphabet::Cells,
+            _ => Alphabet::Other,
+        }
+    }
+
+    /// The character class `k` stands for.
+    pub fn symbol(self, k: usize) -> char {
+        match self {
+            Alphabet::Cells => encoders::braille::Cell((k + 1).min(63) as u8).unicode(),
+            Alphabet::Letters | Alphabet::Other => (b'A' + k.min(25) as u8) as char,
+        }
+    }
+}
+
 /// One frame's detection.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Detection {
@@ -176,7 +206,9 @@ impl TemporalFilter {
             // With the classifier's probabilities: the letter of the highest mean probability
             // over the segment's frames (a soft vote: a frame that is sure counts more than one
             // that hesitates).
-            Some((k, &p)) if probs.len() == 26 => ((b'A' + k as u8) as char, p),
+            Some((k, &p)) if Alphabet::of_classes(probs.len()) != Alphabet::Other => {
+                (Alphabet::of_classes(probs.len()).symbol(k), p)
+            }
             // Letters only: the majority; ties to the larger summed confidence, then the earlier
             // letter.
             _ => {

@@ -4,6 +4,7 @@ use crate::errors::{OrPy, choice, name_of, to_python};
 use crate::events::{events_of, resolution_of};
 use encoders::Resolution;
 use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::code::BrailleCode;
 use pipeline::reader::{ReadOutput, ReadWord, Spell, Speller, StreamReader, Timing, TimingMode};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -104,6 +105,7 @@ pub struct Reader {
     timing: Timing,
     arch: Arch,
     spell: Spell,
+    braille: BrailleCode,
 }
 
 #[pymethods]
@@ -114,8 +116,10 @@ impl Reader {
     /// fixed 10 ms bins, 70 ms and 1 s) or "given" (reads at `speed_mm_s`). `runner`: how the SNN
     /// reads a frame's window, "sliding" or "engine" (the same output). `models_dir`: where the
     /// shipped models are [default: $BRAILLE_MODELS, else the repository's models/nominal/].
+    /// `braille`: the code of the print, "grade1-letters" (the paper's letters) or "ueb-g1" /
+    /// "ueb-g2" (the cell readers in `models_dir`'s ueb/ folder, words back-translated to print).
     #[new]
-    #[pyo3(signature = (arch="snn", spell="lexicon", timing="estimated", speed_mm_s=None, segmenter=None, classifier=None, runner="sliding", models_dir=None))]
+    #[pyo3(signature = (arch="snn", spell="lexicon", timing="estimated", speed_mm_s=None, segmenter=None, classifier=None, runner="sliding", models_dir=None, braille="grade1-letters"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -127,23 +131,25 @@ impl Reader {
         classifier: Option<PathBuf>,
         runner: &str,
         models_dir: Option<PathBuf>,
+        braille: &str,
     ) -> PyResult<Reader> {
         let arch: Arch = choice("arch", arch)?;
+        let braille: BrailleCode = choice("braille", braille)?;
         let spell: Spell = choice("spell", spell)?;
         let mode: TimingMode = choice("timing", timing)?;
         let runner: SnnRunner = choice("runner", runner)?;
         let timing = Timing::from_mode(mode, speed_mm_s).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let pipeline::shipped::ReaderFiles { segmenter: ds, classifier: dc } =
-            pipeline::shipped::reader_in(&shipped_models(models_dir), arch);
+            pipeline::shipped::reader_for(&shipped_models(models_dir), arch, braille);
         let segmenter = segmenter.unwrap_or(ds);
         let classifier = classifier.unwrap_or(dc);
         let (models, speller) = py
             .detach(|| {
                 let models = ReaderModels::load(&segmenter, &classifier, runner)?;
-                Ok::<_, pipeline::Error>((models, Speller::new(spell)))
+                Ok::<_, pipeline::Error>((models, Speller::in_code(spell, braille)?))
             })
             .or_py()?;
-        Ok(Reader { models: Arc::new(models), speller: Arc::new(speller), timing, arch, spell })
+        Ok(Reader { models: Arc::new(models), speller: Arc::new(speller), timing, arch, spell, braille })
     }
 
     /// Reads a whole array of events (fields x, y, t, p) from a sensor of `resolution`
@@ -175,6 +181,11 @@ impl Reader {
     #[getter]
     fn spell(&self) -> String {
         name_of(&self.spell)
+    }
+
+    #[getter]
+    fn braille(&self) -> String {
+        name_of(&self.braille)
     }
 
     #[getter]

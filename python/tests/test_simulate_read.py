@@ -49,6 +49,19 @@ def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
         stream.push(scan.events[:10])
 
 
+def test_a_ueb_reader_reads_cells_back_to_print():
+    # "The children" in contracted UEB, printed as its cells
+    cells = braille.simulate(board="text:⠠⠮ ⠡⠝", row=0, speed_mm_s=SPEED, seed=7)
+    reader = braille.Reader(braille="ueb-g2")
+    assert reader.braille == "ueb-g2"
+    words = reader.read(cells.events)
+    assert words, "a word read"
+    assert all(all("\u2801" <= c <= "\u283f" for c in w.raw) for w in words)
+    assert " ".join(w.text for w in words) != " ".join(w.raw for w in words), "print, not cells"
+    with pytest.raises(ValueError, match="one of grade1-letters, ueb-g1, ueb-g2"):
+        braille.Reader(braille="ueb-g3")
+
+
 def test_reader_refuses_bad_streams_and_models(scan, tmp_path):
     reader = braille.Reader(spell="none", timing="given", speed_mm_s=SPEED)
     stream = reader.stream()
@@ -61,7 +74,7 @@ def test_reader_refuses_bad_streams_and_models(scan, tmp_path):
         braille.Reader(arch="transformer")
     with pytest.raises(FileNotFoundError, match="nowhere"):
         braille.Reader(models_dir=tmp_path / "nowhere")
-    with pytest.raises(braille.BrailleError, match="not a 26-letter"):
+    with pytest.raises(braille.BrailleError, match="not a character classifier of 26 letters or 63 cells"):
         braille.Reader(classifier=ROOT / "models" / "clean" / "snn-segment.safetensors")
     with pytest.raises(ValueError, match="board"):
         braille.simulate(board="text:")

@@ -1,4 +1,5 @@
-//! Braille boards: the paper's four (SAB, UN, RAB, EV), a validation board (VAL) or any text,
+//! Braille boards: the paper's four (SAB, UN, RAB, EV), a validation board (VAL), the cell
+//! boards of every six-dot pattern (RCB, VCB) or any text,
 //! as dots with positions and heights, including manufacturing tolerances drawn from the board's
 //! own seed.
 
@@ -23,6 +24,15 @@ pub enum BoardKind {
     Val,
     /// Everyday vocabulary: "RIGHT LEFT EXIT OPEN" / "PUSH PULL STOP HELP WATER", as text.
     Ev,
+    /// The random cell board: the 63 raised-dot patterns of the six-dot cell (U+2801-U+283F) in
+    /// a fixed random order, in runs of three at the standard cell spacing (a blank between
+    /// runs), six runs a row. Unlike RAB the cells are not spread: a cell of one dot column
+    /// alone on the board (dots 1-2-3 or 4-5-6 only) gives the same window whichever column it
+    /// is, and only its neighbours in view tell them apart, as in print. A test board.
+    Rcb,
+    /// The validation cell board: like RCB, another fixed order, printed with its own seed.
+    /// Choices for the cell classifiers are made on it, never on RCB.
+    Vcb,
     /// Any text; `/` starts a new row. Letters (printed as capitals), spaces and Unicode Braille
     /// cells (U+2800-U+283F), e.g. print translated by a Braille code
     /// (`corpus::boards::in_code`).
@@ -37,6 +47,8 @@ impl BoardKind {
             BoardKind::Rab => "RAB".into(),
             BoardKind::Val => "VAL".into(),
             BoardKind::Ev => "EV".into(),
+            BoardKind::Rcb => "RCB".into(),
+            BoardKind::Vcb => "VCB".into(),
             BoardKind::Text(t) => format!("text:{t}"),
         }
     }
@@ -57,6 +69,16 @@ impl BoardKind {
                 }
                 let s: String = letters.into_iter().collect();
                 (vec![s[..9].into(), s[9..18].into(), s[18..].into()], true)
+            }
+            BoardKind::Rcb | BoardKind::Vcb => {
+                let mut cells: Vec<char> = (1..64u8).map(|b| Cell(b).unicode()).collect();
+                let seed = if *self == BoardKind::Rcb { 0x5243_4221 } else { 0x5643_4221 };
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
+                for i in (1..cells.len()).rev() {
+                    cells.swap(i, rng.random_range(0..=i));
+                }
+                let runs: Vec<String> = cells.chunks(3).map(|r| r.iter().collect()).collect();
+                (runs.chunks(6).map(|r| r.join(" ")).collect(), false)
             }
             BoardKind::Ev => (vec!["RIGHT LEFT EXIT OPEN".into(), "PUSH PULL STOP HELP WATER".into()], false),
             BoardKind::Text(t) => (t.split('/').map(|r| r.trim().to_uppercase()).collect(), false),
@@ -85,7 +107,9 @@ impl std::str::FromStr for BoardKind {
             "RAB" => Ok(BoardKind::Rab),
             "VAL" => Ok(BoardKind::Val),
             "EV" => Ok(BoardKind::Ev),
-            _ => Err(format!("unknown board {s:?}: expected SAB, UN, RAB, VAL, EV or text:\"ANY WORDS\"")),
+            "RCB" => Ok(BoardKind::Rcb),
+            "VCB" => Ok(BoardKind::Vcb),
+            _ => Err(format!("unknown board {s:?}: expected SAB, UN, RAB, VAL, EV, RCB, VCB or text:\"ANY WORDS\"")),
         }
     }
 }
@@ -371,7 +395,16 @@ mod tests {
     #[test]
     fn parsing_names_the_choices() {
         assert_eq!("ev".parse::<BoardKind>().unwrap(), BoardKind::Ev);
-        assert!("XYZ".parse::<BoardKind>().unwrap_err().contains("SAB, UN, RAB, VAL, EV"));
+        assert!("XYZ".parse::<BoardKind>().unwrap_err().contains("SAB, UN, RAB, VAL, EV, RCB"));
+        // the cell boards: every raised-dot pattern once, in two different orders
+        let (rcb, vcb) = (BoardKind::Rcb.rows().0, BoardKind::Vcb.rows().0);
+        let mut cells: Vec<char> = rcb.concat().chars().collect();
+        cells.retain(|&c| c != ' ');
+        cells.sort();
+        assert_eq!(cells, (0x2801..=0x283F).filter_map(char::from_u32).collect::<Vec<_>>());
+        assert_eq!(rcb.iter().map(|r| r.chars().count()).collect::<Vec<_>>(), [23, 23, 23, 11]);
+        assert_ne!(rcb, vcb);
+        assert_eq!("rcb".parse::<BoardKind>().unwrap(), BoardKind::Rcb);
         // the validation board: every letter once, in another order than RAB's
         let (val, rab) = (BoardKind::Val.rows().0, BoardKind::Rab.rows().0);
         let mut letters: Vec<char> = val.concat().chars().collect();

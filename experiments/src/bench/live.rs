@@ -94,7 +94,7 @@ pub fn live(spec: &LiveSpec, models: &Path, archs: &[Arch]) -> Result<LiveBench>
             &readers,
             Timing::ESTIMATED,
             resolution,
-            Spell::Lexicon,
+            &pipeline::reader::Speller::new(Spell::Lexicon),
             &mut |w| {
                 read.push(w.text.clone());
                 Ok(())

@@ -64,7 +64,11 @@ impl Score {
     /// The score with [`Score::first_trial`] filled from the windows' scans (`origin`, one per
     /// window, in the order scored) and the windows' true classes.
     pub fn with_first_trial(mut self, origin: &[ScanId], labels: &[usize]) -> Score {
-        let letter = |c: usize| char::from(b'a' + c as u8);
+        let n = self.confusion.len();
+        let letter = |c: usize| match pipeline::words::Alphabet::of_classes(n) {
+            pipeline::words::Alphabet::Cells => pipeline::words::Alphabet::Cells.symbol(c),
+            _ => char::from(b'a' + c.min(25) as u8),
+        };
         let mut reads: Vec<ScanRead> = Vec::new();
         for ((scan, &truth), &pred) in origin.iter().zip(labels).zip(&self.predictions) {
             if scan.trial != 0 {
@@ -100,6 +104,11 @@ impl CharModel {
         self.model.arch()
     }
 
+    /// What its classes are: the 26 letters or the 63 cells.
+    pub fn task(&self) -> Task {
+        Task::for_classes(self.model.classes().len())
+    }
+
     /// ResNet: multiply-accumulates per window.
     pub fn macs(&self) -> Option<u64> {
         match &self.model {
@@ -118,7 +127,10 @@ impl CharModel {
                     labels: raw.labels.clone(),
                 };
                 let (loss, accuracy, predictions) = learn::resnet::evaluate(&m.model, &set, 32);
-                let confusion = Confusion::from_pairs(26, set.labels.iter().copied().zip(predictions.iter().copied()));
+                let confusion = Confusion::from_pairs(
+                    self.model.classes().len(),
+                    set.labels.iter().copied().zip(predictions.iter().copied()),
+                );
                 Ok(Score {
                     n: set.len(),
                     accuracy,
@@ -135,7 +147,7 @@ impl CharModel {
             }
             Model::Snn(model) => {
                 let set =
-                    snn_set(&self.input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, Task::Chars);
+                    snn_set(&self.input, raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, self.task());
                 let stepped = snn_accuracy(&model.network, &model.config, &set, Mode::Stepped)?;
                 let accuracy_async = if async_capable(&model.network, model.config.dt_us) {
                     Some(snn_accuracy(&model.network, &model.config, &set, Mode::Async)?.accuracy)
@@ -193,6 +205,8 @@ pub struct CharEval {
 /// Scores the model at `path` on the windows of `spec`.
 pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<CharEval> {
     let m = CharModel::load(path)?;
+    // the windows labelled as the model's classes are (letters or cells)
+    let spec = &CharSetSpec { task: m.task(), ..spec.clone() };
     let (raw, w) = build(spec, &m.input, progress)?;
     let score = m.score(&raw)?.with_first_trial(&w.origin, &raw.labels);
     let right = crate::reports::chars::right(&score);
@@ -226,7 +240,7 @@ pub fn eval_recordings(
     for (speed_mm_s, depth_mm) in rec.conditions(role) {
         let scans: Vec<&corpus::recordings::Recording> =
             rec.role(role).filter(|r| r.speed_mm_s == speed_mm_s && r.depth_mm == depth_mm).collect();
-        let mut w = corpus::windows::recorded_windows(rec, &scans, &[&m.input], Task::Chars, 0.0, false, progress)?;
+        let mut w = corpus::windows::recorded_windows(rec, &scans, &[&m.input], m.task(), 0.0, false, progress)?;
         let raw = w.sets.remove(0);
         let score = m.score(&raw)?;
         let right = crate::reports::chars::right(&score);

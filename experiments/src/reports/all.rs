@@ -258,7 +258,7 @@ fn read_scan(scan: &Path, arch: Arch, models: &Path, out: &Path) -> Result<ReadS
         &readers,
         pipeline::reader::Timing::ESTIMATED,
         resolution,
-        Spell::Lexicon,
+        &pipeline::reader::Speller::new(Spell::Lexicon),
         &mut on_word,
     )?;
     // The process's peak is the report's (its earlier parts), not the reader's.

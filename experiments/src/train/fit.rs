@@ -314,11 +314,10 @@ pub fn train_windows(
         None => (
             training_windows(&r.training_scans(), &input, r.task, r.jitter_ms, r.blank_cells, &world, progress)?,
             format!(
-                "SIMULATED training windows ({} realism, sensor builds {:?}): SAB and UN, {} rows of random words, all-letters rows {} times, at {}",
+                "SIMULATED training windows ({} realism, sensor builds {:?}): {}, at {}",
                 r.realism,
                 world.sensors,
-                r.word_rows,
-                r.letter_rows,
+                r.training_scans().boards(),
                 conditions(&r.training_scans())
             ),
         ),
@@ -380,7 +379,11 @@ pub fn train_windows(
                 "data": if recordings.is_some() {
                     data
                 } else {
-                    format!("simulated (virtual Evetac): SAB and UN boards, {}", conditions(&r.training_scans()))
+                    format!(
+                        "simulated (virtual Evetac): {}, {}",
+                        r.training_scans().boards(),
+                        conditions(&r.training_scans())
+                    )
                 },
                 "sweep": r.training_scans().sweep,
                 "init": init.map(|p| p.display().to_string()),

@@ -105,6 +105,10 @@ pub struct SnnRecipe {
     /// Rows of training words that hold every letter at every place in a row this many times,
     /// added to the training boards (0: none; `corpus::boards::training_letter_rows`).
     pub letter_rows: usize,
+    /// A cell reader's training boards in this code in place of the letters' (SAB, UN and the
+    /// letter and word rows): `letter_rows` times every cell and `word_rows` rows of print
+    /// (`corpus::windows::TrainingScans::cells`).
+    pub cells: Option<pipeline::code::BrailleCode>,
     /// Training scans spread over these speeds and depths, one pairing per trial
     /// (`corpus::windows::Sweep`; empty: the paper's 8 mm/s and 1.5 mm).
     pub train_speeds_mm_s: Vec<f64>,
@@ -194,6 +198,7 @@ impl Default for SnnRecipe {
             trials: 10,
             word_rows: 0,
             letter_rows: 0,
+            cells: None,
             train_speeds_mm_s: Vec::new(),
             train_depths_mm: Vec::new(),
             pool: 2,
@@ -237,7 +242,8 @@ impl Default for SnnRecipe {
 }
 
 /// The named presets: every shipped SNN's recipe.
-pub const PRESETS: [&str; 8] = ["default", "raw1350", "th10", "chars", "words", "segment", "xylo", "speck"];
+pub const PRESETS: [&str; 10] =
+    ["default", "raw1350", "th10", "chars", "words", "segment", "cells", "cells-segment", "xylo", "speck"];
 
 impl SnnRecipe {
     /// A named preset (see [`PRESETS`]).
@@ -305,6 +311,25 @@ impl SnnRecipe {
                 pool: 4,
                 ..windows
             },
+            // models/REALISM/ueb/snn-cells.safetensors: the words recipe on the 63 cells of UEB
+            // (every cell four times in seeded orders, 60 rows of contracted print), windows
+            // not centred (a cell's dots are told apart by their height in the row: dot 1 from
+            // dot 2 from dot 3)
+            "cells" => SnnRecipe {
+                task: Task::Cells,
+                cells: Some(pipeline::code::BrailleCode::UebGrade2),
+                letter_rows: 4,
+                word_rows: 60,
+                center: false,
+                ..SnnRecipe::preset("words")?
+            },
+            // models/REALISM/ueb/snn-segment.safetensors: the segment recipe on the cell boards
+            "cells-segment" => SnnRecipe {
+                cells: Some(pipeline::code::BrailleCode::UebGrade2),
+                letter_rows: 2,
+                word_rows: 30,
+                ..SnnRecipe::preset("segment")?
+            },
             // models/icub/chip/xylo-braille7.safetensors: the NIR paper's seven-letter Braille task
             // (Space, A, E, I, O, U, Y; Pedersen et al. 2024, neuromorphs/NIR paper/03_rnn) within
             // Xylo's 16 inputs, 1000 hidden and 8 output neurons: the raw1350 recipe with
@@ -368,6 +393,7 @@ impl SnnRecipe {
             word_rows: self.word_rows,
             letter_rows: self.letter_rows,
             sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm),
+            cells: self.cells,
         }
     }
 

@@ -54,6 +54,9 @@ pub struct ResnetTraining {
     pub letter_rows: usize,
     /// Training scans over speeds and depths (`None`: 8 mm/s, 1.5 mm).
     pub sweep: Option<corpus::windows::Sweep>,
+    /// A cell reader's boards in this code in place of the letters' (`TrainingScans::cells`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cells: Option<pipeline::code::BrailleCode>,
     /// The simulator's nuisances (training sensor builds beyond `clean`).
     pub realism: sim::Realism,
     pub train: learn::train::TrainConfig,
@@ -68,6 +71,7 @@ impl ResnetTraining {
             word_rows: self.word_rows,
             letter_rows: self.letter_rows,
             sweep: self.sweep.clone(),
+            cells: self.cells,
         }
     }
 }
@@ -105,7 +109,13 @@ pub fn train_resnet(
         ResnetPreset::Paper => (0..120, 20..100),
     };
     let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool)? };
-    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment: AugmentConfig::default() };
+    // cells: shifts of at most 4% of the crop (about a third of a dot's pitch), so that a shift
+    // never moves a dot to its neighbour's row (the letters' 10% would)
+    let augment = match t.task {
+        Task::Cells => AugmentConfig { translation: 0.04, ..AugmentConfig::default() },
+        _ => AugmentConfig::default(),
+    };
+    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment };
     let world = corpus::world::World::train(t.realism);
     let tw = match recordings {
         Some(rec) => {
@@ -138,7 +148,9 @@ pub fn train_resnet(
         Some(rec) => {
             format!("recorded scans of {}: its `train` scans, its `val` scans for checkpoints", rec.dir.display())
         }
-        None => format!("simulated (virtual Evetac): SAB and UN boards, {}", crate::train::fit::conditions(&t.scans())),
+        None => {
+            format!("simulated (virtual Evetac): {}, {}", t.scans().boards(), crate::train::fit::conditions(&t.scans()))
+        }
     };
     let started = std::time::Instant::now();
     let augment = |img: &[f32], rng: &mut rand_chacha::ChaCha8Rng| input.prepare(img, Some(rng));
@@ -181,10 +193,9 @@ pub fn train_resnet(
         data: match recordings {
             Some(rec) => format!("recorded scans of {} (`train`; `val` for checkpoints)", rec.dir.display()),
             None => format!(
-                "SIMULATED training windows ({} realism): SAB and UN, {} rows of random words, all-letters rows {} times, at {}",
+                "SIMULATED training windows ({} realism): {}, at {}",
                 t.realism,
-                t.word_rows,
-                t.letter_rows,
+                t.scans().boards(),
                 crate::train::fit::conditions(&t.scans())
             ),
         },
