@@ -86,7 +86,8 @@ impl Window<'_> {
 }
 
 /// A network that reads a window: class probabilities (they sum to 1). The segmentation network
-/// gives `[background, character]`, a character classifier the 26 letters A..Z.
+/// gives `[background, character]`, a character classifier the 26 letters A..Z or the 63 cells
+/// ([`crate::words::Alphabet`]).
 ///
 /// The network is shared (`&self`): whatever a stream keeps between windows (neuron state,
 /// caches, counters) lives in its own [`WindowClassifier::State`], so one loaded model serves

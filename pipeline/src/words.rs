@@ -76,8 +76,8 @@ pub struct ReadChar {
     /// When the filter registered it: the first frame at which its segment had ended (stream
     /// time).
     pub t_registered_us: i64,
-    /// The classifier's letter probabilities A..Z averaged over the segment's frames (empty when
-    /// the detections carried none); what the lexicon decoder reads.
+    /// The classifier's probabilities (the 26 letters A..Z, or the 63 cells) averaged over the
+    /// segment's frames (empty when the detections carried none); what the lexicon decoders read.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub probs: Vec<f32>,
     /// The scanning speed the reader was reading at when the character registered (its own
