@@ -14,6 +14,7 @@
 
 use crate::code::{BrailleCode, Translator};
 use crate::error::Result;
+use crate::spelling::Norvig;
 use encoders::braille::Cell;
 use std::collections::HashMap;
 
@@ -50,16 +51,14 @@ impl CellSpeller {
         Ok(CellSpeller::with_lexicon(code.translator()?, crate::spelling::TEXTBLOB_WORDS, cfg))
     }
 
-    /// A speller over a list of `word count` lines (`;;;` comments skipped).
+    /// A speller over a list of `word count` lines (`;;;` comments skipped), read as the
+    /// letters' corrector reads it ([`Norvig::from_list`]); words of letters only.
     pub fn with_lexicon(translator: &'static Translator, list: &str, cfg: CellSpellConfig) -> CellSpeller {
-        let words: Vec<(String, f64)> = list
-            .lines()
-            .filter(|l| !l.starts_with(";;;"))
-            .filter_map(|l| {
-                let mut it = l.split_whitespace();
-                let (w, f) = (it.next()?, it.next()?.parse::<f64>().ok()?);
-                w.chars().all(|c| c.is_ascii_alphabetic()).then(|| (w.to_ascii_lowercase(), f))
-            })
+        let words: Vec<(String, f64)> = Norvig::from_list(list)
+            .most_frequent(usize::MAX)
+            .into_iter()
+            .filter(|(w, _)| w.chars().all(|c| c.is_ascii_alphabetic()))
+            .map(|(w, f)| (w.to_ascii_lowercase(), f as f64))
             .collect();
         let total = words.iter().map(|w| w.1).sum::<f64>().max(1.0);
         let mut lexicon = HashMap::with_capacity(words.len());

@@ -201,14 +201,13 @@ impl TemporalFilter {
             return;
         }
         let probs: Vec<f32> = probs.iter().map(|p| p / frames as f32).collect();
+        let alphabet = Alphabet::of_classes(probs.len());
         let (letter, confidence) = match probs.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))
         {
             // With the classifier's probabilities: the letter of the highest mean probability
             // over the segment's frames (a soft vote: a frame that is sure counts more than one
             // that hesitates).
-            Some((k, &p)) if Alphabet::of_classes(probs.len()) != Alphabet::Other => {
-                (Alphabet::of_classes(probs.len()).symbol(k), p)
-            }
+            Some((k, &p)) if alphabet != Alphabet::Other => (alphabet.symbol(k), p),
             // Letters only: the majority; ties to the larger summed confidence, then the earlier
             // letter.
             _ => {

@@ -122,12 +122,13 @@ pub fn eval_ueb(
         for ((sp, e), b) in spellers.iter().zip(&mut exact).zip(&mut blinded) {
             let t = std::time::Instant::now();
             let read: Vec<String> = l.words.iter().map(|w| sp.correct(&w.chars)).collect();
-            if sp.spell() == Spell::Lexicon {
+            let lexicon = sp.spell() == Spell::Lexicon;
+            if lexicon {
                 s.spell_lexicon_s += t.elapsed().as_secs_f64();
             }
             e.add_line(&print, &read);
             b.add_line(&blind(&print), &blind(&read));
-            if trial == 0 && std::ptr::eq(sp, &spellers[SPELLS.len() - 1]) {
+            if trial == 0 && lexicon {
                 s.examples.push((print.join(" "), raw.join(" "), read.join(" ")));
             }
         }
@@ -156,13 +157,6 @@ fn board_name(board: &PrintBoard) -> String {
     match corpus::boards::board_name(&board.kind) {
         n if n.starts_with("text:") => format!("text:{}", board.print_rows.join("/")),
         n => n,
-    }
-}
-
-impl UebScore {
-    /// A spelling's score.
-    pub fn spell(&self, spell: Spell) -> Option<&PrintScore> {
-        self.by_spell.iter().find(|b| b.spell == spell)
     }
 }
 
