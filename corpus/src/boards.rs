@@ -5,6 +5,7 @@
 use crate::world::VALIDATION_SEED;
 use encoders::braille::Cell;
 use pipeline::code::BrailleCode;
+use serde::{Deserialize, Serialize};
 use sim::BoardKind;
 
 /// How many of TextBlob's most frequent words training rows draw from; the next as many are the
@@ -116,7 +117,7 @@ impl LetterPlace {
 }
 
 /// Which held-out words an all-letters board draws from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum HeldOut {
     /// The unseen test words ([`unseen_word_rows`]' slice) and every other word of TextBlob's
     /// list past the validation words: `ALL-LETTERS`, a test board.

@@ -462,6 +462,54 @@ fn plot_words(r: &WordsReport, path: &Path) -> Drawn {
     .draw_png(path)
 }
 
+/// The UEB report's files in `out`: `ueb.md`, `ueb.json` and `ueb_speed.png` (validation:
+/// `ueb_validation.*`).
+pub fn write_ueb_report(r: &crate::reports::ueb::UebReport, out: &Path) -> Result<()> {
+    use crate::reports::ueb::markdown;
+    create_dir(out)?;
+    let stem = if r.spec.held_out == corpus::boards::HeldOut::Test { "ueb" } else { "ueb_validation" };
+    crate::write_json(&out.join(format!("{stem}.json")), r, true)?;
+    let mut series = Vec::new();
+    for arch in [snn::model_file::Arch::Snn, snn::model_file::Arch::Resnet] {
+        for (blind, what) in [(false, "exact"), (true, "blind to case and punctuation")] {
+            let points: Vec<(f64, f64)> = r
+                .sentences
+                .iter()
+                .filter(|w| w.arch == arch)
+                .filter_map(|w| {
+                    let p = w.by_spell.iter().find(|p| p.spell == pipeline::reader::Spell::Lexicon)?;
+                    let v = if blind { p.blind_word_accuracy } else { p.word_accuracy };
+                    v.is_finite().then_some((w.speed_mm_s, 100.0 * v.max(0.0)))
+                })
+                .collect();
+            series.push(Series { name: format!("{arch}, words {what}, lexicon"), points, emphasis: !blind });
+        }
+    }
+    let lo = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(100.0f64, f64::min).min(80.0);
+    let (x0, x1) = (
+        r.spec.speeds_mm_s.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
+        r.spec.speeds_mm_s.iter().copied().fold(0.0, f64::max) + 2.0,
+    );
+    let path = out.join(format!("{stem}_speed.png"));
+    LineChart {
+        title: "SIMULATED: UEB contracted sentences, word accuracy (1 - WER, all printed words) against speed",
+        x_desc: "speed (mm/s)",
+        y_desc: "word accuracy (%)",
+        x: x0..x1,
+        y: (lo - 5.0).max(0.0)..101.0,
+        x_log10: false,
+        series,
+        targets: vec![
+            Target { label: "target at 16 mm/s: 90% (goal 95%)".into(), y: 90.0, from_x: None },
+            Target { label: "target at 32 mm/s: 85%".into(), y: 85.0, from_x: None },
+        ],
+        legend: SeriesLabelPosition::LowerLeft,
+        size: (900, 560),
+    }
+    .draw(&path)?;
+    write(&out.join(format!("{stem}.md")), &markdown(r))
+}
+
 /// The report's files in `out`; its Markdown.
 pub fn write_icub_report(data: &Path, models: &Path, search: Option<&Path>, out: &Path) -> Result<String> {
     let rows = icub_rows(data, models, search)?;

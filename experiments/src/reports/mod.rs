@@ -7,4 +7,5 @@ pub mod chips;
 pub mod figures;
 pub mod icub;
 pub mod letters;
+pub mod ueb;
 pub mod words;
