@@ -755,3 +755,16 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let ridge = v["baselines"][0]["test_accuracy"].as_f64().unwrap();
     assert!(ridge > 0.8, "the channel tells the class: ridge reads {ridge}");
 }
+
+#[test]
+fn the_ueb_words_report_reads_with_one_timing_and_needs_its_models() {
+    // the UEB report reads with one timing: more is a clear error before any scan is read
+    let o = braille(&["words-report", "--braille", "ueb-g2", "--timings", "estimated,paper"]);
+    assert!(!o.status.success() && text(&o).1.contains("one --timings"), "{}", text(&o).1);
+    // a models folder without the cell readers names the file it looked for
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = braille(&["words-report", "--braille", "ueb-g2", "--models", d, "--out", d, "--cell-trials", "1"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("snn-cells"), "{err}");
+}
