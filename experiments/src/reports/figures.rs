@@ -439,27 +439,42 @@ fn plot_words(r: &WordsReport, path: &Path) -> Drawn {
             });
         }
     }
-    let lo = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(100.0f64, f64::min).min(60.0);
+    word_accuracy_chart(
+        "SIMULATED: word accuracy (1 - WER, all printed words) against speed, EV board",
+        &r.speeds_mm_s,
+        series,
+        60.0,
+        [("target with the lexicon, 8-32 mm/s: 95%", 95.0), ("target without spelling, 8-32 mm/s: 85%", 85.0)],
+    )
+    .draw_png(path)
+}
+
+/// Word accuracy (%) against speed (mm/s) over `speeds_mm_s`: the y axis from 5 points under the
+/// lowest point (or under `floor`, whichever is lower) to 101, with labelled target lines.
+fn word_accuracy_chart<'a>(
+    title: &'a str,
+    speeds_mm_s: &[f64],
+    series: Vec<Series>,
+    floor: f64,
+    targets: [(&str, f64); 2],
+) -> LineChart<'a> {
+    let lo = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(100.0f64, f64::min).min(floor);
     let (x0, x1) = (
-        r.speeds_mm_s.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
-        r.speeds_mm_s.iter().copied().fold(0.0, f64::max) + 2.0,
+        speeds_mm_s.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
+        speeds_mm_s.iter().copied().fold(0.0, f64::max) + 2.0,
     );
     LineChart {
-        title: "SIMULATED: word accuracy (1 - WER, all printed words) against speed, EV board",
+        title,
         x_desc: "speed (mm/s)",
         y_desc: "word accuracy (%)",
         x: x0..x1,
         y: (lo - 5.0).max(0.0)..101.0,
         x_log10: false,
         series,
-        targets: vec![
-            Target { label: "target with the lexicon, 8-32 mm/s: 95%".into(), y: 95.0, from_x: None },
-            Target { label: "target without spelling, 8-32 mm/s: 85%".into(), y: 85.0, from_x: None },
-        ],
+        targets: targets.iter().map(|&(label, y)| Target { label: label.into(), y, from_x: None }).collect(),
         legend: SeriesLabelPosition::LowerLeft,
         size: (900, 560),
     }
-    .draw_png(path)
 }
 
 /// The UEB report's files in `out`: `ueb.md`, `ueb.json` and `ueb_speed.png` (validation:
@@ -485,28 +500,14 @@ pub fn write_ueb_report(r: &crate::reports::ueb::UebReport, out: &Path) -> Resul
             series.push(Series { name: format!("{arch}, words {what}, lexicon"), points, emphasis: !blind });
         }
     }
-    let lo = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).fold(100.0f64, f64::min).min(80.0);
-    let (x0, x1) = (
-        r.spec.speeds_mm_s.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
-        r.spec.speeds_mm_s.iter().copied().fold(0.0, f64::max) + 2.0,
-    );
-    let path = out.join(format!("{stem}_speed.png"));
-    LineChart {
-        title: "SIMULATED: UEB contracted sentences, word accuracy (1 - WER, all printed words) against speed",
-        x_desc: "speed (mm/s)",
-        y_desc: "word accuracy (%)",
-        x: x0..x1,
-        y: (lo - 5.0).max(0.0)..101.0,
-        x_log10: false,
+    word_accuracy_chart(
+        "SIMULATED: UEB contracted sentences, word accuracy (1 - WER, all printed words) against speed",
+        &r.spec.speeds_mm_s,
         series,
-        targets: vec![
-            Target { label: "target at 16 mm/s: 90% (goal 95%)".into(), y: 90.0, from_x: None },
-            Target { label: "target at 32 mm/s: 85%".into(), y: 85.0, from_x: None },
-        ],
-        legend: SeriesLabelPosition::LowerLeft,
-        size: (900, 560),
-    }
-    .draw(&path)?;
+        80.0,
+        [("target at 16 mm/s: 90% (goal 95%)", 90.0), ("target at 32 mm/s: 85%", 85.0)],
+    )
+    .draw(&out.join(format!("{stem}_speed.png")))?;
     write(&out.join(format!("{stem}.md")), &markdown(r))
 }
 

@@ -13,7 +13,6 @@ use corpus::windows::{CharSetSpec, Task};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::code::BrailleCode;
 use pipeline::reader::{Spell, TimingMode};
-use pipeline::shipped::ReaderFiles;
 use serde::Serialize;
 use sim::BoardKind;
 use snn::model_file::Arch;
@@ -53,7 +52,7 @@ pub struct CellRow {
 pub struct UebReport {
     pub spec: UebReportSpec,
     pub cells: Vec<CharEval>,
-    /// Per architecture (ResNet, SNN), per speed.
+    /// Per architecture (SNN, ResNet), per speed.
     pub sentences: Vec<UebScore>,
 }
 
@@ -63,13 +62,14 @@ const ARCHS: [Arch; 2] = [Arch::Snn, Arch::Resnet];
 /// Reads the report's boards with the cell readers in `models` (`models/REALISM/`, whose `ueb/`
 /// holds them).
 pub fn ueb_report(models: &Path, spec: &UebReportSpec, progress: &dyn Progress) -> Result<UebReport> {
-    let (cell_board, sentences) = match spec.held_out {
-        HeldOut::Test => (BoardKind::Rcb, corpus::boards::sentence_board(HeldOut::Test, spec.code)?),
-        HeldOut::Validation => (BoardKind::Vcb, corpus::boards::sentence_board(HeldOut::Validation, spec.code)?),
+    let cell_board = match spec.held_out {
+        HeldOut::Test => BoardKind::Rcb,
+        HeldOut::Validation => BoardKind::Vcb,
     };
+    let sentences = corpus::boards::sentence_board(spec.held_out, spec.code)?;
     let mut r = UebReport { spec: spec.clone(), cells: Vec::new(), sentences: Vec::new() };
     for arch in ARCHS {
-        let files: ReaderFiles = pipeline::shipped::reader_for(models, arch, spec.code);
+        let files = pipeline::shipped::reader_for(models, arch, spec.code);
         let cells = CharSetSpec {
             boards: vec![cell_board.clone()],
             speed_mm_s: spec.cell_speed_mm_s,
