@@ -55,6 +55,22 @@ pub struct Args {
     /// order), for confusion analysis or combining models.
     #[arg(long)]
     predictions: Option<PathBuf>,
+    /// Run the model in a chip's arithmetic (docs/chips.md): mapped into its number formats
+    /// (integer weights, fixed-point state, bit-shift decays), every sample as the chip computes.
+    #[arg(long, value_enum)]
+    chip: Option<snn::chip::Chip>,
+    /// --chip: how float weights become the chip's integers (Rockpool's quantisers).
+    #[arg(long, value_enum, default_value = "global", requires = "chip")]
+    quantisation: snn::chip::xylo::Quantisation,
+    /// --chip: every neuron every step (`stepped`, the vendor simulator's loop) or only neurons
+    /// with state or input (`event-driven`); the two agree bit for bit.
+    #[arg(long, value_enum, default_value = "event-driven", requires = "chip")]
+    chip_run: snn::chip::xylo::Run,
+    /// --chip xylo: also write every sample as the chip ran it (the mapped specification, inputs,
+    /// hidden spikes, output membranes; JSON), for a spike-for-spike check with XyloSim
+    /// (scripts/chips/xylosim_check.py).
+    #[arg(long, requires = "chip")]
+    trace: Option<PathBuf>,
 }
 
 #[derive(clap::Subcommand)]
@@ -80,6 +96,9 @@ pub fn run(args: Args) -> Result<()> {
         SplitArg::Test => SplitChoice::Test,
         SplitArg::All => SplitChoice::All,
     };
+    if let Some(chip) = args.chip {
+        return eval_chip(&args, chip, &model_path, &data_dir, split);
+    }
     let (report, csv) = experiments::eval::tactile::eval_split(&model_path, &data_dir, split, args.mode)?;
     if let Some(path) = &args.predictions {
         std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
@@ -98,6 +117,50 @@ pub fn run(args: Args) -> Result<()> {
             report.spikes_per_sample,
             report.input_events_per_sample
         );
+    }
+    Ok(())
+}
+
+fn eval_chip(
+    args: &Args,
+    chip: snn::chip::Chip,
+    model_path: &std::path::Path,
+    data_dir: &std::path::Path,
+    split: SplitChoice,
+) -> Result<()> {
+    use experiments::eval::chip::{ChipChoice, eval_split_chip, xylo_trace};
+    let choice = ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
+    let (report, csv) = eval_split_chip(model_path, data_dir, split, choice)?;
+    if let Some(path) = &args.predictions {
+        std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+    }
+    if let Some(path) = &args.trace {
+        let trace = xylo_trace(model_path, data_dir, split, args.quantisation, args.chip_run, &Bar::default())?;
+        let json = serde_json::to_vec(&trace)?;
+        std::fs::write(path, json).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    let e = &report.eval;
+    println!(
+        "{} ({} split, {} samples) in {chip}'s arithmetic ({:?} quantisation, weight shifts {:?}, {} run): accuracy {:.2}%; {:.0} synops, {:.0} spikes, {:.0} neuron updates, {:.1} input events per sample",
+        e.data,
+        e.split,
+        e.n,
+        args.quantisation,
+        report.weight_shifts,
+        e.mode,
+        100.0 * e.accuracy,
+        e.synops_per_sample,
+        e.spikes_per_sample,
+        report.neuron_updates_per_sample,
+        e.input_events_per_sample
+    );
+    println!("what the mapping changed:");
+    for a in &report.approximations {
+        println!("  {a}");
     }
     Ok(())
 }

@@ -165,3 +165,40 @@ fn bench_and_run_take_a_peers_graph_on_an_event_file_and_name_events_outside_its
     let err = failed(&braille(&["bench", "--model", s(&bad)]));
     assert!(err.contains("bad.nir") && err.contains("node `1`") && err.contains("Threshold"), "{err}");
 }
+
+#[test]
+fn eval_runs_the_xylo_model_in_xylos_arithmetic_stepped_and_event_driven_alike() {
+    let model = root("models/icub/chip/xylo-braille7.safetensors");
+    let data = root("data/icub_braille/raw1350");
+    let run = |how: &str| -> serde_json::Value {
+        let (out, _) = ok(&braille(&[
+            "eval",
+            "--data",
+            s(&data),
+            "--model",
+            s(&model),
+            "--split",
+            "test",
+            "--chip",
+            "xylo",
+            "--chip-run",
+            how,
+            "--json",
+        ]));
+        serde_json::from_str(&out).unwrap()
+    };
+    let (a, b) = (run("stepped"), run("event-driven"));
+    // bit for bit the same: the same predictions, spikes and synaptic operations
+    for key in ["correct", "synops_per_sample", "spikes_per_sample"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    assert_eq!(a["n"], 70);
+    // the event-driven run updates fewer neurons
+    assert!(b["neuron_updates_per_sample"].as_f64() < a["neuron_updates_per_sample"].as_f64());
+    let changed: Vec<&str> = a["approximations"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert!(changed.iter().any(|c| c.contains("reset to zero becomes subtraction")), "{changed:?}");
+    assert!(changed.iter().any(|c| c.contains("(dash 6)")), "{changed:?}");
+    // --trace without --chip is refused by the parser
+    let err = failed(&braille(&["eval", "--data", s(&data), "--model", s(&model), "--trace", "x.json"]));
+    assert!(err.contains("--chip"), "{err}");
+}

@@ -3,6 +3,9 @@ pub enum Error {
     /// A network that cannot be built or run as given; `layer` names the layer at fault.
     #[error("invalid network: {}{what}", layer.map_or(String::new(), |k| format!("layer {k}: ")))]
     Network { layer: Option<usize>, what: String },
+    /// A network a chip's number formats cannot hold, and why; `layer` names the layer at fault.
+    #[error("{chip}: {}{what}", layer.map_or(String::new(), |k| format!("layer {k}: ")))]
+    Chip { chip: crate::chip::Chip, layer: Option<usize>, what: String },
     /// Input that does not fit the network or the stream (an input index, a time, a length).
     #[error("invalid input: {what}")]
     Input { what: String },

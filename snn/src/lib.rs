@@ -19,6 +19,7 @@
 //! assert_eq!(stream.stats.synops, 2);
 //! ```
 
+pub mod chip;
 pub mod energy;
 pub mod engine;
 pub mod error;

@@ -8,6 +8,7 @@
 pub mod braille_spec;
 pub mod calibrate;
 pub mod chars;
+pub mod chip;
 pub mod labeling;
 pub mod robustness;
 pub mod scoring;

@@ -49,6 +49,12 @@ pub fn snn_accuracy(network: &Network, config: &SnnConfig, set: &SpikeSet, mode:
             },
         )
         .collect::<Result<_>>()?;
+    Ok(score_readouts(set, n_out, results))
+}
+
+/// Scores each sample's readout (with its synaptic operations and spikes) against the set's
+/// labels: the predicted class is the readout's argmax.
+pub(crate) fn score_readouts(set: &SpikeSet, n_out: usize, results: Vec<(Vec<f32>, u64, u64)>) -> Scored {
     let mut confusion = Confusion::new(set.classes.len().max(n_out));
     let (mut synops, mut spikes) = (0u64, 0u64);
     // sensor events (a step's several events at one input reach the engine as one weighted input)
@@ -62,7 +68,7 @@ pub fn snn_accuracy(network: &Network, config: &SnnConfig, set: &SpikeSet, mode:
         predictions.push((pred, readout));
     }
     let n = set.len().max(1) as f64;
-    Ok(Scored {
+    Scored {
         accuracy: confusion.accuracy(),
         n: set.len(),
         correct: confusion.correct() as usize,
@@ -71,7 +77,7 @@ pub fn snn_accuracy(network: &Network, config: &SnnConfig, set: &SpikeSet, mode:
         input_events_per_sample: inputs as f64 / n,
         confusion: confusion.counts,
         predictions,
-    })
+    }
 }
 
 /// Whether the engine's async mode runs this network (the engine's own rule: LIF and IF layers

@@ -14,6 +14,8 @@ use pipeline::reader::{Spell, TimingMode};
 use pipeline::shipped::{ICUB_CHIP, ICUB_DATASETS, Preset, ReaderFiles, Shipped, Variant};
 use serde::Serialize;
 use sim::BoardKind;
+use snn::chip::xylo::{Quantisation, Run};
+use snn::chip::{Chip, NumberFormat};
 use snn::energy::{CMOS45_ADD, LOIHI_SYNOP, TRUENORTH_SYNOP};
 use snn::engine::Mode;
 use snn::model_file::Arch;
@@ -69,10 +71,35 @@ pub struct ChipRow {
     pub targets: Vec<TargetCheck>,
 }
 
+/// A model in one chip's arithmetic beside its floating-point score on the same test.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArithmeticRow {
+    pub model: String,
+    pub chip: Chip,
+    pub test: String,
+    pub data: &'static str,
+    pub n: usize,
+    /// The float engine's accuracy.
+    pub float: f64,
+    /// After plain quantisation (the mapping, then Rockpool's global and per-channel quantisers).
+    pub global: f64,
+    pub channel: f64,
+    pub format: NumberFormat,
+    /// Bit shifts of the input, recurrent and output weights (global quantisation).
+    pub weight_shifts: [u8; 3],
+    pub synops_per_sample: f64,
+    pub spikes_per_sample: f64,
+    /// The float engine's, for comparison.
+    pub float_spikes_per_sample: f64,
+    pub approximations: Vec<String>,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct ChipReport {
     pub faithful: Vec<FaithfulRow>,
     pub chips: Vec<ChipRow>,
+    /// The models that pass a modelled chip's rules, in that chip's arithmetic.
+    pub arithmetic: Vec<ArithmeticRow>,
     pub trials: u64,
     /// The simulator's preset of the simulated models and tests.
     pub realism: sim::Realism,
@@ -271,7 +298,52 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
             targets,
         });
     }
-    Ok(ChipReport { faithful, chips, trials: spec.trials, realism: spec.realism })
+    let arithmetic = arithmetic_rows(spec, &chips)?;
+    Ok(ChipReport { faithful, chips, arithmetic, trials: spec.trials, realism: spec.realism })
+}
+
+/// Every tactile model that passes a modelled chip's rules, on its dataset's test split in that
+/// chip's arithmetic (both quantisers), beside the float engine.
+fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow]) -> Result<Vec<ArithmeticRow>> {
+    use crate::eval::chip::{ChipChoice, eval_split_chip};
+    let mut rows = Vec::new();
+    for c in chips.iter().filter(|c| c.data == "REAL") {
+        let path = Path::new(&c.model);
+        let model = pipeline::models::load_snn(path)?;
+        let set = model.provenance["data"].as_str().unwrap_or_default();
+        let dir = spec.icub.join(set);
+        let (float, _) = eval_split(path, &dir, SplitChoice::Test, Mode::Stepped)?;
+        for chip in Chip::ALL {
+            let target = match chip {
+                Chip::Xylo => Target::Xylo,
+            };
+            if !c.targets.iter().any(|t| t.target == target && t.passes) {
+                continue;
+            }
+            let run = |quantisation| {
+                eval_split_chip(path, &dir, SplitChoice::Test, ChipChoice { chip, quantisation, run: Run::EventDriven })
+            };
+            let (global, _) = run(Quantisation::Global)?;
+            let (channel, _) = run(Quantisation::Channel)?;
+            rows.push(ArithmeticRow {
+                model: c.model.clone(),
+                chip,
+                test: c.reads.clone(),
+                data: c.data,
+                n: float.n,
+                float: float.accuracy,
+                global: global.eval.accuracy,
+                channel: channel.eval.accuracy,
+                format: chip.format(),
+                weight_shifts: global.weight_shifts,
+                synops_per_sample: global.eval.synops_per_sample,
+                spikes_per_sample: global.eval.spikes_per_sample,
+                float_spikes_per_sample: float.spikes_per_sample,
+                approximations: global.approximations,
+            });
+        }
+    }
+    Ok(rows)
 }
 
 /// The report as Markdown.
@@ -338,6 +410,42 @@ pub fn markdown(r: &ChipReport) -> String {
             c.cmos45_nj,
             marks.join(" | ")
         );
+    }
+    if !r.arithmetic.is_empty() {
+        let _ = writeln!(s, "\n## In the chip's arithmetic\n");
+        let _ = writeln!(
+            s,
+            "Each model that passes a modelled chip's rules, mapped into that chip's number formats and run as the chip computes (`braille eval --chip`; the formats and their sources in docs/chips.md), on the same test as the float engine. Plain quantisation: the mapping (decays to bit shifts, the chip's order of operations), then Rockpool's global or per-channel 8-bit quantiser; no retraining. The engine's Xylo arithmetic agrees spike for spike with SynSense's XyloSim (`scripts/chips/xylosim_check.py`, python/tests/test_xylosim.py).\n"
+        );
+        let _ = writeln!(
+            s,
+            "| model | chip | test | data | float | global quantisation | per-channel quantisation | weight / state bits | weight shifts (in, rec, out) | SynOps | spikes (float) |"
+        );
+        let _ = writeln!(s, "|{}", " --- |".repeat(11));
+        for a in &r.arithmetic {
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {} | {} | {:.2}% (n = {}) | {:.2}% | {:.2}% | {} / {} | {:?} | {:.0} | {:.0} ({:.0}) |",
+                a.model,
+                a.chip,
+                a.test,
+                a.data,
+                100.0 * a.float,
+                a.n,
+                100.0 * a.global,
+                100.0 * a.channel,
+                a.format.weight_bits,
+                a.format.state_bits,
+                a.weight_shifts,
+                a.synops_per_sample,
+                a.spikes_per_sample,
+                a.float_spikes_per_sample
+            );
+        }
+        let _ = writeln!(s, "\nWhat each mapping changed:\n");
+        for a in &r.arithmetic {
+            let _ = writeln!(s, "- `{}` on {}: {}", a.model, a.chip, a.approximations.join("; "));
+        }
     }
     let _ = writeln!(s, "\nWhy a model fails a chip:\n");
     for c in &r.chips {
