@@ -49,7 +49,7 @@ class EventFileReader(Iterator[Events]):
     def __iter__(self) -> EventFileReader: ...
     def __next__(self) -> Events: ...
 
-Mode = Literal["stepped", "async"]
+Mode = Literal["stepped", "async", "event-driven"]  # "event-driven" with chip= only
 
 class RunResult:
     """One sample's run on the engine."""
@@ -96,6 +96,8 @@ class Network:
         t_start_us: int = 0,
         t_end_us: Optional[int] = None,
         latency: bool = False,
+        chip: Optional[Literal["xylo"]] = None,
+        quantisation: Literal["global", "channel"] = "global",
     ) -> RunResult: ...
     def run_batch(
         self,

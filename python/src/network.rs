@@ -8,6 +8,8 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pipeline::network::{self as model_bench, InputMap, LoadedNetwork, ModelSource, NirReading};
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use snn::chip::Chip;
+use snn::chip::xylo::{self, Quantisation, Run, Xylo, XyloReadout};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::Readout;
 use snn::nir::{self, Convention, ExportOptions, ImportReset, SubtractExport, Target};
@@ -26,7 +28,12 @@ pub struct Network {
     engines: Mutex<[Option<Arc<Engine>>; 2]>,
     /// Engine states no run holds, per mode.
     pool: Mutex<[Vec<EngineState>; 2]>,
+    /// The network mapped into a chip's formats, per chip and quantiser, built on first use.
+    chips: Mutex<Vec<MappedChip>>,
 }
+
+/// A network mapped into a chip's formats, and by which quantiser.
+type MappedChip = ((Chip, Quantisation), Arc<Xylo>);
 
 /// What one run of a sample gives.
 #[pyclass(frozen, get_all, module = "braille")]
@@ -75,6 +82,16 @@ fn mode_index(mode: Mode) -> usize {
     }
 }
 
+/// Refuses inputs whose first event comes before the stream's start.
+fn starts_after(inputs: &[(i64, u32)], t_start_us: i64, what: &str) -> PyResult<()> {
+    match inputs.first() {
+        Some(&(t, _)) if t < t_start_us => Err(BrailleError::new_err(format!(
+            "{what}[0]: t = {t} us is before the stream's start, t_start_us = {t_start_us}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// A sample's events as the engine's inputs `(t_us, input)`.
 fn inputs_of(
     net: &LoadedNetwork,
@@ -94,7 +111,88 @@ impl Network {
             name,
             engines: Mutex::new([None, None]),
             pool: Mutex::new([Vec::new(), Vec::new()]),
+            chips: Mutex::new(Vec::new()),
         }
+    }
+
+    /// The network in `chip`'s formats, quantised by `q` (mapped once, then shared).
+    fn chip(&self, chip: Chip, q: Quantisation) -> PyResult<Arc<Xylo>> {
+        let mut chips = self.chips.lock().expect("chip cache poisoned");
+        if let Some((_, x)) = chips.iter().find(|(k, _)| *k == (chip, q)) {
+            return Ok(x.clone());
+        }
+        let Chip::Xylo = chip;
+        let mut mapped =
+            xylo::map(&self.net.network, q).map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?;
+        mapped.spec.readout = match self.net.readout {
+            Readout::MaxMembrane => XyloReadout::MaxMembrane,
+            Readout::SpikeCount => XyloReadout::SpikeCount,
+        };
+        let x = Arc::new(mapped.spec.compile().map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?);
+        chips.push(((chip, q), x.clone()));
+        Ok(x)
+    }
+
+    /// Runs one sample in a chip's arithmetic: the inputs binned into the network's steps from
+    /// `t_start_us` to `t_end_us` (events of one input in one step counted), each step as the
+    /// chip computes it.
+    fn run_chip_inputs(
+        &self,
+        chip: &Xylo,
+        inputs: &[(i64, u32)],
+        t_start_us: i64,
+        t_end_us: Option<i64>,
+        run: Run,
+        what: &str,
+    ) -> PyResult<Outcome> {
+        starts_after(inputs, t_start_us, what)?;
+        let dt = self.net.dt_us;
+        let t_end = t_end_us.unwrap_or_else(|| inputs.last().map_or(t_start_us, |e| e.0) + 1);
+        let steps = ((t_end - t_start_us).max(0) + dt - 1) / dt;
+        let n_in = chip.spec().n_in;
+        let mut st = chip.state();
+        let (mut counts, mut channels, mut events) = (vec![0u16; n_in], Vec::new(), Vec::new());
+        let (mut best, mut spike_counts) = (vec![i16::MIN; chip.spec().n_out], vec![0u32; chip.spec().n_out]);
+        let mut output = Vec::new();
+        let mut next = 0;
+        for k in 0..steps {
+            let end = t_start_us + (k + 1) * dt;
+            channels.clear();
+            events.clear();
+            while next < inputs.len() && inputs[next].0 < end {
+                let i = inputs[next].1 as usize;
+                if counts[i] == 0 {
+                    channels.push(i as u32);
+                }
+                counts[i] = counts[i].saturating_add(1);
+                next += 1;
+            }
+            channels.sort_unstable();
+            for &c in &channels {
+                events.push(counts[c as usize]);
+                counts[c as usize] = 0;
+            }
+            chip.step(&mut st, &channels, &events, run).map_err(|e| BrailleError::new_err(format!("{what}: {e}")))?;
+            for j in 0..best.len() {
+                best[j] = best[j].max(st.v_mem_out[j]);
+                spike_counts[j] += st.out_spikes[j] as u32;
+                if st.out_spikes[j] > 0 {
+                    output.push((t_start_us + k * dt, j as u32));
+                }
+            }
+        }
+        let readout = match chip.spec().readout {
+            XyloReadout::MaxMembrane => best.iter().map(|&v| v.max(0) as f32).collect(),
+            XyloReadout::SpikeCount => spike_counts.iter().map(|&c| c as f32).collect(),
+        };
+        Ok(Outcome {
+            readout,
+            spikes_per_layer: vec![st.stats.hidden_spikes, st.stats.output_spikes],
+            synops: st.stats.synops,
+            input_events: st.stats.input_events,
+            output,
+            latency_ns: None,
+        })
     }
 
     fn engine(&self, mode: Mode) -> PyResult<Arc<Engine>> {
@@ -137,13 +235,7 @@ impl Network {
         latency: bool,
         what: &str,
     ) -> PyResult<Outcome> {
-        if let Some(&(t, _)) = inputs.first()
-            && t < t_start_us
-        {
-            return Err(BrailleError::new_err(format!(
-                "{what}[0]: t = {t} us is before the stream's start, t_start_us = {t_start_us}"
-            )));
-        }
+        starts_after(inputs, t_start_us, what)?;
         let t_end = t_end_us.unwrap_or_else(|| inputs.last().map_or(t_start_us, |e| e.0) + 1);
         let mut st = self.take_state(engine);
         engine.reset(&mut st, t_start_us);
@@ -300,7 +392,15 @@ impl Network {
     /// of n/2 taxels with OFF and ON. The stream starts at `t_start_us` (step 0) and runs to
     /// `t_end_us` [default: just past the last event]. `mode`: "stepped" (exactly the
     /// time-stepped network) or "async" (each event's effects complete at once).
-    #[pyo3(signature = (events, mode="stepped", sensor_size=None, t_start_us=0, t_end_us=None, latency=false))]
+    ///
+    /// `chip="xylo"` runs the sample in that chip's arithmetic instead (docs/chips.md): the
+    /// network mapped into its number formats by `quantisation` ("global" or "channel",
+    /// Rockpool's quantisers), the events counted per input and step, every step as the chip
+    /// computes it; `mode` is then "stepped" (every neuron every step) or "event-driven" (only
+    /// neurons with state or input), bit for bit the same. `spikes_per_layer` is then the hidden
+    /// and the output neurons' spikes, `input_events` those the chip took (at most 15 per input
+    /// and step).
+    #[pyo3(signature = (events, mode="stepped", sensor_size=None, t_start_us=0, t_end_us=None, latency=false, chip=None, quantisation="global"))]
     #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
@@ -311,9 +411,23 @@ impl Network {
         t_start_us: i64,
         t_end_us: Option<i64>,
         latency: bool,
+        chip: Option<&str>,
+        quantisation: &str,
     ) -> PyResult<RunResult> {
-        let mode: Mode = choice("mode", mode)?;
         let resolution = resolution_of("sensor_size", sensor_size)?;
+        if let Some(chip) = chip {
+            let chip: Chip = choice("chip", chip)?;
+            let run: Run = choice("mode", mode)?;
+            let q: Quantisation = choice("quantisation", quantisation)?;
+            if latency {
+                return Err(BrailleError::new_err("latency=True times the float engine's pushes; not with chip="));
+            }
+            let x = self.chip(chip, q)?;
+            let inputs = inputs_of(&self.net, &events_of(events, "events")?, resolution, "events")?;
+            let o = py.detach(|| self.run_chip_inputs(&x, &inputs, t_start_us, t_end_us, run, "events"))?;
+            return self.result(py, o);
+        }
+        let mode: Mode = choice("mode", mode)?;
         let engine = self.engine(mode)?;
         let inputs = if let Ok(a) = events.cast::<PyArray1<TonicEvent>>() {
             // the common case, read in place: no intermediate list of events

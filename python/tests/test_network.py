@@ -131,3 +131,36 @@ def test_chip_rules_and_bad_input_are_named(tmp_path):
         net.run(ev)
     with pytest.raises(ValueError, match="mode"):
         net.run(ev[:1], mode="sometimes")
+
+
+def test_python_runs_the_xylo_model_in_xylos_arithmetic_as_the_cli(tmp_path, cli):
+    """Network.run(chip="xylo") on the events of each raw1350 test sample (rebuilt from the CLI's
+    trace: its input counts per step) gives the CLI's readout, prediction and hidden spikes."""
+    model = ROOT / "models" / "icub" / "chip" / "xylo-braille7.safetensors"
+    trace_path = tmp_path / "trace.json"
+    subprocess.run(
+        [cli, "eval", "--data", str(ROOT / "data" / "icub_braille" / "raw1350"), "--model", str(model),
+         "--split", "test", "--chip", "xylo", "--trace", str(trace_path), "--json"],
+        check=True, capture_output=True,
+    )
+    trace = json.loads(trace_path.read_text())
+    net = braille.Network.load(model)
+    dt = net.dt_us
+    taxels = net.n_inputs // 2
+    for s in trace["samples"][:12]:
+        x = np.array(s["input"])
+        rows = [(k * dt + 10, i) for k, i in zip(*np.nonzero(x)) for _ in range(x[k, i])]
+        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev["t"] = [t for t, _ in rows]
+        ev["x"] = [i % taxels for _, i in rows]
+        ev["p"] = [i // taxels for _, i in rows]
+        for mode in ["stepped", "event-driven"]:
+            r = net.run(ev, mode=mode, chip="xylo", t_start_us=0, t_end_us=len(x) * dt)
+            v_max = np.maximum(np.array(s["v_mem_out"]).max(axis=0), 0)
+            np.testing.assert_array_equal(r.readout, v_max)
+            assert r.prediction == s["predicted"]
+            assert r.spikes_per_layer[0] == sum(n for _, _, n in s["hidden_spikes"])
+    with pytest.raises(ValueError, match="quantisation"):
+        net.run(ev, chip="xylo", quantisation="none")
+    with pytest.raises(ValueError, match="chip"):
+        net.run(ev, chip="loihi")
