@@ -130,6 +130,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // the default action of SIGPIPE (Rust ignores it, so `println!` to a closed pipe panics)
+    #[cfg(unix)]
+    // SAFETY: at the start of main, before any thread is spawned; SIG_DFL is a valid handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info(a) => info::run(a),

@@ -768,3 +768,22 @@ fn the_ueb_words_report_reads_with_one_timing_and_needs_its_models() {
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("snn-cells"), "{err}");
 }
+
+/// `braille ... | head` closes the pipe early: the process ends quietly (as other command-line
+/// tools, by SIGPIPE's default action), never with a panic in `println!`.
+#[cfg(unix)]
+#[test]
+fn writing_to_a_closed_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_braille"))
+        .args(["translate", "--braille", "ueb-g2", "--to-cells", "the closed pipe"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run braille");
+    drop(child.stdout.take()); // the reader is gone before anything is written
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?} {err}", out.status);
+}
