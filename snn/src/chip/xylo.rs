@@ -400,6 +400,29 @@ fn quantise(layers: &[FloatLayer], readout: XyloReadout, q: Quantisation, ceilin
             })
             .collect(),
     };
+    // a threshold beyond 16 bits lowers its scale until it fits, as Rockpool's quantisers do
+    // (per neuron, or for all at once with one scale; Rockpool rounds the weights a second time
+    // there, this scales once)
+    let limit = |scale: &mut [f32], th: &dyn Fn(usize) -> f32, global: bool| {
+        let fits = |t: f32, s: f32| !t.is_finite() || t * s <= i16::MAX as f32;
+        if global {
+            let top = (0..scale.len()).map(th).filter(|t| t.is_finite()).fold(0.0f32, f32::max);
+            if (0..scale.len()).any(|o| !fits(th(o), scale[o])) {
+                scale.iter_mut().for_each(|s| *s = i16::MAX as f32 / top);
+            }
+        } else {
+            for (o, s) in scale.iter_mut().enumerate() {
+                if !fits(th(o), *s) {
+                    *s = i16::MAX as f32 / th(o);
+                }
+            }
+        }
+    };
+    let mut hidden_scale = hidden_scale;
+    let mut out_scale = out_scale;
+    let global = q == Quantisation::Global;
+    limit(&mut hidden_scale, &|o| v_th[o], global);
+    limit(&mut out_scale, &|_| out.v_th, global);
     // the shift: the largest that keeps every hidden threshold under the ceiling
     let th_hidden: Vec<f32> = v_th.iter().zip(&hidden_scale).map(|(t, s)| t * s).collect();
     let shift_for = |ths: &[f32]| -> Result<u8> {
@@ -979,6 +1002,23 @@ mod tests {
         assert_eq!(m.spec.threshold_out[0], i16::MAX);
         assert!(m.approximations.contains(&Approximation::ResetBySubtraction { layer: 0 }));
         assert!(m.approximations.contains(&Approximation::OneStepDelay { layer: 1 }));
+    }
+
+    #[test]
+    fn a_threshold_beyond_sixteen_bits_lowers_its_scale_as_rockpool() {
+        // weights of 1e-4 take 127 at a scale of 1.27e6: threshold 1 would be 1.27e6 units
+        let mut net = random_net(4, 4, &[8], 2, false);
+        for l in &mut net.layers {
+            if let Op::Dense { weight, .. } = &mut l.op {
+                weight.iter_mut().for_each(|w| *w *= 1e-4);
+            }
+        }
+        for q in [Quantisation::Global, Quantisation::Channel] {
+            let spec = map(&net, q).unwrap().spec;
+            assert!(spec.threshold.iter().all(|&t| t == i16::MAX), "{q:?}");
+            assert!(spec.weights_in.iter().all(|&w| w.abs() < 16), "{q:?}");
+            assert_eq!(spec.weight_shift_in, 0);
+        }
     }
 
     #[test]
