@@ -128,14 +128,14 @@ fn eval_chip(
     data_dir: &std::path::Path,
     split: SplitChoice,
 ) -> Result<()> {
-    use experiments::eval::chip::{ChipChoice, eval_split_chip, xylo_trace};
+    use experiments::eval::chip::{ChipChoice, eval_split_chip};
     let choice = ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
-    let (report, csv) = eval_split_chip(model_path, data_dir, split, choice)?;
+    let (report, csv, trace) =
+        eval_split_chip(model_path, data_dir, split, choice, args.trace.is_some(), &Bar::default())?;
     if let Some(path) = &args.predictions {
         std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }
-    if let Some(path) = &args.trace {
-        let trace = xylo_trace(model_path, data_dir, split, args.quantisation, args.chip_run, &Bar::default())?;
+    if let (Some(path), Some(trace)) = (&args.trace, trace) {
         let json = serde_json::to_vec(&trace)?;
         std::fs::write(path, json).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }

@@ -152,7 +152,6 @@ impl Network {
         let n_in = chip.spec().n_in;
         let mut st = chip.state();
         let (mut counts, mut channels, mut events) = (vec![0u16; n_in], Vec::new(), Vec::new());
-        let (mut best, mut spike_counts) = (vec![i16::MIN; chip.spec().n_out], vec![0u32; chip.spec().n_out]);
         let mut output = Vec::new();
         let mut next = 0;
         for k in 0..steps {
@@ -173,20 +172,14 @@ impl Network {
                 counts[c as usize] = 0;
             }
             chip.step(&mut st, &channels, &events, run).map_err(|e| BrailleError::new_err(format!("{what}: {e}")))?;
-            for j in 0..best.len() {
-                best[j] = best[j].max(st.v_mem_out[j]);
-                spike_counts[j] += st.out_spikes[j] as u32;
-                if st.out_spikes[j] > 0 {
+            for (j, &n) in st.out_spikes.iter().enumerate() {
+                if n > 0 {
                     output.push((t_start_us + k * dt, j as u32));
                 }
             }
         }
-        let readout = match chip.spec().readout {
-            XyloReadout::MaxMembrane => best.iter().map(|&v| v.max(0) as f32).collect(),
-            XyloReadout::SpikeCount => spike_counts.iter().map(|&c| c as f32).collect(),
-        };
         Ok(Outcome {
-            readout,
+            readout: chip.readout(&st),
             spikes_per_layer: vec![st.stats.hidden_spikes, st.stats.output_spikes],
             synops: st.stats.synops,
             input_events: st.stats.input_events,

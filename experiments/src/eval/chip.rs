@@ -66,49 +66,48 @@ fn map_model(model: &snn::model_file::SnnModel, path: &Path, quantisation: Quant
 }
 
 /// The SNN at `model_path` on `split` of `data_dir` in `choice`'s arithmetic; with each sample's
-/// truth, prediction and readout as CSV.
+/// truth, prediction and readout as CSV, and with `trace`, every sample as the chip ran it (the
+/// same model, mapping and samples).
 pub fn eval_split_chip(
     model_path: &Path,
     data_dir: &Path,
     split: SplitChoice,
     choice: ChipChoice,
-) -> Result<(ChipEval, String)> {
+    trace: bool,
+    progress: &dyn Progress,
+) -> Result<(ChipEval, String, Option<XyloTrace>)> {
     let model = pipeline::models::load_snn(model_path)?;
     let encoding = encoding_of(&model, model_path)?;
     let set = load_split(data_dir, &encoding, split)?;
     let Chip::Xylo = choice.chip;
-    let mapped = xylo::map(&model.network, choice.quantisation).map_err(|source| Error::Engine {
-        what: model_path.display().to_string(),
-        source,
-        hint: "",
-    })?;
+    let mapped = map_model(&model, model_path, choice.quantisation)?;
     let chip = mapped.spec.clone().compile()?;
     let (s, updates) = xylo_accuracy(&chip, &set, choice.run)?;
     let csv = predictions_csv(&model.classes, &set.labels, &s.predictions);
-    Ok((
-        ChipEval {
-            eval: SplitEval {
-                data: data_dir.display().to_string(),
-                split: split.name(),
-                model: model_path.display().to_string(),
-                mode: match choice.run {
-                    Run::Stepped => "stepped",
-                    Run::EventDriven => "event-driven",
-                },
-                accuracy: s.accuracy,
-                n: s.n,
-                correct: s.correct,
-                synops_per_sample: s.synops_per_sample,
-                spikes_per_sample: s.spikes_per_sample,
-                input_events_per_sample: s.input_events_per_sample,
-            },
-            chip: choice,
-            approximations: mapped.approximations.iter().map(ToString::to_string).collect(),
-            weight_shifts: [mapped.spec.weight_shift_in, mapped.spec.weight_shift_rec, mapped.spec.weight_shift_out],
-            neuron_updates_per_sample: updates,
-        },
-        csv,
-    ))
+    let mode = match choice.run {
+        Run::Stepped => "stepped",
+        Run::EventDriven => "event-driven",
+    };
+    let eval = ChipEval {
+        eval: SplitEval::of(data_dir, split, model_path, mode, &s),
+        chip: choice,
+        approximations: mapped.approximations.iter().map(ToString::to_string).collect(),
+        weight_shifts: [mapped.spec.weight_shift_in, mapped.spec.weight_shift_rec, mapped.spec.weight_shift_out],
+        neuron_updates_per_sample: updates,
+    };
+    let trace = if trace {
+        Some(XyloTrace {
+            model: model_path.display().to_string(),
+            data: data_dir.display().to_string(),
+            split: split.name(),
+            quantisation: choice.quantisation,
+            samples: trace_samples(&chip, &set, choice.run, progress)?,
+            spec: mapped.spec,
+        })
+    } else {
+        None
+    };
+    Ok((eval, csv, trace))
 }
 
 /// One sample as Xylo ran it.
@@ -138,20 +137,9 @@ pub struct XyloTrace {
     pub samples: Vec<SampleTrace>,
 }
 
-/// Runs every sample of `split` through the model mapped to Xylo, recording each step.
-pub fn xylo_trace(
-    model_path: &Path,
-    data_dir: &Path,
-    split: SplitChoice,
-    quantisation: Quantisation,
-    run: Run,
-    progress: &dyn Progress,
-) -> Result<XyloTrace> {
-    let model = pipeline::models::load_snn(model_path)?;
-    let encoding = encoding_of(&model, model_path)?;
-    let set = load_split(data_dir, &encoding, split)?;
-    let spec = map_model(&model, model_path, quantisation)?.spec;
-    let chip = spec.clone().compile()?;
+/// Every sample of `set` through `chip`, each step recorded.
+fn trace_samples(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SampleTrace>> {
+    let n_in = chip.spec().n_in;
     progress.start("Xylo trace", set.len() as u64);
     let samples = set
         .trains
@@ -167,11 +155,9 @@ pub fn xylo_trace(
                 v_mem_out: Vec::new(),
                 out_spikes: Vec::new(),
             };
-            let mut best = vec![0i16; spec.n_out];
-            let mut counts = vec![0u32; spec.n_out];
             for k in 0..t.n_steps() {
                 let (channels, events) = t.step(k);
-                let mut row = vec![0u16; spec.n_in];
+                let mut row = vec![0u16; n_in];
                 for (&c, &n) in channels.iter().zip(events) {
                     row[c as usize] = n;
                 }
@@ -180,28 +166,14 @@ pub fn xylo_trace(
                 for (j, &n) in st.spikes.iter().enumerate().filter(|(_, n)| **n > 0) {
                     s.hidden_spikes.push([k as u32, j as u32, n as u32]);
                 }
-                for j in 0..spec.n_out {
-                    best[j] = best[j].max(st.v_mem_out[j]);
-                    counts[j] += st.out_spikes[j] as u32;
-                }
                 s.v_mem_out.push(st.v_mem_out.clone());
                 s.out_spikes.push(st.out_spikes.clone());
             }
-            s.predicted = match spec.readout {
-                xylo::XyloReadout::MaxMembrane => argmax(best.iter().map(|&v| v as f32)),
-                xylo::XyloReadout::SpikeCount => argmax(counts.iter().map(|&c| c as f32)),
-            };
+            s.predicted = argmax(chip.readout(&st));
             progress.inc();
             Ok(s)
         })
         .collect::<Result<Vec<_>>>()?;
     progress.finish();
-    Ok(XyloTrace {
-        model: model_path.display().to_string(),
-        data: data_dir.display().to_string(),
-        split: split.name(),
-        quantisation,
-        spec,
-        samples,
-    })
+    Ok(samples)
 }

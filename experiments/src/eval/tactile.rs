@@ -291,22 +291,27 @@ pub fn eval_split(model_path: &Path, data_dir: &Path, split: SplitChoice, mode: 
     let set = load_split(data_dir, &encoding, split)?;
     let s = snn_accuracy(&model.network, &model.config, &set, mode)?;
     let csv = predictions_csv(&model.classes, &set.labels, &s.predictions);
-    Ok((
+    let mode = match mode {
+        Mode::Stepped => "stepped",
+        Mode::Async => "async",
+    };
+    Ok((SplitEval::of(data_dir, split, model_path, mode, &s), csv))
+}
+
+impl SplitEval {
+    /// A split's score: where it came from, and how the model ran (`mode`).
+    pub fn of(data_dir: &Path, split: SplitChoice, model_path: &Path, mode: &'static str, s: &Scored) -> SplitEval {
         SplitEval {
             data: data_dir.display().to_string(),
             split: split.name(),
             model: model_path.display().to_string(),
-            mode: match mode {
-                Mode::Stepped => "stepped",
-                Mode::Async => "async",
-            },
+            mode,
             accuracy: s.accuracy,
             n: s.n,
             correct: s.correct,
             synops_per_sample: s.synops_per_sample,
             spikes_per_sample: s.spikes_per_sample,
             input_events_per_sample: s.input_events_per_sample,
-        },
-        csv,
-    ))
+        }
+    }
 }

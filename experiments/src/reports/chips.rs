@@ -298,13 +298,13 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
             targets,
         });
     }
-    let arithmetic = arithmetic_rows(spec, &chips)?;
+    let arithmetic = arithmetic_rows(spec, &chips, progress)?;
     Ok(ChipReport { faithful, chips, arithmetic, trials: spec.trials, realism: spec.realism })
 }
 
 /// Every tactile model that passes a modelled chip's rules, on its dataset's test split in that
 /// chip's arithmetic (both quantisers), beside the float engine.
-fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow]) -> Result<Vec<ArithmeticRow>> {
+fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) -> Result<Vec<ArithmeticRow>> {
     use crate::eval::chip::{ChipChoice, eval_split_chip};
     let mut rows = Vec::new();
     for c in chips.iter().filter(|c| c.data == "REAL") {
@@ -321,10 +321,17 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow]) -> Result<Vec<ArithmeticR
                 continue;
             }
             let run = |quantisation| {
-                eval_split_chip(path, &dir, SplitChoice::Test, ChipChoice { chip, quantisation, run: Run::EventDriven })
+                eval_split_chip(
+                    path,
+                    &dir,
+                    SplitChoice::Test,
+                    ChipChoice { chip, quantisation, run: Run::EventDriven },
+                    false,
+                    progress,
+                )
             };
-            let (global, _) = run(Quantisation::Global)?;
-            let (channel, _) = run(Quantisation::Channel)?;
+            let (global, _, _) = run(Quantisation::Global)?;
+            let (channel, _, _) = run(Quantisation::Channel)?;
             rows.push(ArithmeticRow {
                 model: c.model.clone(),
                 chip,

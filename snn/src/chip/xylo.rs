@@ -492,6 +492,10 @@ pub struct XyloState {
     pub spikes: Vec<u8>,
     /// Spikes per output neuron this step.
     pub out_spikes: Vec<u8>,
+    /// Per output neuron since rest: the highest membrane after a step (at least zero), and the
+    /// spikes; [`Xylo::readout`] reads one of them.
+    pub v_mem_out_max: Vec<i16>,
+    pub out_spike_counts: Vec<u32>,
     pub step: u64,
     pub stats: XyloStats,
     /// Event-driven bookkeeping: hidden and output neurons to update this step.
@@ -619,6 +623,8 @@ impl Xylo {
             v_mem_out: vec![0; self.spec.n_out],
             spikes: vec![0; self.spec.n_hidden],
             out_spikes: vec![0; self.spec.n_out],
+            v_mem_out_max: vec![0; self.spec.n_out],
+            out_spike_counts: vec![0; self.spec.n_out],
             active: vec![false; self.spec.n_hidden],
             active_out: vec![false; self.spec.n_out],
             ..XyloState::default()
@@ -744,9 +750,22 @@ impl Xylo {
         }
         st.stats.hidden_spikes += fired.iter().map(|&j| st.spikes[j as usize] as u64).sum::<u64>();
         st.stats.output_spikes += st.out_spikes.iter().map(|&n| n as u64).sum::<u64>();
+        for j in 0..o {
+            st.v_mem_out_max[j] = st.v_mem_out_max[j].max(st.v_mem_out[j]);
+            st.out_spike_counts[j] += st.out_spikes[j] as u32;
+        }
         st.fired = fired;
         st.step += 1;
         Ok(())
+    }
+
+    /// A stream's readout since rest, per output neuron: the highest membrane (at least zero) or
+    /// the spike count, as the spec reads out.
+    pub fn readout(&self, st: &XyloState) -> Vec<f32> {
+        match self.spec.readout {
+            XyloReadout::MaxMembrane => st.v_mem_out_max.iter().map(|&v| v as f32).collect(),
+            XyloReadout::SpikeCount => st.out_spike_counts.iter().map(|&c| c as f32).collect(),
+        }
     }
 
     /// Hidden neuron `j`'s spikes of the last step through `w_rec` and `w_out`.
@@ -775,19 +794,10 @@ impl Xylo {
         run: Run,
     ) -> Result<(Vec<f32>, XyloStats)> {
         let mut st = self.state();
-        let mut best = vec![0i16; self.spec.n_out];
-        let mut counts = vec![0u32; self.spec.n_out];
         for (channels, events) in steps {
             self.step(&mut st, channels, events, run)?;
-            for j in 0..self.spec.n_out {
-                best[j] = best[j].max(st.v_mem_out[j]);
-                counts[j] += st.out_spikes[j] as u32;
-            }
         }
-        let readout = match self.spec.readout {
-            XyloReadout::MaxMembrane => best.iter().map(|&v| v as f32).collect(),
-            XyloReadout::SpikeCount => counts.iter().map(|&c| c as f32).collect(),
-        };
+        let readout = self.readout(&st);
         Ok((readout, st.stats))
     }
 }
