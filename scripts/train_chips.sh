@@ -5,6 +5,10 @@
 #   12 inputs, 256 CubaLIF, 7 leaky-integrator outputs (Xylo: 16 inputs, 1000 hidden, 8 outputs);
 # - speck-chars: a convolutional IF character classifier with sum pooling on SIMULATED windows
 #   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
+# - qat/xylo-braille7-seed{1,2,3}: xylo-braille7 fine-tuned for Xylo (quantisation-aware, `--chip xylo`:
+#   Xylo's decays and reset, every forward pass in Xylo's arithmetic), 30 epochs (half the recipe's, not
+#   tuned), one per fine-tuning seed (the shuffling; the validation hold-out stays the float model's, seed 2);
+#   about 15 s each.
 # Then the chip table and the cost of the faithful export: `braille chip-report`
 # (docs/results/chips.md). About 40 minutes on two cores (the SIMULATED model alone about 15).
 # --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
@@ -23,6 +27,12 @@ mkdir -p models/icub/chip docs/results/icub/chip "$sim" "$hist"
 if [[ "${1:-}" != "--simulated-only" ]]; then
   $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/icub/chip/xylo-braille7.safetensors \
     --history docs/results/icub/chip/xylo_braille7_history.json --force --quiet
+  mkdir -p models/icub/chip/qat
+  for seed in 1 2 3; do
+    $b train --data data/icub_braille/raw1350 --recipe xylo --chip xylo --init models/icub/chip/xylo-braille7.safetensors \
+      --epochs 30 --seed "$seed" --val-seed 2 --out "models/icub/chip/qat/xylo-braille7-seed$seed.safetensors" \
+      --history "docs/results/icub/chip/qat_xylo_braille7_seed${seed}_history.json" --force --quiet
+  done
 fi
 $b train --trainer dense --arch snn --recipe speck --realism "$realism" --out "$sim/speck-chars.safetensors" \
   --history "$hist/speck_chars_history.json" --force --quiet

@@ -126,7 +126,8 @@ pub struct Args {
     #[arg(long, conflicts_with = "data")]
     recordings: Option<PathBuf>,
     /// Start from this trained model's weights (fine-tuning; its network, input and classes must
-    /// be the recipe's), e.g. a shipped model fine-tuned on a lab's recordings.
+    /// be the recipe's), e.g. a shipped model fine-tuned on a lab's recordings, or a float model
+    /// fine-tuned for a chip (--chip; with --data, its neurons may differ from the recipe's).
     #[arg(long)]
     init: Option<PathBuf>,
     /// Simulated windows: sum-pooling of the 64x80 crop [default: the recipe's (2) for the SNN, 1
@@ -219,6 +220,14 @@ pub struct Args {
     /// count as zero; 0 gives exact gradients [recipe: 0.01].
     #[arg(long)]
     gradient_cutoff: Option<f32>,
+    /// Quantisation-aware training for this chip: the chip's decays and reset, every forward
+    /// pass in the chip's arithmetic, checkpoints chosen on the chip's validation accuracy
+    /// (docs/chips.md); with --init, a trained float model fine-tuned for the chip.
+    #[arg(long)]
+    chip: Option<snn::chip::Chip>,
+    /// The chip's weight quantiser in quantisation-aware training [recipe: global].
+    #[arg(long, value_enum)]
+    chip_quantisation: Option<snn::chip::xylo::Quantisation>,
     /// A diagnostic: on the first and the last epoch, every batch's truncated gradient is
     /// compared with the exact one on the same samples (cosine, relative error; printed with the
     /// epoch). The weights trained are the same as without it.
@@ -274,7 +283,11 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
         event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, average_epochs <- a.average_epochs,
         dropout <- a.dropout, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
-        patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff);
+        patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff,
+        chip_quantisation <- a.chip_quantisation);
+    if a.chip.is_some() {
+        r.chip = a.chip;
+    }
     match a.braille {
         Some(pipeline::code::BrailleCode::Grade1Letters) => {
             r.cells = None;
@@ -332,9 +345,6 @@ pub fn run(args: Args) -> Result<()> {
     if out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }
-    if args.init.is_some() && args.data.is_some() {
-        bail!("--init fine-tunes a model on simulated windows or a recordings folder; --data trains from scratch");
-    }
     let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
     let mut epochs = Epochs::new(args.quiet);
     let bar = Bar::default();
@@ -384,7 +394,7 @@ pub fn run(args: Args) -> Result<()> {
             {
                 eprintln!("{p}; the recipe derived from it (--print-recipe shows it)");
             }
-            train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, &mut epochs)?
+            train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, args.init.as_deref(), &mut epochs)?
         }
     };
     eprint!("{trained}");

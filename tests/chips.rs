@@ -202,3 +202,44 @@ fn eval_runs_the_xylo_model_in_xylos_arithmetic_stepped_and_event_driven_alike()
     let err = failed(&braille(&["eval", "--data", s(&data), "--model", s(&model), "--trace", "x.json"]));
     assert!(err.contains("--chip"), "{err}");
 }
+
+#[test]
+fn quantisation_aware_training_scores_its_validation_as_eval_chip_scores_the_written_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = root("data/icub_braille/raw1350");
+    let (model, history) = (dir.path().join("q.safetensors"), dir.path().join("h.json"));
+    let train = |extra: &[&str]| {
+        let mut args = vec!["train", "--data", s(&data), "--recipe", "xylo", "--chip", "xylo", "--hidden", "32"];
+        args.extend_from_slice(extra);
+        braille(&args)
+    };
+    ok(&train(&["--epochs", "1", "--out", s(&model), "--history", s(&history), "--quiet"]));
+    let h: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&history).unwrap()).unwrap();
+    let val = h[0]["val_accuracy"].as_f64().unwrap();
+    // the written model in Xylo's arithmetic, on the same validation hold-out (the recipe's seed)
+    let (out, _) = ok(&braille(&[
+        "eval",
+        "--data",
+        s(&data),
+        "--model",
+        s(&model),
+        "--split",
+        "validation",
+        "--val-seed",
+        "2",
+        "--chip",
+        "xylo",
+        "--json",
+    ]));
+    let e: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(e["accuracy"].as_f64().unwrap(), val, "training chose on the chip the model meets");
+    // the chip's decays and reset: nothing to approximate but Xylo's readout synapse, delay and cap
+    let changed: Vec<&str> = e["approximations"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert!(!changed.iter().any(|c| c.contains("per step becomes") || c.contains("reset to zero")), "{changed:?}");
+    // burn's trainer does not run the chip; a model of another shape does not fine-tune
+    let err = failed(&train(&["--trainer", "dense", "--epochs", "1", "--out", s(&dir.path().join("d.safetensors"))]));
+    assert!(err.contains("sparse trainer"), "{err}");
+    let shipped = root("models/icub/chip/xylo-braille7.safetensors");
+    let err = failed(&train(&["--init", s(&shipped), "--epochs", "1", "--out", s(&dir.path().join("i.safetensors"))]));
+    assert!(err.contains("xylo-braille7.safetensors") && err.contains("layers, sizes or neurons"), "{err}");
+}

@@ -38,6 +38,8 @@ use snn::network::PoolKind;
 use snn::neuron::{NeuronKind, NeuronParams, Reset, Surrogate};
 use snn::spec::{LayerWeights, NetworkSpec, OpSpec};
 
+pub mod chip;
+
 /// One sample's input as `(step, input, count)` entries, in any order.
 pub type Entries = Vec<(u32, u32, f32)>;
 
@@ -240,6 +242,9 @@ pub struct SampleOutput {
     tape: Vec<LayerTape>,
     /// The readout's highest membranes before the clamp at zero.
     v_max: Vec<f32>,
+    /// Each layer's input arrives one step after the layer below sent it (a chip's forward,
+    /// [`chip`]); the float forward passes it on within the step.
+    delayed: bool,
 }
 
 /// A batch's gradient, loss and hits.
@@ -523,8 +528,9 @@ impl SparseSnn {
                     scatter(plan, &w.weight, i as usize, xv, &mut u);
                 }
                 if plan.recurrent && t > 0 {
-                    for &j in lt.spikes.at(t - 1).0 {
-                        axpy(&mut u, &w.recurrent[j as usize * n..][..n], 1.0);
+                    let (ji, jv) = lt.spikes.at(t - 1);
+                    for (&j, &s) in ji.iter().zip(jv) {
+                        axpy(&mut u, &w.recurrent[j as usize * n..][..n], s);
                     }
                 }
                 match plan.neurons {
@@ -591,10 +597,17 @@ impl SparseSnn {
             lt.n_spikes = lt.spikes.len();
             layers.push(lt);
         }
+        self.output(layers, v_max, steps, tape, false)
+    }
+
+    /// The forward pass's result from its layers' tapes and the readout's highest membranes.
+    fn output(&self, layers: Vec<LayerTape>, v_max: Vec<f32>, steps: usize, tape: bool, delayed: bool) -> SampleOutput {
+        let last = self.plans.len() - 1;
         let out = &self.plans[last];
         let mut counts = vec![0f32; out.n_out];
-        for &o in &layers[last].spikes.idx {
-            counts[o as usize] += 1.0;
+        let (oi, ov) = (&layers[last].spikes.idx, &layers[last].spikes.val);
+        for (&o, &s) in oi.iter().zip(ov) {
+            counts[o as usize] += s;
         }
         let logits = (0..out.n_out)
             .map(|c| {
@@ -613,7 +626,7 @@ impl SparseSnn {
             .filter(|(p, _)| p.neurons.is_some_and(|n| n.kind != NeuronKind::Li))
             .map(|(_, l)| l.n_spikes)
             .collect();
-        SampleOutput { logits, spikes, tape: if tape { layers } else { Vec::new() }, v_max }
+        SampleOutput { logits, spikes, tape: if tape { layers } else { Vec::new() }, v_max, delayed }
     }
 
     /// One sample backward: adds the gradient of the loss, given `g_logits` (its gradient by the
@@ -647,6 +660,8 @@ impl SparseSnn {
             let plan = &self.plans[k];
             let (w, gw, lt) = (&params.layers[k], &mut grads.layers[k], &tape[k]);
             let x = if k == 0 { input } else { &tape[k - 1].out };
+            // the step of the layer below whose output this layer takes at step t
+            let delay = usize::from(out.delayed && k > 0);
             let n = plan.n_out;
             let mask = masks.get(k).and_then(Option::as_deref);
             let below = k.checked_sub(1).map(|b| (&self.plans[b], &tape[b]));
@@ -700,26 +715,30 @@ impl SparseSnn {
                         gw.bias[o % plan.bias_len] += g;
                     }
                 }
-                let (xi, xv) = x.at(t);
-                for (&i, &xv) in xi.iter().zip(xv) {
-                    weight_grad(plan, &mut gw.weight, i as usize, xv, &g_u);
+                let src = t.checked_sub(delay);
+                if let Some(ts) = src {
+                    let (xi, xv) = x.at(ts);
+                    for (&i, &xv) in xi.iter().zip(xv) {
+                        weight_grad(plan, &mut gw.weight, i as usize, xv, &g_u);
+                    }
                 }
                 if plan.recurrent {
                     g_rec.fill(0.0);
                     if t > 0 {
-                        for &j in lt.spikes.at(t - 1).0 {
-                            axpy(&mut gw.recurrent[j as usize * n..][..n], &g_u, 1.0);
+                        let (ji, jv) = lt.spikes.at(t - 1);
+                        for (&j, &s) in ji.iter().zip(jv) {
+                            axpy(&mut gw.recurrent[j as usize * n..][..n], &g_u, s);
                         }
                         for &j in lt.surr.at(t - 1).0 {
                             g_rec[j as usize] = dot(&w.recurrent[j as usize * n..][..n], &g_u);
                         }
                     }
                 }
-                if let Some((b, bt)) = below {
-                    let gb = &mut g_below[t * nb..][..nb];
+                if let (Some((b, bt)), Some(ts)) = (below, src) {
+                    let gb = &mut g_below[ts * nb..][..nb];
                     match b.neurons {
                         Some(bn) if bn.kind != NeuronKind::Li => {
-                            for &i in bt.surr.at(t).0 {
+                            for &i in bt.surr.at(ts).0 {
                                 gb[i as usize] = gather(plan, &w.weight, i as usize, &g_u);
                             }
                         }
@@ -743,22 +762,37 @@ impl SparseSnn {
         samples: &[(&StepEvents, usize)],
         masks: &[Vec<Option<Vec<f32>>>],
     ) -> BatchGradient {
+        let forward = |x: &StepEvents, m: &[Option<Vec<f32>>]| Ok(self.forward(params, x, m, true));
+        let Ok(g) = self.gradient_with::<std::convert::Infallible>(params, samples, masks, forward);
+        g
+    }
+
+    /// [`Self::batch_gradient`] with the forward pass `forward` (taped): the float network's, or
+    /// a chip's ([`chip`]).
+    fn gradient_with<E: Send>(
+        &self,
+        params: &Params,
+        samples: &[(&StepEvents, usize)],
+        masks: &[Vec<Option<Vec<f32>>>],
+        forward: impl Fn(&StepEvents, &[Option<Vec<f32>>]) -> Result<SampleOutput, E> + Sync,
+    ) -> Result<BatchGradient, E> {
         let b = samples.len().max(1);
         let chunk = b.div_ceil(CHUNKS);
+        let empty = || BatchGradient {
+            grads: params.zeros_like(),
+            loss_sum: 0.0,
+            hits: 0,
+            spikes: Vec::new(),
+            kept_surrogates: 0,
+        };
         let parts: Vec<BatchGradient> = samples
             .par_chunks(chunk)
             .enumerate()
             .map(|(c, part)| {
-                let mut acc = BatchGradient {
-                    grads: params.zeros_like(),
-                    loss_sum: 0.0,
-                    hits: 0,
-                    spikes: Vec::new(),
-                    kept_surrogates: 0,
-                };
+                let mut acc = empty();
                 for (j, &(input, label)) in part.iter().enumerate() {
                     let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
-                    let out = self.forward(params, input, m, true);
+                    let out = forward(input, m)?;
                     let (loss, mut g, hit) = cross_entropy(&out.logits, label);
                     g.iter_mut().for_each(|g| *g /= b as f32);
                     self.backward(params, input, m, &out, &g, &mut acc.grads);
@@ -767,17 +801,11 @@ impl SparseSnn {
                     acc.hits += hit as usize;
                     add_spikes(&mut acc.spikes, out.spikes.iter().map(|&s| s as f64));
                 }
-                acc
+                Ok(acc)
             })
-            .collect();
+            .collect::<Result<_, E>>()?;
         let mut parts = parts.into_iter();
-        let mut total = parts.next().unwrap_or_else(|| BatchGradient {
-            grads: params.zeros_like(),
-            loss_sum: 0.0,
-            hits: 0,
-            spikes: Vec::new(),
-            kept_surrogates: 0,
-        });
+        let mut total = parts.next().unwrap_or_else(empty);
         for p in parts {
             total.grads.add(&p.grads);
             total.loss_sum += p.loss_sum;
@@ -785,7 +813,7 @@ impl SparseSnn {
             total.kept_surrogates += p.kept_surrogates;
             add_spikes(&mut total.spikes, p.spikes.iter().copied());
         }
-        total
+        Ok(total)
     }
 
     /// Forward passes of `inputs` in parallel (no tape): each one's logits and spikes per layer.

@@ -3,6 +3,7 @@
 
 use crate::data::SpikeSet;
 use crate::snn::{SnnParams, SnnTwin};
+use crate::sparse::chip::ChipTarget;
 use crate::sparse::{Adam, Params, SparseSnn, StepEvents};
 use burn::module::Module;
 use burn::nn::loss::CrossEntropyLossConfig;
@@ -55,6 +56,11 @@ pub struct TrainConfig {
     /// count as zero (0: exact gradients).
     #[serde(default)]
     pub gradient_cutoff: f32,
+    /// Quantisation-aware training (the sparse trainer): every step's forward pass runs in this
+    /// chip's arithmetic with the weights of that step quantised ([`crate::sparse::chip`]), and
+    /// checkpoints are chosen on the chip's validation accuracy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chip: Option<ChipTarget>,
     /// A diagnostic, not part of the recipe (never recorded): with the sparse trainer truncated
     /// (`gradient_cutoff` > 0), every batch of the first and the last epoch also computes the
     /// exact gradient on the same samples and dropout masks (not applied; the run's weights are
@@ -164,6 +170,7 @@ impl Default for TrainConfig {
             dropout: 0.0,
             trainer: Trainer::Sparse,
             gradient_cutoff: crate::sparse::DEFAULT_CUTOFF,
+            chip: None,
             check_truncation: false,
         }
     }
@@ -380,6 +387,8 @@ struct SparseFitter {
     /// step's (cosine, relative error).
     exact: Option<SparseSnn>,
     checked: Vec<(f64, f64)>,
+    /// Quantisation-aware: the chip every forward pass runs on.
+    chip: Option<ChipTarget>,
 }
 
 impl SparseFitter {
@@ -394,7 +403,13 @@ impl Fitter for SparseFitter {
         let events: Vec<StepEvents> = idx.iter().map(|&s| self.events(set, s, Some((&augment, &mut *rng)))).collect();
         let masks: Vec<_> = idx.iter().map(|_| self.net.dropout_masks(self.dropout, &mut self.masks)).collect();
         let samples: Vec<(&StepEvents, usize)> = events.iter().zip(idx.iter().map(|&s| set.labels[s])).collect();
-        let g = self.net.batch_gradient(&self.params, &samples, &masks);
+        let g = match self.chip {
+            Some(target) => {
+                let chip = self.net.chip_forward(&self.params, target)?;
+                self.net.chip_batch_gradient(&self.params, &chip, &samples)?
+            }
+            None => self.net.batch_gradient(&self.params, &samples, &masks),
+        };
         if let Some(exact) = &self.exact {
             let e = exact.batch_gradient(&self.params, &samples, &masks);
             self.checked.push(gradient_agreement(&g.grads, &e.grads));
@@ -412,7 +427,11 @@ impl Fitter for SparseFitter {
         let events: Vec<StepEvents> = (0..set.len()).map(|s| self.events(set, s, None)).collect();
         let refs: Vec<&StepEvents> = events.iter().collect();
         let (mut loss, mut hits, mut spikes) = (0.0, 0usize, Vec::<f64>::new());
-        for ((logits, s), &label) in self.net.infer(&params, &refs).iter().zip(&set.labels) {
+        let outputs = match self.chip {
+            Some(target) => self.net.infer_on_chip(&self.net.chip_forward(&params, target)?, &refs)?,
+            None => self.net.infer(&params, &refs),
+        };
+        for ((logits, s), &label) in outputs.iter().zip(&set.labels) {
             let (l, _, hit) = crate::sparse::cross_entropy(logits, label);
             loss += l;
             hits += hit as usize;
@@ -425,7 +444,7 @@ impl Fitter for SparseFitter {
 
     fn check_truncation(&mut self, on: bool) -> snn::Result<Vec<(f64, f64)>> {
         self.exact = None;
-        if on && self.net.cutoff() > 0.0 {
+        if on && self.net.cutoff() > 0.0 && self.chip.is_none() {
             let mut exact = SparseSnn::new(self.net.spec.clone(), self.net.surrogate, self.net.readout, 0.0)?;
             exact.clamped_readout_gradient = self.net.clamped_readout_gradient;
             self.exact = Some(exact);
@@ -457,6 +476,9 @@ pub fn train(
         )));
     }
     match cfg.trainer {
+        Trainer::Dense if cfg.chip.is_some() => {
+            Err(snn::Error::input("quantisation-aware training runs on the sparse trainer (--trainer sparse)"))
+        }
         Trainer::Dense => {
             let device = Device::flex().autodiff();
             device.seed(cfg.seed);
@@ -478,6 +500,11 @@ pub fn train(
             fit(&mut fitter, init, train, val, cfg, observer)
         }
         Trainer::Sparse => {
+            if cfg.chip.is_some() && cfg.dropout > 0.0 {
+                return Err(snn::Error::input(
+                    "quantisation-aware training runs the chip as it is: no dropout (set it to 0)",
+                ));
+            }
             let mut net = SparseSnn::new(twin.spec.clone(), twin.surrogate, twin.readout, cfg.gradient_cutoff)?;
             net.clamped_readout_gradient = twin.clamped_readout_gradient;
             let params = net.params(init)?;
@@ -492,6 +519,7 @@ pub fn train(
                 masks,
                 exact: None,
                 checked: Vec::new(),
+                chip: cfg.chip,
             };
             fit(&mut fitter, init, train, val, cfg, observer)
         }

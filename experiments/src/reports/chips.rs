@@ -92,6 +92,47 @@ pub struct ArithmeticRow {
     /// The float engine's, for comparison.
     pub float_spikes_per_sample: f64,
     pub approximations: Vec<String>,
+    /// After quantisation-aware fine-tuning, if the model has fine-tuned versions.
+    pub qat: Option<QatScores>,
+}
+
+/// A model's quantisation-aware fine-tunings for a chip (`qat/NAME-seedS.safetensors` beside
+/// it, one per fine-tuning seed, trained for the global quantiser), on the same test.
+#[derive(Debug, Clone, Serialize)]
+pub struct QatScores {
+    pub models: Vec<String>,
+    /// In the chip's arithmetic (global quantisation), per model.
+    pub chip: Vec<f64>,
+    /// On the float engine, per model (its neurons are the chip's, single spikes per step).
+    pub float: Vec<f64>,
+    pub synops_per_sample: Vec<f64>,
+}
+
+impl QatScores {
+    pub fn chip_mean(&self) -> f64 {
+        self.chip.iter().sum::<f64>() / self.chip.len().max(1) as f64
+    }
+}
+
+/// The quantisation-aware fine-tunings of the model at `path`: `qat/STEM-seed*.safetensors`
+/// beside it, in seed order.
+pub fn qat_models(path: &Path) -> Vec<PathBuf> {
+    let (Some(dir), Some(stem)) = (path.parent(), path.file_stem().and_then(|s| s.to_str())) else {
+        return Vec::new();
+    };
+    let prefix = format!("{stem}-seed");
+    let mut found: Vec<(u64, PathBuf)> = std::fs::read_dir(dir.join("qat"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_str()?.to_string();
+            let seed = name.strip_prefix(&prefix)?.strip_suffix(".safetensors")?.parse().ok()?;
+            Some((seed, e.path()))
+        })
+        .collect();
+    found.sort();
+    found.into_iter().map(|(_, p)| p).collect()
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -332,6 +373,27 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
             };
             let (global, _, _) = run(Quantisation::Global)?;
             let (channel, _, _) = run(Quantisation::Channel)?;
+            let tuned = qat_models(path);
+            let qat = if tuned.is_empty() {
+                None
+            } else {
+                let mut q = QatScores {
+                    models: Vec::new(),
+                    chip: Vec::new(),
+                    float: Vec::new(),
+                    synops_per_sample: Vec::new(),
+                };
+                for m in &tuned {
+                    let choice = ChipChoice { chip, quantisation: Quantisation::Global, run: Run::EventDriven };
+                    let (e, _, _) = eval_split_chip(m, &dir, SplitChoice::Test, choice, false, progress)?;
+                    let (f, _) = eval_split(m, &dir, SplitChoice::Test, Mode::Stepped)?;
+                    q.models.push(m.display().to_string());
+                    q.chip.push(e.eval.accuracy);
+                    q.float.push(f.accuracy);
+                    q.synops_per_sample.push(e.eval.synops_per_sample);
+                }
+                Some(q)
+            };
             rows.push(ArithmeticRow {
                 model: c.model.clone(),
                 chip,
@@ -347,6 +409,7 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                 spikes_per_sample: global.eval.spikes_per_sample,
                 float_spikes_per_sample: float.spikes_per_sample,
                 approximations: global.approximations,
+                qat,
             });
         }
     }
@@ -448,6 +511,42 @@ pub fn markdown(r: &ChipReport) -> String {
                 a.spikes_per_sample,
                 a.float_spikes_per_sample
             );
+        }
+        let tuned: Vec<&ArithmeticRow> = r.arithmetic.iter().filter(|a| a.qat.is_some()).collect();
+        if !tuned.is_empty() {
+            let _ = writeln!(s, "\n### After quantisation-aware fine-tuning\n");
+            let _ = writeln!(
+                s,
+                "Each model fine-tuned for the chip from its float weights (`braille train --chip`, docs/chips.md: the chip's decays and reset, every training step's forward pass in the chip's arithmetic with that step's weights quantised, straight-through gradients, checkpoints chosen on the chip's validation accuracy), one run per fine-tuning seed, scored once on the same test in the chip's arithmetic (global quantisation, as trained). The headline is the mean over the seeds; each seed's figure beside it. Float: the fine-tuned models on the float engine, whose neurons send one spike per step where the chip sends several.\n"
+            );
+            let _ = writeln!(
+                s,
+                "| model | chip | test | float (as trained) | plain quantisation (global) | quantisation-aware, mean of seeds | spread (min-max, points) | per seed | fine-tuned on the float engine | SynOps |"
+            );
+            let _ = writeln!(s, "|{}", " --- |".repeat(10));
+            for a in tuned {
+                let q = a.qat.as_ref().expect("filtered");
+                let pct = |v: &[f64]| v.iter().map(|x| format!("{:.2}%", 100.0 * x)).collect::<Vec<_>>().join(", ");
+                let (lo, hi) =
+                    q.chip.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+                let synops = q.synops_per_sample.iter().sum::<f64>() / q.synops_per_sample.len().max(1) as f64;
+                let _ = writeln!(
+                    s,
+                    "| `{}` | {} | {} | {:.2}% (n = {}) | {:.2}% | **{:.2}%** ({} seeds) | {:.2} | {} | {} | {:.0} |",
+                    a.model,
+                    a.chip,
+                    a.test,
+                    100.0 * a.float,
+                    a.n,
+                    100.0 * a.global,
+                    100.0 * q.chip_mean(),
+                    q.chip.len(),
+                    100.0 * (hi - lo),
+                    pct(&q.chip),
+                    pct(&q.float),
+                    synops
+                );
+            }
         }
         let _ = writeln!(s, "\nWhat each mapping changed:\n");
         for a in &r.arithmetic {

@@ -106,9 +106,27 @@ pub fn network_spec(r: &SnnRecipe, input_shape: &[usize], n_classes: usize) -> R
         bias: false,
         recurrent_bias: false,
     });
+    if let Some(chip) = r.chip {
+        for l in &mut layers {
+            l.neurons = l.neurons.map(|p| chip.neurons(p));
+        }
+    }
     let spec = NetworkSpec { input_shape: input_shape.to_vec(), layers };
     spec.shapes()?;
     Ok(spec)
+}
+
+/// Whether a model of network `model` fine-tunes into the recipe's `spec`: the same network, or
+/// for a chip ([`SnnRecipe::chip`]) the same layers and sizes (its neurons become the chip's).
+fn fine_tunes(model: &NetworkSpec, spec: &NetworkSpec, r: &SnnRecipe) -> bool {
+    if r.chip.is_none() {
+        return model == spec;
+    }
+    let shape = |s: &NetworkSpec| {
+        let layers: Vec<_> = s.layers.iter().map(|l| (l.op, l.neurons.map(|p| p.kind), l.recurrent, l.bias)).collect();
+        (s.input_shape.clone(), layers)
+    };
+    shape(model) == shape(spec)
 }
 
 /// What the data gave to train on.
@@ -221,14 +239,18 @@ pub fn train_tactile(
     eval_test: EvalTest,
     observer: &mut dyn Observer,
 ) -> Result<TrainedSnn> {
-    train_on(r, &TactileData::load(data_dir, r)?, eval_test, observer)
+    train_on(r, &TactileData::load(data_dir, r)?, eval_test, None, observer)
 }
 
-/// Trains the recipe on an encoded tactile dataset (its encoding must be the recipe's).
+/// Trains the recipe on an encoded tactile dataset (its encoding must be the recipe's). With
+/// `init`, training starts from that model's weights (fine-tuning): its layers and sizes must be
+/// the recipe's and its input this encoding; its neurons may differ (a float model fine-tuned
+/// for a chip takes the chip's decays and reset, [`SnnRecipe::chip`]).
 pub fn train_on(
     r: &SnnRecipe,
     data: &TactileData,
     eval_test: EvalTest,
+    init: Option<&Path>,
     observer: &mut dyn Observer,
 ) -> Result<TrainedSnn> {
     if data.encoding.dt_us != r.dt_us {
@@ -252,7 +274,25 @@ pub fn train_on(
         skipped_scans: None,
     };
     let spec = network_spec(r, &[data.encoding.n_inputs()], data.classes.len())?;
-    let fit = fit(r, spec, &train, &val, None, observer)?;
+    let start = match init {
+        Some(path) => {
+            let m = pipeline::models::load_snn(path)?;
+            let bad = |what: &str| Error::Model { path: path.to_path_buf(), what: what.to_string() };
+            if !fine_tunes(&m.config.network, &spec, r) {
+                return Err(bad(
+                    "its network (layers, sizes or neurons) is not the recipe's: fine-tuning keeps the network",
+                ));
+            }
+            let want =
+                serde_json::to_value(&data.encoding).map_err(|source| Error::Json { path: out_name(), source })?;
+            if m.preprocess != want || m.classes != data.classes || m.config.dt_us != r.dt_us {
+                return Err(bad("its input (encoding, classes or step) is not this data's by the recipe"));
+            }
+            Some(m.network.weights())
+        }
+        None => None,
+    };
+    let fit = fit(r, spec, &train, &val, start, observer)?;
     let scored = match eval_test {
         EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
         EvalTest::No => None,
@@ -265,6 +305,9 @@ pub fn train_on(
     }
     if let Some(v) = r.val_seed {
         extra["val_seed"] = v.into();
+    }
+    if let Some(p) = init {
+        extra["init"] = p.display().to_string().into();
     }
     let model = SnnModel {
         preprocess: serde_json::to_value(&data.encoding).map_err(|source| Error::Json { path: out_name(), source })?,
@@ -344,7 +387,7 @@ pub fn train_windows(
         Some(path) => {
             let m = pipeline::models::load_snn(path)?;
             let bad = |what: String| Error::Model { path: path.to_path_buf(), what };
-            if m.config.network != spec {
+            if !fine_tunes(&m.config.network, &spec, r) {
                 return Err(bad(
                     "its network (layers, sizes or neurons) is not the recipe's: fine-tuning keeps the network".into(),
                 ));

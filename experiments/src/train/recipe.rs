@@ -149,6 +149,14 @@ pub struct SnnRecipe {
     /// The sparse trainer's truncation: surrogate derivatives below this fraction of their peak
     /// count as zero (0: exact gradients).
     pub gradient_cutoff: f32,
+    /// Quantisation-aware training for this chip (none: the float network): the neurons take the
+    /// chip's decays and reset (Xylo: `1 - 2^-dash`, subtraction), and every training step's
+    /// forward pass runs in the chip's arithmetic (`learn::sparse::chip`), checkpoints chosen on
+    /// the chip's validation accuracy. The sparse trainer, no dropout.
+    pub chip: Option<snn::chip::Chip>,
+    /// The chip's weight quantiser in quantisation-aware training (as `braille eval --chip
+    /// --quantisation` maps the model).
+    pub chip_quantisation: snn::chip::xylo::Quantisation,
     /// A diagnostic, never recorded: the truncated gradient compared with the exact one over the
     /// first and the last epoch (`learn::train::TrainConfig::check_truncation`).
     #[serde(skip)]
@@ -221,6 +229,8 @@ impl Default for SnnRecipe {
             recurrent_init_gain: None,
             trainer: TrainerChoice::Sparse,
             gradient_cutoff: learn::sparse::DEFAULT_CUTOFF,
+            chip: None,
+            chip_quantisation: snn::chip::xylo::Quantisation::Global,
             check_truncation: false,
             epochs: 60,
             batch_size: 32,
@@ -420,6 +430,7 @@ impl SnnRecipe {
                 TrainerChoice::Dense => learn::train::Trainer::Dense,
             },
             gradient_cutoff: self.gradient_cutoff,
+            chip: self.chip.map(|chip| learn::sparse::chip::ChipTarget { chip, quantisation: self.chip_quantisation }),
             check_truncation: self.check_truncation,
             ..learn::train::TrainConfig::default()
         }

@@ -62,6 +62,14 @@ impl Chip {
             Chip::Xylo => xylo::FORMAT,
         }
     }
+
+    /// The neurons nearest `p` that the chip computes as they are: its decays, its reset (what
+    /// a network trained for the chip uses).
+    pub fn neurons(self, p: crate::neuron::NeuronParams) -> crate::neuron::NeuronParams {
+        match self {
+            Chip::Xylo => xylo::neurons(p),
+        }
+    }
 }
 
 impl std::fmt::Display for Chip {

@@ -154,6 +154,17 @@ pub struct Mapped {
     pub spec: XyloSpec,
     pub quantisation: Quantisation,
     pub approximations: Vec<Approximation>,
+    pub scales: StateScales,
+}
+
+/// Chip state units per unit of the float network's state, per neuron: the quantiser's scale
+/// times `2^weight_shift`. A chip membrane over its neuron's scale is the float membrane it
+/// stands for (a threshold too); quantisation-aware training reads the chip's states through
+/// them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StateScales {
+    pub hidden: Vec<f32>,
+    pub out: Vec<f32>,
 }
 
 fn cannot(layer: Option<usize>, what: impl Into<String>) -> Error {
@@ -176,6 +187,24 @@ pub fn dash_of(decay: f32) -> u8 {
 /// `1 - 2^-dash`: the decay a `dash` gives, for values far from zero.
 pub fn decay_of(dash: u8) -> f32 {
     1.0 - 0.5f32.powi(dash as i32)
+}
+
+/// `p` with Xylo's decays (`1 - 2^-dash`, [`dash_of`]) and, for spiking neurons, its reset by
+/// subtraction: a float network of these neurons leaks and resets as the chip does.
+pub fn neurons(p: NeuronParams) -> NeuronParams {
+    use crate::neuron::Reset;
+    let mut q = p;
+    if p.kind == NeuronKind::If {
+        return q;
+    }
+    q.beta = decay_of(dash_of(p.beta));
+    if p.kind == NeuronKind::CubaLif {
+        q.alpha = decay_of(dash_of(p.alpha));
+    }
+    if p.kind != NeuronKind::Li {
+        q.reset = Reset::Subtract;
+    }
+    q
 }
 
 /// One float layer ready for quantisation: weights in Xylo's `[pre][post]` layout, already
@@ -292,9 +321,9 @@ pub fn map_with(net: &Network, quantisation: Quantisation, threshold_bits: u8) -
     } else {
         XyloReadout::SpikeCount
     };
-    let spec = quantise(&layers, readout, quantisation, 1i32 << threshold_bits)?;
+    let (spec, scales) = quantise(&layers, readout, quantisation, 1i32 << threshold_bits)?;
     spec.validate()?;
-    Ok(Mapped { spec, quantisation, approximations })
+    Ok(Mapped { spec, quantisation, approximations, scales })
 }
 
 fn check_neurons(k: usize, p: &NeuronParams, last: bool) -> Result<()> {
@@ -320,7 +349,12 @@ fn round_i8(x: f32) -> i8 {
 }
 
 /// Rockpool's quantisers on the float layers, then the weight shift.
-fn quantise(layers: &[FloatLayer], readout: XyloReadout, q: Quantisation, ceiling: i32) -> Result<XyloSpec> {
+fn quantise(
+    layers: &[FloatLayer],
+    readout: XyloReadout,
+    q: Quantisation,
+    ceiling: i32,
+) -> Result<(XyloSpec, StateScales)> {
     let (hidden, out) = layers.split_at(layers.len() - 1);
     let out = &out[0];
     let n_in = hidden[0].n_in;
@@ -446,7 +480,11 @@ fn quantise(layers: &[FloatLayer], readout: XyloReadout, q: Quantisation, ceilin
     let int_th = |t: f32, shift: u8| -> i16 {
         if t.is_finite() { (t * (1u32 << shift) as f32).round().clamp(1.0, i16::MAX as f32) as i16 } else { i16::MAX }
     };
-    Ok(XyloSpec {
+    let scales = StateScales {
+        hidden: hidden_scale.iter().map(|s| s * (1u32 << shift_hidden) as f32).collect(),
+        out: out_scale.iter().map(|s| s * (1u32 << shift_out) as f32).collect(),
+    };
+    let spec = XyloSpec {
         n_in,
         n_hidden,
         n_out,
@@ -464,7 +502,8 @@ fn quantise(layers: &[FloatLayer], readout: XyloReadout, q: Quantisation, ceilin
         threshold_out: th_out.iter().map(|&t| int_th(t, shift_out)).collect(),
         readout,
         hidden_layers: starts,
-    })
+    };
+    Ok((spec, scales))
 }
 
 /// XyloSim's `decay`: `x >> dash`, or one unit towards zero if that is zero.
