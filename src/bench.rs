@@ -2,7 +2,7 @@
 //! (`experiments::bench::engine`), or a BPTT training step of that network on burn; with `--model`, any
 //! model file or NIR graph on any events (`experiments::bench::models`).
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use experiments::bench::models::{self as model_bench, BenchInput, NirReading};
 use experiments::eval::tactile::SplitChoice;
 use snn::engine::Mode;
@@ -64,6 +64,16 @@ pub struct Args {
     /// How a NIR graph's neurons reset (NIR's own: to v_reset).
     #[arg(long, value_enum, default_value = "to-v-reset")]
     reset: ImportReset,
+    /// --model: run it in a chip's arithmetic (docs/chips.md), every step timed, beside the float
+    /// engine on the same input in the same run (time per sample of both, and their ratio).
+    #[arg(long, requires = "model")]
+    chip: Option<snn::chip::Chip>,
+    /// --chip: how float weights become the chip's integers (Rockpool's quantisers).
+    #[arg(long, value_enum, default_value = "global", requires = "chip")]
+    quantisation: snn::chip::xylo::Quantisation,
+    /// --chip: every neuron every step, or only neurons with a state or an input.
+    #[arg(long, value_enum, default_value = "event-driven", requires = "chip")]
+    chip_run: snn::chip::xylo::Run,
     /// Time the words of a live sensor instead: SIMULATED rows of the EV board (`nominal`, a test
     /// sensor build) served over TCP at the recorded pace, read by each architecture's shipped
     /// reader; the latency from a word's last detection arriving to the word printed (p50, p99).
@@ -102,6 +112,19 @@ fn model(args: &Args, path: &std::path::Path) -> Result<()> {
         },
         (None, None) => BenchInput::Random { samples: args.samples },
     };
+    if let Some(chip) = args.chip {
+        if args.mode != Mode::Stepped || args.streams != 1 {
+            bail!("--chip runs one stream beside the float engine in stepped mode (no --mode async, no --streams)");
+        }
+        let choice = experiments::eval::chip::ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
+        let r = experiments::bench::chip::run(&net, &path.display().to_string(), &input, choice)?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            print!("{r}");
+        }
+        return Ok(());
+    }
     let r = model_bench::run(&net, &path.display().to_string(), &input, args.mode, args.streams)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

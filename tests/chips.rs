@@ -201,6 +201,21 @@ fn eval_runs_the_xylo_model_in_xylos_arithmetic_stepped_and_event_driven_alike()
     // --trace without --chip is refused by the parser
     let err = failed(&braille(&["eval", "--data", s(&data), "--model", s(&model), "--trace", "x.json"]));
     assert!(err.contains("--chip"), "{err}");
+    // bench --chip: the same samples binned into the chip's steps by itself, the same score and work
+    let (out, _) = ok(&braille(&["bench", "--model", s(&model), "--data", s(&data), "--chip", "xylo", "--json"]));
+    let bench: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for key in ["accuracy", "synops_per_sample", "neuron_updates_per_sample"] {
+        assert_eq!(bench[key], b[key], "{key}");
+    }
+    assert_eq!(bench["samples"], 70);
+    // beside it, the float engine on the same input, and the ratio of their times
+    assert_eq!(bench["float"]["samples"], 70);
+    assert!(bench["float"]["accuracy"].as_f64() > bench["accuracy"].as_f64());
+    assert!(bench["time_ratio"].as_f64().is_some_and(|r| r > 0.0));
+    // a network beyond the chip's sizes is named with the rule
+    let raw1350 = root("models/icub/snn-raw1350.safetensors");
+    let err = failed(&braille(&["bench", "--model", s(&raw1350), "--chip", "xylo"]));
+    assert!(err.contains("snn-raw1350.safetensors") && err.contains("at most 16 input channels"), "{err}");
 }
 
 #[test]

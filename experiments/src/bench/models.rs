@@ -37,20 +37,20 @@ pub enum BenchInput {
 }
 
 /// One sample: input events `(t_us, input)` in time order, when it ends, and its label.
-struct Sample {
-    events: Vec<(i64, u32)>,
-    end_us: i64,
-    label: Option<usize>,
+pub(crate) struct Sample {
+    pub(crate) events: Vec<(i64, u32)>,
+    pub(crate) end_us: i64,
+    pub(crate) label: Option<usize>,
 }
 
 /// The input as the streams read it.
-enum Feed {
+pub(crate) enum Feed {
     Samples(Vec<Sample>),
     File { path: PathBuf, map: InputMap, time_scale: f64 },
 }
 
 /// Chunks of the file's events mapped to inputs, handed to `visit` one chunk at a time.
-fn for_each_file_chunk(
+pub(crate) fn for_each_file_chunk(
     path: &Path,
     map: &InputMap,
     time_scale: f64,
@@ -83,7 +83,7 @@ pub struct Latency {
     pub mean_ns: f64,
 }
 
-fn latency_of(h: &Histogram<u64>) -> Latency {
+pub(crate) fn latency_of(h: &Histogram<u64>) -> Latency {
     let q = |q: f64| h.value_at_quantile(q) as f64;
     Latency {
         events: h.len(),
@@ -95,7 +95,7 @@ fn latency_of(h: &Histogram<u64>) -> Latency {
     }
 }
 
-fn new_histogram() -> Histogram<u64> {
+pub(crate) fn new_histogram() -> Histogram<u64> {
     Histogram::new_with_bounds(1, 60_000_000_000, 3).expect("valid bounds")
 }
 
@@ -177,6 +177,14 @@ fn pass(engine: &Engine, st: &mut EngineState, feed: &Feed, readout: Readout, pe
     Ok(out)
 }
 
+/// The share of readouts whose highest output is the label, when every readout has one.
+pub(crate) fn accuracy_of(readouts: &[(Vec<f32>, Option<usize>)]) -> Option<f64> {
+    let labelled: Vec<(usize, usize)> =
+        readouts.iter().filter_map(|(r, l)| l.map(|l| (crate::eval::scoring::argmax(r.iter().copied()), l))).collect();
+    (!labelled.is_empty() && labelled.len() == readouts.len())
+        .then(|| labelled.iter().filter(|(p, l)| p == l).count() as f64 / labelled.len() as f64)
+}
+
 /// The engine's work and speed with `streams` streams at once, one per thread.
 #[derive(Debug, Clone, Serialize)]
 pub struct StreamsRow {
@@ -241,7 +249,7 @@ fn clock_overhead_ns() -> f64 {
 }
 
 /// Reads the input into what the streams replay (an event file stays on disk).
-fn feed(net: &LoadedNetwork, input: &BenchInput) -> Result<(Feed, String)> {
+pub(crate) fn feed(net: &LoadedNetwork, input: &BenchInput) -> Result<(Feed, String)> {
     Ok(match input {
         BenchInput::Events { path, time_scale } => {
             if !(time_scale.is_finite() && *time_scale > 0.0) {
@@ -354,13 +362,7 @@ pub fn run(net: &LoadedNetwork, model: &str, input: &BenchInput, mode: Mode, str
     // warm up, and the work and readouts (identical in every pass)
     let warm = pass(&engine, &mut st, &feed, net.readout, false)?;
     let n = warm.readouts.len().max(1) as f64;
-    let labelled: Vec<(usize, usize)> = warm
-        .readouts
-        .iter()
-        .filter_map(|(r, l)| l.map(|l| (crate::eval::scoring::argmax(r.iter().copied()), l)))
-        .collect();
-    let accuracy = (!labelled.is_empty() && labelled.len() == warm.readouts.len())
-        .then(|| labelled.iter().filter(|(p, l)| p == l).count() as f64 / labelled.len() as f64);
+    let accuracy = accuracy_of(&warm.readouts);
     let synops_per_sample = warm.synops as f64 / n;
     let mut scaling = Vec::new();
     for k in 1..=streams.max(1) {

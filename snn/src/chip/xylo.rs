@@ -576,6 +576,16 @@ impl XyloSpec {
         if let Some((name, got, want)) = lens.iter().find(|(_, g, w)| g != w) {
             return Err(cannot(None, format!("`{name}` has {got} values, the sizes need {want}")));
         }
+        use crate::nir::{XYLO_MAX_HIDDEN, XYLO_MAX_INPUTS, XYLO_MAX_OUTPUTS};
+        for (what, n, max) in [
+            ("input channels", i, XYLO_MAX_INPUTS),
+            ("hidden neurons", h, XYLO_MAX_HIDDEN),
+            ("output neurons", o, XYLO_MAX_OUTPUTS),
+        ] {
+            if n > max {
+                return Err(cannot(None, format!("Xylo has at most {max} {what}, the network {n}")));
+            }
+        }
         if let Some(d) = self
             .dash_mem
             .iter()
@@ -1082,6 +1092,11 @@ mod tests {
         }
         let e = map(&net, Quantisation::Global).unwrap_err().to_string();
         assert!(e.contains("layer 1") && e.contains("bias"), "{e}");
+        // beyond the chip's sizes: 24 inputs, 9 outputs
+        let e = map(&random_net(1, 24, &[8], 2, false), Quantisation::Global).unwrap_err().to_string();
+        assert!(e.contains("at most 16 input channels, the network 24"), "{e}");
+        let e = map(&random_net(1, 4, &[8], 9, false), Quantisation::Channel).unwrap_err().to_string();
+        assert!(e.contains("at most 8 output neurons"), "{e}");
     }
 
     #[test]
