@@ -38,6 +38,17 @@ if [[ "${1:-}" == "--three-seeds" ]]; then
     --out models/search/th10-3seeds.safetensors --search-dir docs/results/search/th10-3seeds --quiet --force
   exit 0
 fi
+if [[ "${1:-}" == "--twins" ]]; then
+  # The exportable twins by the search (#50): the same search with neurons that reset to zero
+  # (NIR's reset) as a fixed part of the space; 2026-11-28, two cores. th10's first run shared the
+  # cores with raw1350's search and a CI run and fitted one trial in its budget
+  # (docs/results/search/th10-zero-contended); it was run again alone with a 50-minute budget.
+  $b train --data data/icub_braille/raw1350 --reset zero --search --search-trials 16 --seeds 3 --budget-min 60 --eval-test \
+    --out models/search/raw1350-zero.safetensors --search-dir docs/results/search/raw1350-zero --quiet --force
+  $b train --data data/icub_braille/th10 --reset zero --search --search-trials 16 --seeds 3 --budget-min 50 --eval-test \
+    --out models/search/th10-zero.safetensors --search-dir docs/results/search/th10-zero --quiet --force
+  exit 0
+fi
 if [[ "${1:-}" == "--defaults" ]]; then
   $b train --data data/icub_braille/raw1350 --search --search-trials 16 --seeds 3 --eval-test \
     --out models/search/raw1350-warmup.safetensors --search-dir docs/results/search/raw1350-warmup --quiet --force
