@@ -51,7 +51,9 @@ print("simulation of character windows not included): the iCub runs were run two
 print("(`RAYON_NUM_THREADS=1`, other jobs beside them), the character runs on two cores, so times are a guide; the")
 print("controlled speed figure is `braille bench --train`. Memory is the training process's peak RSS. The truncated")
 print("runs of 2026-11-26 also computed the exact gradient on their first and last epoch (below), and ran beside other")
-print("jobs, so their times are longer than the trainer's own; the accuracies equal those of the runs without the check.\n")
+print("jobs, so their times are longer than the trainer's own; the accuracies equal those of the runs without the check.")
+print("th10's exact seeds 2 and 3 ran on 2026-11-28 (the binary of commit daa7293, each on one core, the first 20")
+print("minutes beside other jobs); every other run on 2026-11-26.\n")
 print("| data | trainer | test accuracy, seeds 1 / 2 / 3 | mean | s per epoch | training s | peak RSS MB |")
 print("| --- | --- | --- | --- | --- | --- | --- |")
 cosines = []

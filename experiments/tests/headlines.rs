@@ -103,3 +103,50 @@ fn table_ones_row_reads_its_first_rab_scans_again() {
     let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
     assert!(readme.contains(&quoted), "the README quotes Table I's row as the report gives it: {quoted}");
 }
+
+/// Golden test of the README's Xylo row (REAL): the shipped Xylo model and its three
+/// quantisation-aware fine-tunings, run again on raw1350's test split in Xylo's arithmetic (as
+/// `braille chip-report` runs them), give every figure the committed report records
+/// (docs/results/chips.json: float, both plain quantisers, each fine-tuning seed on the chip and
+/// on the float engine), and the README quotes the plain figures and the seeds' mean.
+#[test]
+fn xylos_row_runs_its_models_again_in_the_chips_arithmetic() {
+    use experiments::eval::chip::{ChipChoice, eval_split_chip};
+    use snn::chip::Chip;
+    use snn::chip::xylo::{Quantisation, Run};
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root().join("docs/results/chips.json")).unwrap()).unwrap();
+    let row = report["arithmetic"].as_array().unwrap().iter().find(|r| r["chip"] == "xylo").unwrap();
+    let data = root().join("data/icub_braille/raw1350");
+    let on_chip = |model: &Path, quantisation| {
+        let choice = ChipChoice { chip: Chip::Xylo, quantisation, run: Run::EventDriven };
+        eval_split_chip(model, &data, SplitChoice::Test, choice, false, &()).unwrap().0.eval.accuracy
+    };
+    let float = |model: &Path| eval_split(model, &data, SplitChoice::Test, Mode::Stepped).unwrap().0.accuracy;
+    let same = |got: f64, committed: &serde_json::Value, what: &str| {
+        let committed = committed.as_f64().unwrap();
+        assert!((got - committed).abs() < 1e-12, "{what}: {got} run again, {committed} committed");
+    };
+    let base = root().join(row["model"].as_str().unwrap());
+    same(float(&base), &row["float"], "float");
+    same(on_chip(&base, Quantisation::Global), &row["global"], "Xylo, global quantiser");
+    same(on_chip(&base, Quantisation::Channel), &row["channel"], "Xylo, per-channel quantiser");
+    let qat = &row["qat"];
+    let models = qat["models"].as_array().unwrap();
+    assert_eq!(models.len(), 3, "three fine-tuning seeds");
+    let mut sum = 0.0;
+    for (k, m) in models.iter().enumerate() {
+        let model = root().join(m.as_str().unwrap());
+        let chip = on_chip(&model, Quantisation::Global);
+        same(chip, &qat["chip"][k], &format!("{}: on the chip", model.display()));
+        same(float(&model), &qat["float"][k], &format!("{}: on the float engine", model.display()));
+        sum += chip;
+    }
+    let pct = |x: f64| format!("{:.2}%", 100.0 * x);
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let plain =
+        format!("{} / {} of 70 plain", pct(row["global"].as_f64().unwrap()), pct(row["channel"].as_f64().unwrap()));
+    assert!(readme.contains(&plain), "the README quotes the plain quantisers: {plain}");
+    let mean = format!("**{}** fine-tuned", pct(sum / 3.0));
+    assert!(readme.contains(&mean), "the README quotes the fine-tuning seeds' mean: {mean}");
+}

@@ -9,7 +9,7 @@ use pipeline::network::{self as model_bench, InputMap, LoadedNetwork, ModelSourc
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use snn::chip::Chip;
-use snn::chip::xylo::{self, Quantisation, Run, Xylo, XyloReadout};
+use snn::chip::xylo::{self, Quantisation, Run, Xylo};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::Readout;
 use snn::nir::{self, Convention, ExportOptions, ImportReset, SubtractExport, Target};
@@ -124,10 +124,7 @@ impl Network {
         let Chip::Xylo = chip;
         let mut mapped =
             xylo::map(&self.net.network, q).map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?;
-        mapped.spec.readout = match self.net.readout {
-            Readout::MaxMembrane => XyloReadout::MaxMembrane,
-            Readout::SpikeCount => XyloReadout::SpikeCount,
-        };
+        mapped.spec.readout = self.net.readout.into();
         let x = Arc::new(mapped.spec.compile().map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?);
         chips.push(((chip, q), x.clone()));
         Ok(x)

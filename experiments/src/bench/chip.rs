@@ -12,9 +12,8 @@ use crate::eval::chip::ChipChoice;
 use pipeline::network::LoadedNetwork;
 use serde::Serialize;
 use snn::chip::Chip;
-use snn::chip::xylo::{self, Xylo, XyloReadout, XyloState};
+use snn::chip::xylo::{self, Xylo, XyloState};
 use snn::engine::Mode;
-use snn::model_file::Readout;
 use std::time::Instant;
 
 /// What `braille bench --model M --chip C` measures.
@@ -194,10 +193,7 @@ pub fn run(net: &LoadedNetwork, model: &str, input: &BenchInput, choice: ChipCho
     let Chip::Xylo = choice.chip;
     let wrap = |source: snn::Error| Error::Engine { what: model.to_string(), source, hint: "" };
     let mut mapped = xylo::map(&net.network, choice.quantisation).map_err(wrap)?;
-    mapped.spec.readout = match net.readout {
-        Readout::MaxMembrane => XyloReadout::MaxMembrane,
-        Readout::SpikeCount => XyloReadout::SpikeCount,
-    };
+    mapped.spec.readout = net.readout.into();
     let chip = mapped.spec.clone().compile().map_err(wrap)?;
     let (feed, what) = feed(net, input)?;
     // warm up, and the work and readouts (identical in every pass)

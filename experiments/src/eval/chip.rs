@@ -58,10 +58,7 @@ fn map_model(model: &snn::model_file::SnnModel, path: &Path, quantisation: Quant
         source,
         hint: "",
     })?;
-    mapped.spec.readout = match model.config.readout {
-        snn::model_file::Readout::MaxMembrane => xylo::XyloReadout::MaxMembrane,
-        snn::model_file::Readout::SpikeCount => xylo::XyloReadout::SpikeCount,
-    };
+    mapped.spec.readout = model.config.readout.into();
     Ok(mapped)
 }
 

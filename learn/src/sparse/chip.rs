@@ -23,7 +23,7 @@
 use super::{LayerTape, Params, SampleOutput, SparseSnn, StepEvents};
 use serde::{Deserialize, Serialize};
 use snn::chip::Chip;
-use snn::chip::xylo::{self, Quantisation, Run, StateScales, Xylo, XyloReadout};
+use snn::chip::xylo::{self, Quantisation, Run, StateScales, Xylo};
 use snn::model_file::Readout;
 
 /// What quantisation-aware training trains for: a chip and its quantiser.
@@ -53,10 +53,7 @@ impl SparseSnn {
         let Chip::Xylo = target.chip;
         let net = self.spec.build(self.weights(params)?)?;
         let mut mapped = xylo::map(&net, target.quantisation)?;
-        mapped.spec.readout = match self.readout {
-            Readout::MaxMembrane => XyloReadout::MaxMembrane,
-            Readout::SpikeCount => XyloReadout::SpikeCount,
-        };
+        mapped.spec.readout = self.readout.into();
         Ok(ChipForward { xylo: mapped.spec.compile()?, scales: mapped.scales })
     }
 

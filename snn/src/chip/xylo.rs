@@ -87,6 +87,16 @@ pub enum XyloReadout {
     SpikeCount,
 }
 
+impl From<crate::model_file::Readout> for XyloReadout {
+    /// The chip reads out as the model file says.
+    fn from(r: crate::model_file::Readout) -> Self {
+        match r {
+            crate::model_file::Readout::MaxMembrane => XyloReadout::MaxMembrane,
+            crate::model_file::Readout::SpikeCount => XyloReadout::SpikeCount,
+        }
+    }
+}
+
 /// Something of the float network Xylo cannot hold as it is, and what the mapping made of it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub enum Approximation {
