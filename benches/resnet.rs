@@ -1,6 +1,7 @@
 //! The ResNet baseline (lite preset, the shipped model's shape: 20 frames x ON/OFF x 64x80):
-//! window inference at batch 1, and training throughput (windows per second: forward, backward
-//! and Adam at batch 32, with the NormAug-free input), on burn's CPU `flex` backend.
+//! window inference at batch 1 on burn's CPU `flex` backend and on the folded path the reader
+//! runs (`learn::resnet::folded`), and training throughput (windows per second: forward,
+//! backward and Adam at batch 32, with the NormAug-free input) on burn.
 
 use burn::tensor::Device;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -35,6 +36,10 @@ fn inference(c: &mut Criterion) {
     group.throughput(Throughput::Elements(1));
     group.bench_function("lite_window_inference_batch1", |b| {
         b.iter(|| black_box(learn::resnet::evaluate(&model, &one, 1).1))
+    });
+    let folded = learn::resnet::folded::FoldedResnet::from_model(&cfg, &model).expect("folds");
+    group.bench_function("lite_window_inference_batch1_folded", |b| {
+        b.iter(|| black_box(folded.logits(&one.data[0]).expect("runs")))
     });
     group.finish();
 }

@@ -88,6 +88,17 @@ pub struct Args {
     /// --live: the indentation depth, mm.
     #[arg(long, default_value_t = 1.0, requires = "live")]
     live_depth: f64,
+    /// --model with a ResNet: threads of the batch --batch measurement (the first is batch 1 on
+    /// one thread) [default: every core].
+    #[arg(long, requires = "model")]
+    threads: Option<usize>,
+    /// --model with a ResNet: cut the windows from one trial of this board's rows (SIMULATED,
+    /// `nominal`, a test sensor build, 8 mm/s, 1.5 mm) instead of --samples random ones.
+    #[arg(long, requires = "model", value_parser = corpus::boards::parse_board)]
+    board: Option<sim::BoardKind>,
+    /// --model with a ResNet, random windows: the share of non-zero cells.
+    #[arg(long, default_value_t = 0.02, requires = "model")]
+    density: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -98,6 +109,11 @@ pub enum BenchSplit {
 }
 
 fn model(args: &Args, path: &std::path::Path) -> Result<()> {
+    // a ResNet model file is timed on windows; anything else (an SNN file, a NIR graph) on events,
+    // whose loader names what is wrong with the file
+    if let Ok(pipeline::models::Model::Resnet(m)) = pipeline::models::load(path) {
+        return resnet(args, path, &m);
+    }
     let net = model_bench::load_network(path, NirReading { dt_us: args.dt_us, reset: args.reset })?;
     let input = match (&args.events, &args.data) {
         (Some(e), _) => BenchInput::Events { path: e.clone(), time_scale: args.time_scale },
@@ -196,6 +212,34 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
     let r = experiments::bench::engine::engine(args.samples, args.repeats)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print!("{r}");
+    }
+    Ok(())
+}
+
+/// `--model` with a ResNet model file: our folded path and burn's on the same windows.
+fn resnet(args: &Args, path: &std::path::Path, m: &pipeline::models::ResnetModel) -> Result<()> {
+    use experiments::bench::resnet::{ResnetBenchSpec, Windows};
+    if args.events.is_some() || args.data.is_some() || args.chip.is_some() || args.streams != 1 {
+        bail!("a ResNet is timed on windows (random, or --board's): no --events, --data, --chip or --streams");
+    }
+    if !(0.0..=1.0).contains(&args.density) {
+        bail!("--density {}: a share of cells, 0 to 1", args.density);
+    }
+    let windows = match &args.board {
+        Some(board) => Windows::Board { board: board.clone(), realism: sim::Realism::Nominal },
+        None => Windows::Random { count: args.samples as usize, density: args.density, seed: 1 },
+    };
+    let spec = ResnetBenchSpec {
+        windows,
+        batch: args.batch,
+        threads: args.threads.unwrap_or_else(rayon::current_num_threads),
+        repeats: args.repeats,
+    };
+    let r = experiments::bench::resnet::run(m, &path.display().to_string(), &spec, &crate::common::Bar::default())?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {

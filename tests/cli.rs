@@ -787,3 +787,61 @@ fn writing_to_a_closed_pipe_ends_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?} {err}", out.status);
 }
+
+/// `bench --model` with a ResNet model file: both paths timed at batch 1 on one thread and at
+/// the batch asked, on the windows asked, and the folded path's logits equal burn's; the
+/// options of an event stream are refused.
+#[test]
+fn bench_times_a_resnet_on_windows_beside_burn() {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/nominal/resnet-tiny-segment.safetensors");
+    let model = model.to_str().unwrap();
+    let o = braille(&[
+        "bench",
+        "--model",
+        model,
+        "--samples",
+        "5",
+        "--density",
+        "0.5",
+        "--batch",
+        "3",
+        "--threads",
+        "2",
+        "--repeats",
+        "1",
+        "--json",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(r["input"], serde_json::json!([40, 32, 40]));
+    assert_eq!(r["windows"], 5);
+    // every window a draw at 0.5: about half of 5 x 51,200 cells
+    assert!((r["density"].as_f64().unwrap() - 0.5).abs() < 0.01, "{r}");
+    // the tiny preset's MACs, counted by hand in learn's `macs` test and by this formula:
+    // stem 8x16x20 outputs x 40x7x7 + two 3x3 convs of 8 at 8x10 + 16 at 4x5 (two, and the
+    // projection) + fully connected 16x16 + 16x2
+    let macs = 8 * 16 * 20 * 40 * 49
+        + 2 * (8 * 8 * 10 * 8 * 9)
+        + 16 * 4 * 5 * 8 * 9
+        + 16 * 4 * 5 * 16 * 9
+        + 16 * 4 * 5 * 8
+        + 16 * 16
+        + 16 * 2;
+    assert_eq!(r["macs_per_window"], macs);
+    let rows = r["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!((rows[0]["batch"].as_u64(), rows[0]["threads"].as_u64()), (Some(1), Some(1)));
+    assert_eq!((rows[1]["batch"].as_u64(), rows[1]["threads"].as_u64()), (Some(3), Some(2)));
+    for row in rows {
+        for path in ["folded", "burn"] {
+            let ms = row[path]["ms_per_window"].as_f64().unwrap();
+            let per_s = row[path]["windows_per_s"].as_f64().unwrap();
+            assert!((ms * per_s - 1e3).abs() < 1e-6 * per_s * ms, "{row}");
+        }
+    }
+    assert!(r["max_rel_logit_difference"].as_f64().unwrap() < 1e-5, "{r}");
+    let o = braille(&["bench", "--model", model, "--events", "x.aedat4"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("ResNet is timed on windows"), "{err}");
+}

@@ -4,6 +4,8 @@
 //! ReLU and dropout. `paper` is ResNet-34's stages (3, 4, 6, 3 blocks of 64 to 512 channels);
 //! `lite` is narrower and shallower for two CPU cores.
 
+pub mod folded;
+
 use crate::error::{Error, Result};
 use burn::module::Module;
 use burn::nn::conv::{Conv2d, Conv2dConfig};

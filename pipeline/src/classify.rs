@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::input::CharInput;
 use crate::models::Model;
 use crate::reader::{Window, WindowClassifier};
-use learn::resnet::Resnet;
+use learn::resnet::folded::FoldedResnet;
 use serde::{Deserialize, Serialize};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::{Readout, SnnModel};
@@ -43,7 +43,7 @@ struct BinCache {
 /// What a loaded model runs: shared by every stream (nothing here changes while reading).
 #[allow(clippy::large_enum_variant)] // one per model: the size does not matter
 enum Runner {
-    Resnet { model: Resnet, input: CharInput },
+    Resnet { model: FoldedResnet, input: CharInput },
     Engine { model: SnnModel, input: CharInput, engine: Engine },
     Sliding { model: SnnModel, input: CharInput, net: Sliding },
 }
@@ -146,8 +146,9 @@ impl Histogram {
 }
 
 impl WindowModel {
-    /// A ResNet (in evaluation mode) whose input is made as `input` says.
-    pub fn resnet(model: Resnet, input: CharInput, classes: Vec<String>) -> WindowModel {
+    /// A ResNet, folded for inference ([`learn::resnet::folded`]), whose input is made as `input`
+    /// says.
+    pub fn resnet(model: FoldedResnet, input: CharInput, classes: Vec<String>) -> WindowModel {
         WindowModel { runner: Runner::Resnet { model, input }, classes, operating_point: None }
     }
 
@@ -182,7 +183,10 @@ impl WindowModel {
             None => None,
         };
         let m = match model {
-            Model::Resnet(m) => WindowModel::resnet(m.model, m.input, m.classes),
+            Model::Resnet(m) => {
+                let folded = FoldedResnet::from_model(&m.config, &m.model).map_err(|e| bad(e.to_string()))?;
+                WindowModel::resnet(folded, m.input, m.classes)
+            }
             Model::Snn(m) => WindowModel::snn(m, input, runner).map_err(|e| bad(e.to_string()))?,
         };
         Ok(m.with_operating_point(operating_point))
@@ -348,7 +352,7 @@ impl WindowClassifier for WindowModel {
             (Runner::Resnet { model, input }, _) => {
                 let image = input.crop_window(w)?;
                 let x = input.prepare(&image, None);
-                learn::resnet::probabilities(model, input.shape(), &[&x]).remove(0)
+                model.probabilities(&[&x])?.remove(0)
             }
             (Runner::Engine { model, input, engine }, StateKind::Engine(state)) => {
                 let image = input.crop_window(w)?;

@@ -1,0 +1,614 @@
+//! The ResNet for inference without burn: batch norm folded into the convolutions at load time,
+//! every convolution one matrix product (im2col, then `gemm`, the crate burn's CPU backend calls),
+//! ReLU and the residual sums fused into the products' output, scratch buffers reused across
+//! calls. The same logits as [`super::Resnet::forward`] in evaluation mode (tested to 1e-5).
+//!
+//! One image runs on the calling thread; [`FoldedResnet::logits_batch`] spreads a batch's images
+//! over rayon's threads.
+
+use super::ResnetConfig;
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+use snn::model_file::NamedTensor;
+use std::cell::RefCell;
+
+/// burn's `BatchNormConfig` default, which every model here was trained with.
+const BN_EPSILON: f32 = 1e-5;
+
+/// A convolution with its batch norm folded in: `weight` is `[c_out][c_in * k * k]`.
+#[derive(Debug, Clone)]
+struct Conv {
+    c_in: usize,
+    c_out: usize,
+    k: usize,
+    stride: usize,
+    pad: usize,
+    weight: Vec<f32>,
+    /// The same weights as `[c_in][k][k][c_out]`: one input's contribution to every output
+    /// channel is contiguous, for inputs scattered one by one ([`Conv::forward`] on sparse input).
+    weight_by_input: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+/// Below this share of non-zero inputs a convolution scatters each non-zero input into the
+/// outputs it reaches instead of one dense matrix product: the stem's input, a window's heat map,
+/// has 2-4% of its cells non-zero, so the scatter does 25-50x fewer multiply-adds. Set where the
+/// two measured about equal on the lite shape, each path forced (2026-11-28, one core: the scatter
+/// 6.1 / 11.3 / 14.7 ms a window against the product's 9.2 / 12.0 / 13.3 ms at 10 / 20 / 30% of
+/// the cells non-zero).
+pub const SPARSE_BELOW: f64 = 0.2;
+
+/// The most floats of im2col columns made at once (1 MiB; on 2026-11-28's 2-core EPYC the tiny
+/// preset's dense stem ran in 1.6 ms a window with it against 2.1 ms with 256 KiB, the lite
+/// preset's alike within the machine's noise).
+const COL_TILE_FLOATS: usize = 256 * 1024;
+
+/// The output height or width of a convolution or pooling.
+fn out_len(n: usize, k: usize, stride: usize, pad: usize) -> usize {
+    (n + 2 * pad - k) / stride + 1
+}
+
+impl Conv {
+    /// `conv` (`[c_out, c_in, k, k]`) followed by batch norm `bn` (evaluation mode).
+    fn fold(tensors: &Tensors, conv: &str, bn: &str, stride: usize, pad: usize) -> Result<Conv> {
+        let w = tensors.get(&format!("{conv}.weight"))?;
+        let [c_out, c_in, k, k2] = w.shape[..] else {
+            return Err(tensors.error(&format!("{conv}.weight"), format!("shape {:?}, not 4-D", w.shape)));
+        };
+        if k != k2 {
+            return Err(tensors.error(&format!("{conv}.weight"), format!("kernel {k}x{k2}, not square")));
+        }
+        let per = |name: &str| -> Result<&[f32]> {
+            let t = tensors.get(&format!("{bn}.{name}"))?;
+            if t.data.len() != c_out {
+                return Err(
+                    tensors.error(&format!("{bn}.{name}"), format!("{} values for {c_out} channels", t.data.len()))
+                );
+            }
+            Ok(&t.data)
+        };
+        let (gamma, beta, mean, var) = (per("gamma")?, per("beta")?, per("running_mean")?, per("running_var")?);
+        let fan = c_in * k * k;
+        let mut weight = w.data.clone();
+        let mut bias = vec![0.0; c_out];
+        for o in 0..c_out {
+            let scale = gamma[o] / (var[o] + BN_EPSILON).sqrt();
+            weight[o * fan..(o + 1) * fan].iter_mut().for_each(|v| *v *= scale);
+            bias[o] = beta[o] - mean[o] * scale;
+        }
+        let mut weight_by_input = vec![0.0; weight.len()];
+        for o in 0..c_out {
+            for (j, v) in weight[o * fan..(o + 1) * fan].iter().enumerate() {
+                weight_by_input[j * c_out + o] = *v;
+            }
+        }
+        Ok(Conv { c_in, c_out, k, stride, pad, weight, weight_by_input, bias })
+    }
+
+    /// As [`Conv::forward`] without residual, for a sparse input given as its non-zero cells
+    /// `nz` (of `[c_in, h, w]`): each added into every output it reaches (accumulated as
+    /// `[oy][ox][c_out]` in `col`, then laid out as `[c_out][oy][ox]` in `out`).
+    fn forward_scatter(
+        &self,
+        nz: &[(u32, f32)],
+        (h, w): (usize, usize),
+        out: &mut Vec<f32>,
+        col: &mut Vec<f32>,
+        relu: bool,
+    ) -> (usize, usize) {
+        let (k, s, p, co) = (self.k, self.stride, self.pad, self.c_out);
+        let (oh, ow) = (out_len(h, k, s, p), out_len(w, k, s, p));
+        col.clear();
+        for _ in 0..oh * ow {
+            col.extend_from_slice(&self.bias);
+        }
+        for &(i, v) in nz {
+            let i = i as usize;
+            let (c, rest) = (i / (h * w), i % (h * w));
+            let (iy, ix) = (rest / w + p, rest % w + p);
+            // outputs oy with oy * s + ky = iy (+ p), ky < k
+            for ky in (iy % s..k.min(iy + 1)).step_by(s) {
+                let oy = (iy - ky) / s;
+                if oy >= oh {
+                    continue;
+                }
+                for kx in (ix % s..k.min(ix + 1)).step_by(s) {
+                    let ox = (ix - kx) / s;
+                    if ox >= ow {
+                        continue;
+                    }
+                    let wrow = &self.weight_by_input[((c * k + ky) * k + kx) * co..][..co];
+                    axpy(v, wrow, &mut col[(oy * ow + ox) * co..][..co]);
+                }
+            }
+        }
+        out.clear();
+        out.resize(co * oh * ow, 0.0);
+        for (pos, acc) in col.chunks_exact(co).enumerate() {
+            for (o, v) in acc.iter().enumerate() {
+                out[o * oh * ow + pos] = if relu { v.max(0.0) } else { *v };
+            }
+        }
+        (oh, ow)
+    }
+
+    /// `x` (`[c_in, h, w]`) convolved into `out` (`[c_out, oh, ow]`), plus `residual` when given,
+    /// then ReLU when `relu`; `col` and `nz` are scratch. Returns `(oh, ow)`.
+    #[allow(clippy::too_many_arguments)]
+    fn forward(
+        &self,
+        x: &[f32],
+        (h, w): (usize, usize),
+        out: &mut Vec<f32>,
+        (col, nz): (&mut Vec<f32>, &mut Vec<(u32, f32)>),
+        residual: Option<&[f32]>,
+        relu: bool,
+    ) -> (usize, usize) {
+        if residual.is_none() && self.k > 1 {
+            let len = self.c_in * h * w;
+            if nonzeros(&x[..len], (SPARSE_BELOW * len as f64) as usize, nz) {
+                return self.forward_scatter(nz, (h, w), out, col, relu);
+            }
+        }
+        let (oh, ow) = (out_len(h, self.k, self.stride, self.pad), out_len(w, self.k, self.stride, self.pad));
+        let n = oh * ow;
+        let kk = self.c_in * self.k * self.k;
+        out.clear();
+        match residual {
+            Some(r) => {
+                out.extend_from_slice(&r[..self.c_out * n]);
+                for (row, b) in out.chunks_exact_mut(n).zip(&self.bias) {
+                    row.iter_mut().for_each(|v| *v += b);
+                }
+            }
+            None => {
+                for b in &self.bias {
+                    out.extend(std::iter::repeat_n(*b, n));
+                }
+            }
+        }
+        let direct = self.k == 1 && self.stride == 1 && self.pad == 0;
+        // Output rows in tiles whose columns stay in the cache (the stem's whole im2col would be
+        // 10 MB a window).
+        let rows = if direct { oh } else { (COL_TILE_FLOATS / (kk * ow).max(1)).clamp(1, oh) };
+        for oy0 in (0..oh).step_by(rows) {
+            let oy1 = (oy0 + rows).min(oh);
+            let nt = (oy1 - oy0) * ow;
+            let (rhs, rhs_rs): (&[f32], usize) = if direct {
+                (x, n)
+            } else {
+                if col.len() < kk * nt {
+                    col.resize(kk * nt, 0.0);
+                }
+                im2col(x, (self.c_in, h, w), (self.k, self.stride, self.pad), (oy0, oy1, ow), &mut col[..kk * nt]);
+                (&col[..kk * nt], nt)
+            };
+            // SAFETY: row-major matrices of the sizes given: the weights c_out x kk, `rhs` kk x nt
+            // (row stride `rhs_rs`), the destination c_out x nt inside `out` (row stride n,
+            // starting at column oy0 * ow), all within the slices' lengths above.
+            unsafe {
+                gemm::gemm(
+                    self.c_out,
+                    nt,
+                    kk,
+                    out.as_mut_ptr().add(oy0 * ow),
+                    1,
+                    n as isize,
+                    true,
+                    self.weight.as_ptr(),
+                    1,
+                    kk as isize,
+                    rhs.as_ptr(),
+                    1,
+                    rhs_rs as isize,
+                    1.0,
+                    1.0,
+                    false,
+                    false,
+                    false,
+                    gemm::Parallelism::None,
+                );
+            }
+        }
+        if relu {
+            out.iter_mut().for_each(|v| *v = v.max(0.0));
+        }
+        (oh, ow)
+    }
+}
+
+/// `col[(c * k + ky) * k + kx][(oy - oy0) * ow + ox] = x[c][oy * s - p + ky][ox * s - p + kx]`
+/// (0 outside) for the output rows `oy0..oy1`.
+fn im2col(
+    x: &[f32],
+    (c_in, h, w): (usize, usize, usize),
+    (k, s, p): (usize, usize, usize),
+    (oy0, oy1, ow): (usize, usize, usize),
+    col: &mut [f32],
+) {
+    let n = (oy1 - oy0) * ow;
+    for c in 0..c_in {
+        let plane = &x[c * h * w..(c + 1) * h * w];
+        for ky in 0..k {
+            for kx in 0..k {
+                // the outputs whose column falls inside the input: ox * s + kx - p in [0, w)
+                let lo = (p.saturating_sub(kx)).div_ceil(s).min(ow);
+                let hi = if w + p > kx { ((w + p - kx - 1) / s + 1).min(ow) } else { 0 }.max(lo);
+                let row = &mut col[((c * k + ky) * k + kx) * n..][..n];
+                for oy in oy0..oy1 {
+                    let iy = (oy * s + ky) as isize - p as isize;
+                    let dst = &mut row[(oy - oy0) * ow..(oy - oy0 + 1) * ow];
+                    if iy < 0 || iy >= h as isize {
+                        dst.fill(0.0);
+                        continue;
+                    }
+                    let src = &plane[iy as usize * w..(iy as usize + 1) * w];
+                    dst[..lo].fill(0.0);
+                    dst[hi..].fill(0.0);
+                    let first = lo * s + kx - p;
+                    if s == 1 {
+                        dst[lo..hi].copy_from_slice(&src[first..first + hi - lo]);
+                    } else {
+                        for (d, v) in dst[lo..hi].iter_mut().zip(src[first..].iter().step_by(s)) {
+                            *d = *v;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `y += a * x`, eight lanes at a time (fixed-width chunks, so that the compiler vectorises them).
+fn axpy(a: f32, x: &[f32], y: &mut [f32]) {
+    let mut ys = y.chunks_exact_mut(8);
+    let mut xs = x.chunks_exact(8);
+    for (yc, xc) in (&mut ys).zip(&mut xs) {
+        let yc: &mut [f32; 8] = yc.try_into().expect("eight");
+        let xc: &[f32; 8] = xc.try_into().expect("eight");
+        for j in 0..8 {
+            yc[j] += a * xc[j];
+        }
+    }
+    for (yv, xv) in ys.into_remainder().iter_mut().zip(xs.remainder()) {
+        *yv += a * xv;
+    }
+}
+
+/// The non-zero cells of `x` as `(index, value)` into `nz`, unless there are `limit` or more
+/// (then `false`). Runs of eight zeros (either sign) are skipped at once.
+fn nonzeros(x: &[f32], limit: usize, nz: &mut Vec<(u32, f32)>) -> bool {
+    nz.clear();
+    for (b, chunk) in x.chunks(8).enumerate() {
+        if chunk.iter().fold(0u32, |m, v| m | (v.to_bits() << 1)) == 0 {
+            continue;
+        }
+        for (j, &v) in chunk.iter().enumerate() {
+            if v != 0.0 {
+                nz.push(((b * 8 + j) as u32, v));
+            }
+        }
+        if nz.len() >= limit {
+            return false;
+        }
+    }
+    true
+}
+
+/// 3x3 max pooling, stride 2, padding 1 (padding never wins).
+fn max_pool(x: &[f32], (c, h, w): (usize, usize, usize), out: &mut Vec<f32>) -> (usize, usize) {
+    let (oh, ow) = (out_len(h, 3, 2, 1), out_len(w, 3, 2, 1));
+    out.clear();
+    out.resize(c * oh * ow, f32::NEG_INFINITY);
+    for ch in 0..c {
+        let plane = &x[ch * h * w..(ch + 1) * h * w];
+        let dst = &mut out[ch * oh * ow..(ch + 1) * oh * ow];
+        for oy in 0..oh {
+            let (y0, y1) = ((oy * 2).saturating_sub(1), (oy * 2 + 2).min(h));
+            for ox in 0..ow {
+                let (x0, x1) = ((ox * 2).saturating_sub(1), (ox * 2 + 2).min(w));
+                let mut m = f32::NEG_INFINITY;
+                for y in y0..y1 {
+                    for v in &plane[y * w + x0..y * w + x1] {
+                        m = m.max(*v);
+                    }
+                }
+                dst[oy * ow + ox] = m;
+            }
+        }
+    }
+    (oh, ow)
+}
+
+#[derive(Debug, Clone)]
+struct Block {
+    conv1: Conv,
+    conv2: Conv,
+    down: Option<Conv>,
+}
+
+/// A fully connected layer: `weight` is `[in][out]`, as burn stores it.
+#[derive(Debug, Clone)]
+struct Dense {
+    n_in: usize,
+    n_out: usize,
+    weight: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+/// A model's tensors by name, for lookups that name what is missing.
+struct Tensors<'a> {
+    all: &'a [NamedTensor],
+}
+
+impl<'a> Tensors<'a> {
+    fn get(&self, name: &str) -> Result<&'a NamedTensor> {
+        self.all.iter().find(|t| t.name == name).ok_or_else(|| self.error(name, "missing".to_string()))
+    }
+    fn error(&self, name: &str, what: String) -> Error {
+        Error::Tensors { tensor: Some(name.to_string()), what }
+    }
+}
+
+/// Scratch buffers of one thread's forward pass.
+#[derive(Default)]
+struct Scratch {
+    a: Vec<f32>,
+    b: Vec<f32>,
+    c: Vec<f32>,
+    skip: Vec<f32>,
+    col: Vec<f32>,
+    nz: Vec<(u32, f32)>,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// A trained ResNet folded for inference (see the module's documentation). Shared across
+/// threads and streams; it holds no state of a call.
+#[derive(Debug, Clone)]
+pub struct FoldedResnet {
+    input: [usize; 3],
+    stem: Conv,
+    blocks: Vec<Block>,
+    fc: Vec<Dense>,
+}
+
+impl FoldedResnet {
+    /// The network of `cfg` from a model file's tensors (burn's names, as [`super::to_tensors`]
+    /// writes them); a tensor that is missing or of the wrong shape is an error naming it.
+    pub fn from_tensors(cfg: &ResnetConfig, tensors: &[NamedTensor]) -> Result<FoldedResnet> {
+        let t = Tensors { all: tensors };
+        let stem = Conv::fold(&t, "stem", "stem_bn", 2, 3)?;
+        let check = |conv: &Conv, name: &str, c_in: usize, c_out: usize, k: usize| {
+            if (conv.c_in, conv.c_out, conv.k) != (c_in, c_out, k) {
+                return Err(t.error(
+                    &format!("{name}.weight"),
+                    format!(
+                        "{}x{}x{k2}x{k2} where the config has {c_out}x{c_in}x{k}x{k}",
+                        conv.c_out,
+                        conv.c_in,
+                        k2 = conv.k
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        check(&stem, "stem", cfg.input[0], cfg.stem_channels, 7)?;
+        let mut blocks = Vec::new();
+        let mut c = cfg.stem_channels;
+        for (s, &(out, n)) in cfg.stages.iter().enumerate() {
+            for b in 0..n {
+                let i = blocks.len();
+                let stride = if s > 0 && b == 0 { 2 } else { 1 };
+                let p = format!("blocks.{i}");
+                let conv1 = Conv::fold(&t, &format!("{p}.conv1"), &format!("{p}.bn1"), stride, 1)?;
+                check(&conv1, &format!("{p}.conv1"), c, out, 3)?;
+                let conv2 = Conv::fold(&t, &format!("{p}.conv2"), &format!("{p}.bn2"), 1, 1)?;
+                check(&conv2, &format!("{p}.conv2"), out, out, 3)?;
+                let down = if stride != 1 || c != out {
+                    let d = Conv::fold(&t, &format!("{p}.down_conv"), &format!("{p}.down_bn"), stride, 0)?;
+                    check(&d, &format!("{p}.down_conv"), c, out, 1)?;
+                    Some(d)
+                } else {
+                    None
+                };
+                blocks.push(Block { conv1, conv2, down });
+                c = out;
+            }
+        }
+        let mut fc = Vec::new();
+        let mut n_in = c;
+        for (k, &n_out) in cfg.hidden.iter().chain(std::iter::once(&cfg.classes)).enumerate() {
+            let (wn, bn) = (format!("fc.{k}.weight"), format!("fc.{k}.bias"));
+            let (w, b) = (t.get(&wn)?, t.get(&bn)?);
+            if w.shape != [n_in, n_out] || b.data.len() != n_out {
+                return Err(t.error(
+                    &wn,
+                    format!("shape {:?} (bias {}), the config says [{n_in}, {n_out}]", w.shape, b.data.len()),
+                ));
+            }
+            fc.push(Dense { n_in, n_out, weight: w.data.clone(), bias: b.data.clone() });
+            n_in = n_out;
+        }
+        let used = 5 + blocks.iter().map(|b| 10 + if b.down.is_some() { 5 } else { 0 }).sum::<usize>() + 2 * fc.len();
+        if used != tensors.len() {
+            return Err(Error::Tensors {
+                tensor: None,
+                what: format!("{} tensors where the config uses {used}", tensors.len()),
+            });
+        }
+        Ok(FoldedResnet { input: cfg.input, stem, blocks, fc })
+    }
+
+    /// The trained burn model `model` of `cfg`, folded.
+    pub fn from_model(cfg: &ResnetConfig, model: &super::Resnet) -> Result<FoldedResnet> {
+        FoldedResnet::from_tensors(cfg, &super::to_tensors(model)?)
+    }
+
+    /// Input `[channels, height, width]`.
+    pub fn input_shape(&self) -> [usize; 3] {
+        self.input
+    }
+
+    /// The logits of one image (`[channels, height, width]`, C order), on this thread.
+    pub fn logits(&self, image: &[f32]) -> Result<Vec<f32>> {
+        let [c, h, w] = self.input;
+        if image.len() != c * h * w {
+            return Err(Error::Tensors {
+                tensor: None,
+                what: format!("an image of {} values where the network takes {c}x{h}x{w}", image.len()),
+            });
+        }
+        Ok(SCRATCH.with(|s| self.forward(image, &mut s.borrow_mut())))
+    }
+
+    /// The logits of each image, the images spread over rayon's threads (one image stays on the
+    /// calling thread).
+    pub fn logits_batch(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
+        if images.len() < 2 {
+            return images.iter().map(|im| self.logits(im)).collect();
+        }
+        images.par_iter().map(|im| self.logits(im)).collect()
+    }
+
+    /// Class probabilities (softmax of the logits) of each image.
+    pub fn probabilities(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
+        Ok(self.logits_batch(images)?.into_iter().map(|l| softmax(&l)).collect())
+    }
+
+    fn forward(&self, image: &[f32], s: &mut Scratch) -> Vec<f32> {
+        let [_, h, w] = self.input;
+        let Scratch { a, b, c, skip, col, nz } = s;
+        let (h, w) = self.stem.forward(image, (h, w), b, (col, nz), None, true);
+        let (mut h, mut w) = max_pool(b, (self.stem.c_out, h, w), a);
+        // `a` holds the block's input
+        for blk in &self.blocks {
+            let (h1, w1) = blk.conv1.forward(a, (h, w), b, (col, nz), None, true);
+            let residual: &[f32] = match &blk.down {
+                Some(d) => {
+                    d.forward(a, (h, w), skip, (col, nz), None, false);
+                    skip
+                }
+                None => a,
+            };
+            blk.conv2.forward(b, (h1, w1), c, (col, nz), Some(residual), true);
+            std::mem::swap(a, c);
+            (h, w) = (h1, w1);
+        }
+        let ch = self.blocks.last().map_or(self.stem.c_out, |b| b.conv2.c_out);
+        let hw = (h * w) as f32;
+        let mut x: Vec<f32> = a.chunks_exact(h * w).take(ch).map(|p| p.iter().sum::<f32>() / hw).collect();
+        let last = self.fc.len() - 1;
+        for (k, l) in self.fc.iter().enumerate() {
+            let mut y = l.bias.clone();
+            for (i, &xi) in x.iter().enumerate().take(l.n_in) {
+                if xi != 0.0 {
+                    let row = &l.weight[i * l.n_out..(i + 1) * l.n_out];
+                    y.iter_mut().zip(row).for_each(|(o, wv)| *o += xi * wv);
+                }
+            }
+            if k < last {
+                y.iter_mut().for_each(|v| *v = v.max(0.0));
+            }
+            x = y;
+        }
+        x
+    }
+}
+
+fn softmax(x: &[f32]) -> Vec<f32> {
+    let m = x.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let e: Vec<f32> = x.iter().map(|v| (v - m).exp()).collect();
+    let s: f32 = e.iter().sum();
+    e.into_iter().map(|v| v / s).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::tensor::{Device, Tensor, TensorData};
+    use rand::{Rng, SeedableRng};
+
+    /// A model with trained-looking batch norms (running statistics away from 0 and 1), so the
+    /// folding is tested, not only the convolutions.
+    fn model(cfg: &ResnetConfig, seed: u64) -> super::super::Resnet {
+        let m = cfg.init(&Device::flex());
+        let mut tensors = super::super::to_tensors(&m).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        for t in &mut tensors {
+            let stat = t.name.rsplit('.').next().unwrap_or_default();
+            for v in &mut t.data {
+                *v = match stat {
+                    "running_var" => rng.random_range(0.2..3.0),
+                    "running_mean" | "beta" | "bias" => rng.random_range(-0.5..0.5),
+                    "gamma" => rng.random_range(0.5..1.5),
+                    _ => *v,
+                };
+            }
+        }
+        super::super::from_tensors(cfg, &tensors).unwrap()
+    }
+
+    /// `n` images with `density` of their cells non-zero.
+    fn images(shape: [usize; 3], n: usize, density: f64, seed: u64) -> Vec<Vec<f32>> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let size = shape.iter().product();
+        (0..n)
+            .map(|_| {
+                (0..size).map(|_| if rng.random_bool(density) { rng.random_range(0.0..3.0) } else { 0.0 }).collect()
+            })
+            .collect()
+    }
+
+    fn burn_logits(m: &super::super::Resnet, shape: [usize; 3], ims: &[Vec<f32>]) -> Vec<Vec<f32>> {
+        let [c, h, w] = shape;
+        let flat: Vec<f32> = ims.iter().flatten().copied().collect();
+        let x = Tensor::<4>::from_data(TensorData::new(flat, [ims.len(), c, h, w]), &Device::flex());
+        let v = m.forward(x).into_data().convert::<f32>().try_into_vec::<f32>().unwrap();
+        v.chunks(v.len() / ims.len()).map(<[f32]>::to_vec).collect()
+    }
+
+    /// Both ways of convolving (the scatter of sparse inputs, the dense product, in one tile of
+    /// output rows or several) and every shape of block.
+    #[test]
+    fn folded_logits_equal_burns() {
+        for (cfg, seed) in [
+            (ResnetConfig::lite([6, 20, 24], 26), 1),
+            (ResnetConfig::tiny([4, 17, 13], 2), 2),
+            (ResnetConfig { stages: vec![(8, 2), (16, 2), (24, 1)], ..ResnetConfig::lite([3, 33, 29], 5) }, 3),
+            // a stem whose im2col takes several tiles of output rows (32 rows, 27 a tile)
+            (ResnetConfig::tiny([8, 64, 48], 3), 4),
+        ] {
+            let m = model(&cfg, seed);
+            let f = FoldedResnet::from_model(&cfg, &m).unwrap();
+            // a window's sparsity (the stem scatters) and a dense input (the stem's product)
+            let mut ims = images(cfg.input, 3, 0.03, seed + 10);
+            ims.extend(images(cfg.input, 3, 0.6, seed + 20));
+            let want = burn_logits(&m, cfg.input, &ims);
+            let got = f.logits_batch(&ims.iter().map(Vec::as_slice).collect::<Vec<_>>()).unwrap();
+            for (g, w) in got.iter().zip(&want) {
+                assert_eq!(g.len(), cfg.classes);
+                for (a, b) in g.iter().zip(w) {
+                    assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{cfg:?}: {a} against burn's {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn wrong_tensors_are_named() {
+        let cfg = ResnetConfig::tiny([4, 16, 16], 2);
+        let mut t = super::super::to_tensors(&cfg.init(&Device::flex())).unwrap();
+        t.retain(|t| t.name != "blocks.1.down_bn.running_var");
+        let e = FoldedResnet::from_tensors(&cfg, &t).unwrap_err().to_string();
+        assert!(e.contains("blocks.1.down_bn.running_var") && e.contains("missing"), "{e}");
+        let other = ResnetConfig::tiny([5, 16, 16], 2);
+        let t = super::super::to_tensors(&cfg.init(&Device::flex())).unwrap();
+        let e = FoldedResnet::from_tensors(&other, &t).unwrap_err().to_string();
+        assert!(e.contains("stem.weight"), "{e}");
+        let f = FoldedResnet::from_tensors(&cfg, &t).unwrap();
+        assert!(f.logits(&[0.0; 3]).unwrap_err().to_string().contains("4x16x16"));
+    }
+}
