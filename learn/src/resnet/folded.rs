@@ -1,7 +1,9 @@
 //! The ResNet for inference without burn: batch norm folded into the convolutions at load time,
-//! every convolution one matrix product (im2col, then `gemm`, the crate burn's CPU backend calls),
-//! ReLU and the residual sums fused into the products' output, scratch buffers reused across
-//! calls. The same logits as [`super::Resnet::forward`] in evaluation mode (tested to 1e-5).
+//! a convolution a matrix product (im2col in tiles of output rows, then `gemm`, the crate burn's
+//! CPU backend calls) or, on a sparse input such as a window's heat map, a scatter of the non-zero
+//! inputs into the outputs they reach ([`SPARSE_BELOW`]); ReLU and the residual sums fused into the
+//! products' output, scratch buffers reused across calls. The same logits as
+//! [`super::Resnet::forward`] in evaluation mode (tested to 1e-5 of the logit).
 //!
 //! One image runs on the calling thread; [`FoldedResnet::logits_batch`] spreads a batch's images
 //! over rayon's threads.
