@@ -284,19 +284,14 @@ fn batch(set: &ImageSet, idx: &[usize], device: &Device, mut map: impl FnMut(&[f
     Tensor::<4>::from_data(burn::tensor::TensorData::new(flat, [idx.len(), c, h, w]), device)
 }
 
-/// Class probabilities (softmax of the logits) of each image (`[channels, height, width]` of
-/// `shape`, prepared as the model was trained), in one batch.
-pub fn probabilities(model: &Resnet, shape: [usize; 3], images: &[&[f32]]) -> Vec<Vec<f32>> {
+/// burn's logits of each image (`[channels, height, width]` of `shape`, prepared as the model was
+/// trained), in one batch: the reference for [`folded::FoldedResnet`], which the reader runs.
+pub fn logits(model: &Resnet, shape: [usize; 3], images: &[&[f32]]) -> Vec<Vec<f32>> {
     let [c, h, w] = shape;
-    let mut flat = Vec::with_capacity(images.len() * c * h * w);
-    for im in images {
-        flat.extend_from_slice(im);
-    }
+    let flat: Vec<f32> = images.iter().flat_map(|im| im.iter().copied()).collect();
     let x = Tensor::<4>::from_data(burn::tensor::TensorData::new(flat, [images.len(), c, h, w]), &Device::flex());
-    let p = burn::tensor::activation::softmax(model.forward(x), 1);
-    let k = p.dims()[1];
-    let v = p.into_data().convert::<f32>().try_into_vec::<f32>().expect("f32 probabilities");
-    v.chunks(k).map(<[f32]>::to_vec).collect()
+    let v = model.forward(x).into_data().convert::<f32>().try_into_vec::<f32>().expect("f32 logits");
+    v.chunks(v.len() / images.len().max(1)).map(<[f32]>::to_vec).collect()
 }
 
 /// Loss, accuracy and the predictions of `model` (in evaluation mode) on `set`.

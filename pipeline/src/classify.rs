@@ -352,7 +352,7 @@ impl WindowClassifier for WindowModel {
             (Runner::Resnet { model, input }, _) => {
                 let image = input.crop_window(w)?;
                 let x = input.prepare(&image, None);
-                model.probabilities(&[&x])?.remove(0)
+                softmax(&model.logits(&x)?)
             }
             (Runner::Engine { model, input, engine }, StateKind::Engine(state)) => {
                 let image = input.crop_window(w)?;

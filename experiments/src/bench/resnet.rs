@@ -7,8 +7,8 @@
 
 use crate::Progress;
 use crate::error::{Error, Result};
+use learn::resnet::ResnetConfig;
 use learn::resnet::folded::FoldedResnet;
-use learn::resnet::{Resnet, ResnetConfig};
 use pipeline::models::ResnetModel;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
@@ -173,15 +173,6 @@ fn timing((median, min, max): (f64, f64, f64), macs: u64) -> PathTiming {
     }
 }
 
-fn burn_logits(model: &Resnet, shape: [usize; 3], ims: &[&[f32]]) -> Vec<Vec<f32>> {
-    use burn::tensor::{Device, Tensor, TensorData};
-    let [c, h, w] = shape;
-    let flat: Vec<f32> = ims.iter().flat_map(|i| i.iter().copied()).collect();
-    let x = Tensor::<4>::from_data(TensorData::new(flat, [ims.len(), c, h, w]), &Device::flex());
-    let v = model.forward(x).into_data().convert::<f32>().try_into_vec::<f32>().expect("f32 logits");
-    v.chunks(v.len() / ims.len().max(1)).map(<[f32]>::to_vec).collect()
-}
-
 /// Benchmarks the ResNet model `m` (from `path`) as `spec` says.
 pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn Progress) -> Result<ResnetBench> {
     let folded = FoldedResnet::from_model(&m.config, &m.model)?;
@@ -195,7 +186,7 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
     let (mut max_diff, mut max_rel) = (0.0f32, 0.0f32);
     for chunk in refs.chunks(32) {
         let ours = folded.logits_batch(chunk)?;
-        for (a, b) in ours.iter().zip(burn_logits(&m.model, m.config.input, chunk)) {
+        for (a, b) in ours.iter().zip(learn::resnet::logits(&m.model, m.config.input, chunk)) {
             for (x, y) in a.iter().zip(&b) {
                 max_diff = max_diff.max((x - y).abs());
                 max_rel = max_rel.max((x - y).abs() / y.abs().max(1.0));
@@ -221,7 +212,7 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
                 return Err(e.into());
             }
             let b = time_passes(&refs, batch, spec.repeats, |c| {
-                std::hint::black_box(burn_logits(&m.model, m.config.input, c));
+                std::hint::black_box(learn::resnet::logits(&m.model, m.config.input, c));
             });
             Ok((f, b))
         })?;

@@ -475,11 +475,6 @@ impl FoldedResnet {
         images.par_iter().map(|im| self.logits(im)).collect()
     }
 
-    /// Class probabilities (softmax of the logits) of each image.
-    pub fn probabilities(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
-        Ok(self.logits_batch(images)?.into_iter().map(|l| softmax(&l)).collect())
-    }
-
     fn forward(&self, image: &[f32], s: &mut Scratch) -> Vec<f32> {
         let [_, h, w] = self.input;
         let Scratch { a, b, c, skip, col, nz } = s;
@@ -520,17 +515,10 @@ impl FoldedResnet {
     }
 }
 
-fn softmax(x: &[f32]) -> Vec<f32> {
-    let m = x.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let e: Vec<f32> = x.iter().map(|v| (v - m).exp()).collect();
-    let s: f32 = e.iter().sum();
-    e.into_iter().map(|v| v / s).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use burn::tensor::{Device, Tensor, TensorData};
+    use burn::tensor::Device;
     use rand::{Rng, SeedableRng};
 
     /// A model with trained-looking batch norms (running statistics away from 0 and 1), so the
@@ -564,14 +552,6 @@ mod tests {
             .collect()
     }
 
-    fn burn_logits(m: &super::super::Resnet, shape: [usize; 3], ims: &[Vec<f32>]) -> Vec<Vec<f32>> {
-        let [c, h, w] = shape;
-        let flat: Vec<f32> = ims.iter().flatten().copied().collect();
-        let x = Tensor::<4>::from_data(TensorData::new(flat, [ims.len(), c, h, w]), &Device::flex());
-        let v = m.forward(x).into_data().convert::<f32>().try_into_vec::<f32>().unwrap();
-        v.chunks(v.len() / ims.len()).map(<[f32]>::to_vec).collect()
-    }
-
     /// Both ways of convolving (the scatter of sparse inputs, the dense product, in one tile of
     /// output rows or several) and every shape of block.
     #[test]
@@ -588,7 +568,7 @@ mod tests {
             // a window's sparsity (the stem scatters) and a dense input (the stem's product)
             let mut ims = images(cfg.input, 3, 0.03, seed + 10);
             ims.extend(images(cfg.input, 3, 0.6, seed + 20));
-            let want = burn_logits(&m, cfg.input, &ims);
+            let want = super::super::logits(&m, cfg.input, &ims.iter().map(Vec::as_slice).collect::<Vec<_>>());
             let got = f.logits_batch(&ims.iter().map(Vec::as_slice).collect::<Vec<_>>()).unwrap();
             for (g, w) in got.iter().zip(&want) {
                 assert_eq!(g.len(), cfg.classes);
