@@ -55,7 +55,8 @@ pub struct Args {
     /// --model: the engine's mode.
     #[arg(long, value_enum, default_value = "stepped")]
     mode: Mode,
-    /// --model: run 1 to N independent streams at once, one per thread, and report the scaling.
+    /// Run 1 to N independent streams at once, one per thread, and report the scaling (the peer
+    /// benchmark's network, or --model's).
     #[arg(long, default_value_t = 1)]
     streams: usize,
     /// A NIR graph's step, in microseconds (snnTorch's exporter assumes 100 us).
@@ -211,7 +212,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         return Ok(());
     }
-    let r = experiments::bench::engine::engine(args.samples, args.repeats)?;
+    let r = experiments::bench::engine::engine(args.samples, args.repeats, args.streams)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {

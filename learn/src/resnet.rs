@@ -4,6 +4,7 @@
 //! ReLU and dropout. `paper` is ResNet-34's stages (3, 4, 6, 3 blocks of 64 to 512 channels);
 //! `lite` is narrower and shallower for two CPU cores.
 
+mod direct;
 pub mod folded;
 
 use crate::error::{Error, Result};

@@ -81,7 +81,8 @@ pub fn center_vertically(map: &mut Heatmap) {
     let (mut mass, mut moment) = (0.0f64, 0.0f64);
     for plane in map.counts.chunks_exact(h * w) {
         for (r, row) in plane.chunks_exact(w).enumerate() {
-            let s: f64 = row.iter().map(|&v| v as f64).sum();
+            // the cells that are +0.0 add nothing (a window's heat map is mostly empty)
+            let s: f64 = row.iter().filter(|v| v.to_bits() != 0).map(|&v| v as f64).sum();
             mass += s;
             moment += s * r as f64;
         }
@@ -93,24 +94,26 @@ pub fn center_vertically(map: &mut Heatmap) {
     if shift == 0 {
         return;
     }
+    // every row moves by `shift` (what leaves the plane is dropped), rows left empty are zero
+    let k = (shift.unsigned_abs() as usize).min(h) * w;
     for plane in map.counts.chunks_exact_mut(h * w) {
-        let old = plane.to_vec();
-        plane.iter_mut().for_each(|v| *v = 0.0);
-        for r in 0..h as i64 {
-            let src = r - shift;
-            if (0..h as i64).contains(&src) {
-                let (d, s) = (r as usize * w, src as usize * w);
-                plane[d..d + w].copy_from_slice(&old[s..s + w]);
-            }
+        if shift > 0 {
+            plane.copy_within(..h * w - k, k);
+            plane[..k].fill(0.0);
+        } else {
+            plane.copy_within(k.., 0);
+            plane[h * w - k..].fill(0.0);
         }
     }
 }
 
-/// `ln(1 + c)` scaled so the sample's largest value is 1 (an empty sample stays zero).
+/// `ln(1 + c)` scaled so the sample's largest value is 1 (an empty sample stays zero). Cells at
+/// +0.0 stay +0.0, as the formula leaves them, without computing it (a window is mostly empty).
 pub fn normalise(map: &mut Heatmap) {
-    let max = map.counts.iter().map(|&c| c.max(0.0).ln_1p()).fold(0.0f32, f32::max);
+    let nonzero = |c: &f32| c.to_bits() != 0;
+    let max = map.counts.iter().filter(|c| nonzero(c)).map(|&c| c.max(0.0).ln_1p()).fold(0.0f32, f32::max);
     if max > 0.0 {
-        map.counts.iter_mut().for_each(|c| *c = c.max(0.0).ln_1p() / max);
+        map.counts.iter_mut().filter(|c| nonzero(c)).for_each(|c| *c = c.max(0.0).ln_1p() / max);
     }
 }
 

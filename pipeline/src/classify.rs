@@ -350,8 +350,7 @@ impl WindowClassifier for WindowModel {
         let t = Instant::now();
         let p = match (&self.runner, &mut st.kind) {
             (Runner::Resnet { model, input }, _) => {
-                let image = input.crop_window(w)?;
-                let x = input.prepare(&image, None);
+                let x = input.prepared(input.crop_window(w)?);
                 softmax(&model.logits(&x)?)
             }
             (Runner::Engine { model, input, engine }, StateKind::Engine(state)) => {

@@ -129,7 +129,25 @@ impl CharInput {
     /// Network input of a cropped image: centred and normalised as configured; augmented when
     /// `rng` is given.
     pub fn prepare(&self, image: &[f32], rng: Option<&mut rand_chacha::ChaCha8Rng>) -> Vec<f32> {
-        let rng = rng.map(|r| r as &mut dyn rand::RngCore);
-        prepare(&self.as_map(image), self.preprocess, &self.augment, rng).counts
+        match rng {
+            None => self.prepared(image.to_vec()),
+            Some(r) => {
+                prepare(&self.as_map(image), self.preprocess, &self.augment, Some(r as &mut dyn rand::RngCore)).counts
+            }
+        }
+    }
+
+    /// [`prepare`](Self::prepare) without augmentation, in place: the reader's path, which owns
+    /// the crop (the same numbers, without copying the image).
+    pub fn prepared(&self, image: Vec<f32>) -> Vec<f32> {
+        let [_, height, width] = self.shape();
+        let mut map = Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image };
+        if self.preprocess.normalises() {
+            crate::augment::center_vertically(&mut map);
+        }
+        if self.preprocess.scales() {
+            crate::augment::normalise(&mut map);
+        }
+        map.counts
     }
 }

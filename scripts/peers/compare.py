@@ -5,7 +5,8 @@ import sys
 
 rows = [json.loads(l) for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("{")]
 stamp = next((l[2:].strip() for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("# 20")), "")
-peers = {(r["mode"], r["fw"]): r for r in rows if "fw" in r}
+peers = {(r["mode"], r["fw"]): r for r in rows if "fw" in r and not (r["mode"] == "infer" and r["batch"] > 1)}
+batched = {r["fw"]: r for r in rows if "fw" in r and r["mode"] == "infer" and r["batch"] > 1}
 ours_infer = next(r for r in rows if "ms_per_sample" in r)
 ours_train = next(r for r in rows if "sparse_exact" in r)
 names = {"torch": "plain PyTorch", "snntorch": "snnTorch", "norse": "Norse"}
@@ -23,6 +24,21 @@ for fw in ("torch", "snntorch", "norse"):
     r = peers.get(("infer", fw))
     if r:
         print(f"| {names[fw]} | {r['per_sample_ms']:.3f} | {r['us_per_input_event']:.3f} | {r['per_sample_ms'] / ours_infer['ms_per_sample']:.1f}x |")
+streams = ours_infer.get("streams") or []
+if batched and len(streams) > 1:
+    top = streams[-1]
+    b = next(iter(batched.values()))
+    print(f"\n| conv SNN, throughput on {b['threads']} threads | samples / s | against plain PyTorch |")
+    print("| --- | --- | --- |")
+    for s in streams:
+        ratio = ""
+        if "torch" in batched:
+            ratio = f"{s['samples_per_s'] * batched['torch']['per_sample_ms'] / 1e3:.1f}x faster"
+        print(f"| braille engine, {s['streams']} stream(s) at once, batch 1 each ({s['speedup']:.2f}x one stream) | {s['samples_per_s']:.0f} | {ratio} |")
+    for fw in ("torch", "snntorch", "norse"):
+        r = batched.get(fw)
+        if r:
+            print(f"| {names[fw]}, batch {r['batch']} | {1e3 / r['per_sample_ms']:.0f} | |")
 print("\n| conv SNN training step, batch 32 (forward, BPTT, Adam) | ms | spike rate per layer | against plain PyTorch |")
 print("| --- | --- | --- | --- |")
 torch_train = peers.get(("train", "torch"))

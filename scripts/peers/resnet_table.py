@@ -16,10 +16,13 @@ print(f"Measured {stamp}.\n")
 print(f"ms per window, medians; ratios are PyTorch's time over ours (above 1: ours")
 print("faster). `sparse input`: windows with the run's share of non-zero cells, where our stem scatters the")
 print("non-zero inputs (less work than a dense convolution: the ratio is not like for like); `dense input`:")
-print("every cell non-zero, our stem a dense matrix product (the same work as PyTorch's). burn: the same")
-print("model on burn's `flex` backend, timed in the same bench call.\n")
-print("| preset (input) | batch, threads | input to ours | ours | burn | PyTorch | PyTorch / ours | burn / ours |")
-print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+print("every cell non-zero, our stem a dense convolution (the same work as PyTorch's). `ours`: the reader's")
+print("path (convolutions computed directly where the CPU has AVX2 and FMA"
+      + (", as here" if any(r.get("direct_convolution") for r in ours) else "; not here") + ");")
+print("`ours, im2col`: the same with every dense convolution by im2col and `gemm` (a CPU without them).")
+print("burn: the same model on burn's `flex` backend. All three timed in the same bench call.\n")
+print("| preset (input) | batch, threads | input to ours | ours | ours, im2col | burn | PyTorch | PyTorch / ours | PyTorch / ours, im2col | burn / ours |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 for r in ours:
     preset = r["preset"]
     dense = r["density"] > 0.99
@@ -29,8 +32,10 @@ for r in ours:
         f, b = row["folded"]["ms_per_window"], row["burn"]["ms_per_window"]
         shape = "x".join(map(str, r["input"]))
         kind = "dense" if dense else f"sparse ({100 * r['density']:.1f}% non-zero)"
-        peer, ratio = (f"{tm:.3f}", f"{tm / f:.2f}x") if tm else ("n/a", "n/a")
-        print(f"| {preset} ({shape}) | {row['batch']}, {row['threads']} | {kind} | {f:.3f} | {b:.3f} | {peer} | {ratio} | {b / f:.2f}x |")
+        i = (row.get("folded_im2col") or {}).get("ms_per_window")
+        peer, ratio = (f"{tm:.3f}", f"**{tm / f:.2f}x**") if tm else ("n/a", "n/a")
+        ims, iratio = (f"{i:.3f}", f"{tm / i:.2f}x" if tm else "n/a") if i else ("(the same)", "")
+        print(f"| {preset} ({shape}) | {row['batch']}, {row['threads']} | {kind} | {f:.3f} | {ims} | {b:.3f} | {peer} | {ratio} | {iratio} | {b / f:.2f}x |")
 print("\nLargest logit difference of ours against burn's over the windows, absolute (relative to the logit): "
       + ", ".join(f"{r['preset']} {'dense' if r['density'] > 0.99 else 'sparse'} {r['max_abs_logit_difference']:.1e} "
                   f"({r.get('max_rel_logit_difference', float('nan')):.1e})" for r in ours) + ".")

@@ -233,6 +233,19 @@ pub struct EngineReport {
     pub async_event_latency_ns_p99: Option<f64>,
     pub async_event_latency_ns_max: Option<f64>,
     pub async_input_events_per_s: f64,
+    /// Stepped mode with 1 to N independent streams at once, one per thread, each its own state
+    /// over the shared engine and every sample: the throughput of all streams together.
+    pub streams: Vec<StreamsRow>,
+}
+
+/// The peer benchmark with `streams` streams at once (stepped mode).
+#[derive(Debug, Clone, Serialize)]
+pub struct StreamsRow {
+    pub streams: usize,
+    /// Samples finished per second, all streams together (median of the repetitions' walls).
+    pub samples_per_s: f64,
+    /// Over one stream's `samples_per_s`, measured in the same call.
+    pub speedup: f64,
 }
 
 /// Per-event latency in async mode over the samples: (histogram, events per second untimed).
@@ -269,9 +282,72 @@ fn async_latency(
 
 pub use snn::network::peer_sample as sample_events;
 
+/// Runs every sample through `engine` on `st` (stepped mode), each from a reset.
+fn run_samples(engine: &Engine, st: &mut snn::engine::EngineState, samples: &[Vec<(i64, u32)>]) -> Result<()> {
+    for s in samples {
+        engine.reset(st, 0);
+        for &(t, i) in s {
+            engine.push(st, t, i, 1.0)?;
+        }
+        engine.finish(st, STEPS as i64 * DT_US);
+    }
+    Ok(())
+}
+
+/// 1 to `streams` streams at once, one per thread, each its own state through all the samples:
+/// `repeats` rounds, each timing 1, 2, .. `streams` streams in turn (so that the machine's drift
+/// hits every row alike), after one untimed round; per row the median round's wall time (the
+/// slowest stream's: a barrier starts them together).
+fn stream_scaling(
+    engine: &Engine,
+    samples: &[Vec<(i64, u32)>],
+    repeats: usize,
+    streams: usize,
+) -> Result<Vec<StreamsRow>> {
+    let k_max = streams.max(1);
+    let mut states: Vec<_> = (0..k_max).map(|_| engine.state(0)).collect();
+    let mut walls = vec![Vec::new(); k_max];
+    for round in 0..repeats.max(1) + 1 {
+        for k in 1..=k_max {
+            let barrier = std::sync::Barrier::new(k);
+            let results: Vec<Result<f64>> = std::thread::scope(|scope| {
+                let handles: Vec<_> = states[..k]
+                    .iter_mut()
+                    .map(|st| {
+                        let barrier = &barrier;
+                        scope.spawn(move || -> Result<f64> {
+                            barrier.wait();
+                            let t0 = Instant::now();
+                            run_samples(engine, st, samples)?;
+                            Ok(t0.elapsed().as_secs_f64())
+                        })
+                    })
+                    .collect();
+                handles.into_iter().map(|h| h.join().expect("a bench stream panicked")).collect()
+            });
+            let mut wall = 0f64;
+            for r in results {
+                wall = wall.max(r?);
+            }
+            if round > 0 {
+                walls[k - 1].push(wall);
+            }
+        }
+    }
+    let mut rows: Vec<StreamsRow> = Vec::new();
+    for (k, mut w) in walls.into_iter().enumerate() {
+        w.sort_by(f64::total_cmp);
+        let rate = ((k + 1) * samples.len()) as f64 / w[w.len() / 2].max(1e-12);
+        let base = rows.first().map_or(rate, |r| r.samples_per_s);
+        rows.push(StreamsRow { streams: k + 1, samples_per_s: rate, speedup: rate / base });
+    }
+    Ok(rows)
+}
+
 /// The event-driven engine on the peer benchmark's network: `samples` random inputs, the median
-/// of `repeats` passes (stepped mode), and per-event latency in async mode.
-pub fn engine(samples: u64, repeats: usize) -> Result<EngineReport> {
+/// of `repeats` passes (stepped mode), per-event latency in async mode, and 1 to `streams`
+/// streams at once.
+pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineReport> {
     let net = peers_conv(1, PEER_GAIN);
     let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
     let samples: Vec<Vec<(i64, u32)>> = (0..samples.max(1)).map(|s| sample_events(1000 + s, net.n_inputs())).collect();
@@ -279,28 +355,26 @@ pub fn engine(samples: u64, repeats: usize) -> Result<EngineReport> {
     let mut times = Vec::new();
     let mut st = engine.state(0);
     for rep in 0..repeats.max(1) + 1 {
-        let start = Instant::now();
-        for s in &samples {
-            engine.reset(&mut st, 0);
-            for &(t, i) in s {
-                engine.push(&mut st, t, i, 1.0)?;
-            }
-            engine.finish(&mut st, STEPS as i64 * DT_US);
-            if rep == 0 {
+        if rep == 0 {
+            // the work, counted once (every pass does the same)
+            for s in &samples {
+                run_samples(&engine, &mut st, std::slice::from_ref(s))?;
                 events += st.stats.input_events;
                 synops += st.stats.synops;
                 spikes += st.stats.spikes.iter().sum::<u64>();
                 updates += st.stats.neuron_updates;
             }
+            continue;
         }
-        if rep > 0 {
-            times.push(start.elapsed().as_secs_f64());
-        }
+        let start = Instant::now();
+        run_samples(&engine, &mut st, &samples)?;
+        times.push(start.elapsed().as_secs_f64());
     }
     times.sort_by(f64::total_cmp);
     let n = samples.len() as f64;
     let per_sample = times[times.len() / 2] / n;
     let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
+    let streams = stream_scaling(&engine, &samples, repeats, streams)?;
     Ok(EngineReport {
         network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
         mode: "event-driven, stepped (exactly the time-stepped network)",
@@ -316,6 +390,7 @@ pub fn engine(samples: u64, repeats: usize) -> Result<EngineReport> {
         async_event_latency_ns_p99: latency.quantile_ns(0.99),
         async_event_latency_ns_max: Some(async_max as f64),
         async_input_events_per_s: async_rate,
+        streams,
     })
 }
 
@@ -378,6 +453,15 @@ impl std::fmt::Display for EngineReport {
             self.async_event_latency_ns_max.unwrap_or(f64::NAN),
             self.async_input_events_per_s / 1e6
         )?;
+        if self.streams.len() > 1 {
+            for r in &self.streams {
+                writeln!(
+                    f,
+                    "{} stream(s) at once, one per thread: {:.0} samples/s all together, {:.2}x one stream",
+                    r.streams, r.samples_per_s, r.speedup
+                )?;
+            }
+        }
         Ok(())
     }
 }

@@ -56,6 +56,9 @@ pub struct BatchRow {
     pub batch: usize,
     pub threads: usize,
     pub folded: PathTiming,
+    /// Ours with every dense convolution by im2col and `gemm` (the path of a CPU without AVX2
+    /// and FMA), when `folded` computed some directly.
+    pub folded_im2col: Option<PathTiming>,
     pub burn: PathTiming,
     /// burn's time over ours (above 1: ours is faster).
     pub burn_over_folded: f64,
@@ -72,6 +75,8 @@ pub struct ResnetBench {
     /// Share of non-zero input cells over the windows.
     pub density: f64,
     pub macs_per_window: u64,
+    /// Whether ours computed the qualifying convolutions directly (AVX2 and FMA here).
+    pub direct_convolution: bool,
     pub rows: Vec<BatchRow>,
     /// The largest difference between the two paths' logits over every window.
     pub max_abs_logit_difference: f32,
@@ -104,6 +109,14 @@ impl std::fmt::Display for ResnetBench {
                 r.burn.ms_per_window,
                 r.burn_over_folded
             )?;
+            if let Some(t) = &r.folded_im2col {
+                writeln!(
+                    f,
+                    "  ours with the direct convolution switched off (im2col and gemm throughout): {:.3} ms a window, {:.2}x ours",
+                    t.ms_per_window,
+                    t.ms_per_window / r.folded.ms_per_window
+                )?;
+            }
         }
         writeln!(
             f,
@@ -176,6 +189,7 @@ fn timing((median, min, max): (f64, f64, f64), macs: u64) -> PathTiming {
 /// Benchmarks the ResNet model `m` (from `path`) as `spec` says.
 pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn Progress) -> Result<ResnetBench> {
     let folded = FoldedResnet::from_model(&m.config, &m.model)?;
+    let im2col = folded.direct_convolution().then(|| folded.clone().with_direct_convolution(false));
     let (ims, source) = windows(m, &spec.windows, progress)?;
     if ims.is_empty() {
         return Err(Error::Setting { name: "windows", value: "0".into(), expected: "at least one window to time" });
@@ -201,26 +215,29 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
             value: format!("{threads} ({e})"),
             expected: "a pool rayon can build",
         })?;
-        let (f, b) = pool.install(|| -> Result<_> {
-            let mut failed = None;
-            let f = time_passes(&refs, batch, spec.repeats, |c| {
-                if let Err(e) = folded.logits_batch(c) {
-                    failed = Some(e);
-                }
-            });
-            if let Some(e) = failed {
-                return Err(e.into());
-            }
+        let (f, i, b) = pool.install(|| -> Result<_> {
+            let ours = |net: &FoldedResnet| -> Result<(f64, f64, f64)> {
+                let mut failed = None;
+                let t = time_passes(&refs, batch, spec.repeats, |c| {
+                    if let Err(e) = net.logits_batch(c) {
+                        failed = Some(e);
+                    }
+                });
+                failed.map_or(Ok(t), |e| Err(e.into()))
+            };
+            let f = ours(&folded)?;
+            let i = im2col.as_ref().map(ours).transpose()?;
             let b = time_passes(&refs, batch, spec.repeats, |c| {
                 std::hint::black_box(learn::resnet::logits(&m.model, m.config.input, c));
             });
-            Ok((f, b))
+            Ok((f, i, b))
         })?;
         rows.push(BatchRow {
             batch,
             threads,
             burn_over_folded: b.0 / f.0,
             folded: timing(f, macs),
+            folded_im2col: i.map(|i| timing(i, macs)),
             burn: timing(b, macs),
         });
     }
@@ -231,6 +248,7 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
         source,
         density,
         macs_per_window: macs,
+        direct_convolution: folded.direct_convolution(),
         rows,
         max_abs_logit_difference: max_diff,
         max_rel_logit_difference: max_rel,

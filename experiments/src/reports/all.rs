@@ -193,7 +193,7 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
         )
     })?;
     let bench = step(&mut times, progress, "the engine on the peer benchmark", "bench.json", || {
-        let r = crate::bench::engine::engine(64, 7)?;
+        let r = crate::bench::engine::engine(64, 7, 1)?;
         crate::write_json(&out.join("bench.json"), &r, true)?;
         Ok(r)
     })?;

@@ -1,9 +1,11 @@
 //! The ResNet for inference without burn: batch norm folded into the convolutions at load time,
-//! a convolution a matrix product (im2col in tiles of output rows, then `gemm`, the crate burn's
-//! CPU backend calls) or, on a sparse input such as a window's heat map, a scatter of the non-zero
-//! inputs into the outputs they reach ([`SPARSE_BELOW`]); ReLU and the residual sums fused into the
-//! products' output, scratch buffers reused across calls. The same logits as
-//! [`super::Resnet::forward`] in evaluation mode (tested to 1e-5 of the logit).
+//! a convolution computed directly where the CPU has AVX2 and FMA ([`super::direct`]: the
+//! accumulators of a row of outputs in registers, the input read in place) or as a matrix product
+//! (im2col in tiles of output rows, then `gemm`, the crate burn's CPU backend calls), or, on a
+//! sparse input such as a window's heat map, a scatter of the non-zero inputs into the outputs
+//! they reach ([`SPARSE_BELOW_DIRECT`], [`SPARSE_BELOW`]); ReLU and the residual sums fused into
+//! the output, scratch buffers reused across calls. The same logits as
+//! [`super::Resnet::forward`] in evaluation mode (tested to 1e-5 of the logit, every path).
 //!
 //! One image runs on the calling thread; [`FoldedResnet::logits_batch`] spreads a batch's images
 //! over rayon's threads.
@@ -39,6 +41,13 @@ struct Conv {
 /// 6.1 / 11.3 / 14.7 ms a window against the product's 9.2 / 12.0 / 13.3 ms at 10 / 20 / 30% of
 /// the cells non-zero).
 pub const SPARSE_BELOW: f64 = 0.2;
+
+/// [`SPARSE_BELOW`] where the dense convolution is the direct one ([`super::direct`], about three
+/// times im2col's speed on the lite stem): the two measured about equal at 3% of the cells
+/// non-zero (2026-11-28, lite, one core, each path forced: the scatter 0.9-1.4 / 1.0-1.1 / 1.8 /
+/// 2.4 ms a window at 1 / 2 / 3 / 5%, the direct convolution 1.7-1.9 ms at any density; on the
+/// EV board's windows, 4.6% non-zero, the direct one 1.2 ms against the scatter's 1.6-1.7 ms).
+pub const SPARSE_BELOW_DIRECT: f64 = 0.03;
 
 /// The most floats of im2col columns made at once (1 MiB; on 2026-11-28's 2-core EPYC the tiny
 /// preset's dense stem ran in 1.6 ms a window with it against 2.1 ms with 256 KiB, the lite
@@ -145,14 +154,21 @@ impl Conv {
         (col, nz): (&mut Vec<f32>, &mut Vec<(u32, f32)>),
         residual: Option<&[f32]>,
         relu: bool,
+        direct: bool,
     ) -> (usize, usize) {
+        // `direct`: the network's switch; the layer takes the direct path if it also qualifies
+        let (oh, ow) = (out_len(h, self.k, self.stride, self.pad), out_len(w, self.k, self.stride, self.pad));
+        let direct = direct
+            && self.c_out.is_multiple_of(8)
+            && self.c_out <= super::direct::MAX_CHANNELS
+            && ow >= super::direct::MIN_ROW;
         if residual.is_none() && self.k > 1 {
             let len = self.c_in * h * w;
-            if nonzeros(&x[..len], (SPARSE_BELOW * len as f64) as usize, nz) {
+            let below = if direct { SPARSE_BELOW_DIRECT } else { SPARSE_BELOW };
+            if nonzeros(&x[..len], (below * len as f64) as usize, nz) {
                 return self.forward_scatter(nz, (h, w), out, col, relu);
             }
         }
-        let (oh, ow) = (out_len(h, self.k, self.stride, self.pad), out_len(w, self.k, self.stride, self.pad));
         let n = oh * ow;
         let kk = self.c_in * self.k * self.k;
         out.clear();
@@ -169,14 +185,31 @@ impl Conv {
                 }
             }
         }
-        let direct = self.k == 1 && self.stride == 1 && self.pad == 0;
+        #[cfg(target_arch = "x86_64")]
+        if direct {
+            let (p, (hp, wp)) = (self.pad, (h + 2 * self.pad, w + 2 * self.pad));
+            let xp: &[f32] = if p == 0 {
+                &x[..self.c_in * h * w]
+            } else {
+                super::direct::pad(&x[..self.c_in * h * w], (self.c_in, h, w), p, col);
+                col
+            };
+            let shape =
+                super::direct::Shape { c_in: self.c_in, hp, wp, k: self.k, s: self.stride, c_out: self.c_out, oh, ow };
+            super::direct::conv(xp, &self.weight_by_input, shape, out);
+            if relu {
+                out.iter_mut().for_each(|v| *v = v.max(0.0));
+            }
+            return (oh, ow);
+        }
+        let pointwise = self.k == 1 && self.stride == 1 && self.pad == 0;
         // Output rows in tiles whose columns stay in the cache (the stem's whole im2col would be
         // 10 MB a window).
-        let rows = if direct { oh } else { (COL_TILE_FLOATS / (kk * ow).max(1)).clamp(1, oh) };
+        let rows = if pointwise { oh } else { (COL_TILE_FLOATS / (kk * ow).max(1)).clamp(1, oh) };
         for oy0 in (0..oh).step_by(rows) {
             let oy1 = (oy0 + rows).min(oh);
             let nt = (oy1 - oy0) * ow;
-            let (rhs, rhs_rs): (&[f32], usize) = if direct {
+            let (rhs, rhs_rs): (&[f32], usize) = if pointwise {
                 (x, n)
             } else {
                 if col.len() < kk * nt {
@@ -375,6 +408,8 @@ pub struct FoldedResnet {
     stem: Conv,
     blocks: Vec<Block>,
     fc: Vec<Dense>,
+    /// Convolutions computed directly where they qualify ([`super::direct`]), else by im2col.
+    direct: bool,
 }
 
 impl FoldedResnet {
@@ -441,12 +476,26 @@ impl FoldedResnet {
                 what: format!("{} tensors where the config uses {used}", tensors.len()),
             });
         }
-        Ok(FoldedResnet { input: cfg.input, stem, blocks, fc })
+        Ok(FoldedResnet { input: cfg.input, stem, blocks, fc, direct: super::direct::available() })
     }
 
     /// The trained burn model `model` of `cfg`, folded.
     pub fn from_model(cfg: &ResnetConfig, model: &super::Resnet) -> Result<FoldedResnet> {
         FoldedResnet::from_tensors(cfg, &super::to_tensors(model)?)
+    }
+
+    /// With `on` false, every dense convolution goes through im2col and `gemm`, as on a CPU
+    /// without AVX2 and FMA (for comparing the two paths); `true` restores the direct path where
+    /// the CPU has it.
+    pub fn with_direct_convolution(mut self, on: bool) -> Self {
+        self.direct = on && super::direct::available();
+        self
+    }
+
+    /// Whether the convolutions that qualify are computed directly (AVX2 and FMA present, not
+    /// switched off), else all by im2col and `gemm`.
+    pub fn direct_convolution(&self) -> bool {
+        self.direct
     }
 
     /// Input `[channels, height, width]`.
@@ -478,19 +527,19 @@ impl FoldedResnet {
     fn forward(&self, image: &[f32], s: &mut Scratch) -> Vec<f32> {
         let [_, h, w] = self.input;
         let Scratch { a, b, c, skip, col, nz } = s;
-        let (h, w) = self.stem.forward(image, (h, w), b, (col, nz), None, true);
+        let (h, w) = self.stem.forward(image, (h, w), b, (col, nz), None, true, self.direct);
         let (mut h, mut w) = max_pool(b, (self.stem.c_out, h, w), a);
         // `a` holds the block's input
         for blk in &self.blocks {
-            let (h1, w1) = blk.conv1.forward(a, (h, w), b, (col, nz), None, true);
+            let (h1, w1) = blk.conv1.forward(a, (h, w), b, (col, nz), None, true, self.direct);
             let residual: &[f32] = match &blk.down {
                 Some(d) => {
-                    d.forward(a, (h, w), skip, (col, nz), None, false);
+                    d.forward(a, (h, w), skip, (col, nz), None, false, self.direct);
                     skip
                 }
                 None => a,
             };
-            blk.conv2.forward(b, (h1, w1), c, (col, nz), Some(residual), true);
+            blk.conv2.forward(b, (h1, w1), c, (col, nz), Some(residual), true, self.direct);
             std::mem::swap(a, c);
             (h, w) = (h1, w1);
         }
@@ -552,8 +601,8 @@ mod tests {
             .collect()
     }
 
-    /// Both ways of convolving (the scatter of sparse inputs, the dense product, in one tile of
-    /// output rows or several) and every shape of block.
+    /// Every way of convolving (the scatter of sparse inputs; the direct convolution; im2col and
+    /// the product, in one tile of output rows or several) and every shape of block.
     #[test]
     fn folded_logits_equal_burns() {
         for (cfg, seed) in [
@@ -566,14 +615,22 @@ mod tests {
             let m = model(&cfg, seed);
             let f = FoldedResnet::from_model(&cfg, &m).unwrap();
             // a window's sparsity (the stem scatters) and a dense input (the stem's product)
-            let mut ims = images(cfg.input, 3, 0.03, seed + 10);
+            let mut ims = images(cfg.input, 3, 0.01, seed + 10);
             ims.extend(images(cfg.input, 3, 0.6, seed + 20));
             let want = super::super::logits(&m, cfg.input, &ims.iter().map(Vec::as_slice).collect::<Vec<_>>());
-            let got = f.logits_batch(&ims.iter().map(Vec::as_slice).collect::<Vec<_>>()).unwrap();
-            for (g, w) in got.iter().zip(&want) {
-                assert_eq!(g.len(), cfg.classes);
-                for (a, b) in g.iter().zip(w) {
-                    assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{cfg:?}: {a} against burn's {b}");
+            // the direct convolutions where the CPU has them, and im2col everywhere
+            for direct in [true, false] {
+                let f = f.clone().with_direct_convolution(direct);
+                let got = f.logits_batch(&ims.iter().map(Vec::as_slice).collect::<Vec<_>>()).unwrap();
+                for (g, w) in got.iter().zip(&want) {
+                    assert_eq!(g.len(), cfg.classes);
+                    for (a, b) in g.iter().zip(w) {
+                        assert!(
+                            (a - b).abs() <= 1e-5 * (1.0 + b.abs()),
+                            "{cfg:?}, direct {}: {a} against burn's {b}",
+                            f.direct_convolution()
+                        );
+                    }
                 }
             }
         }
