@@ -1,10 +1,10 @@
 //! The ResNet for inference without burn: batch norm folded into the convolutions at load time,
-//! a convolution computed directly where the CPU has AVX2 and FMA ([`super::direct`]: the
-//! accumulators of a row of outputs in registers, the input read in place) or as a matrix product
-//! (im2col in tiles of output rows, then `gemm`, the crate burn's CPU backend calls), or, on a
-//! sparse input such as a window's heat map, a scatter of the non-zero inputs into the outputs
-//! they reach ([`SPARSE_BELOW_DIRECT`], [`SPARSE_BELOW`]); ReLU and the residual sums fused into
-//! the output, scratch buffers reused across calls. The same logits as
+//! a convolution computed directly where the CPU has AVX2 and FMA (`learn::resnet`'s private
+//! `direct` module: the accumulators of a row of outputs in registers, the input read in place)
+//! or as a matrix product (im2col in tiles of output rows, then `gemm`, the crate burn's CPU
+//! backend calls), or, on a sparse input such as a window's heat map, a scatter of the non-zero
+//! inputs into the outputs they reach ([`SPARSE_BELOW_DIRECT`], [`SPARSE_BELOW`]); ReLU and the
+//! residual sums fused into the output, scratch buffers reused across calls. The same logits as
 //! [`super::Resnet::forward`] in evaluation mode (tested to 1e-5 of the logit, every path).
 //!
 //! One image runs on the calling thread; [`FoldedResnet::logits_batch`] spreads a batch's images
@@ -42,7 +42,7 @@ struct Conv {
 /// the cells non-zero).
 pub const SPARSE_BELOW: f64 = 0.2;
 
-/// [`SPARSE_BELOW`] where the dense convolution is the direct one ([`super::direct`], about three
+/// [`SPARSE_BELOW`] where the dense convolution is the direct one (the `direct` module, about three
 /// times im2col's speed on the lite stem): the two measured about equal at 3% of the cells
 /// non-zero (2026-11-28, lite, one core, each path forced: the scatter 0.9-1.4 / 1.0-1.1 / 1.8 /
 /// 2.4 ms a window at 1 / 2 / 3 / 5%, the direct convolution 1.7-1.9 ms at any density; on the
@@ -408,7 +408,7 @@ pub struct FoldedResnet {
     stem: Conv,
     blocks: Vec<Block>,
     fc: Vec<Dense>,
-    /// Convolutions computed directly where they qualify ([`super::direct`]), else by im2col.
+    /// Convolutions computed directly where they qualify (the `direct` module), else by im2col.
     direct: bool,
 }
 
