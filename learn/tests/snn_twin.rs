@@ -11,6 +11,15 @@ use snn::network::{PoolKind, forward_dense, random_input};
 use snn::neuron::{NeuronParams, Reset, Surrogate};
 use snn::spec::{LayerSpec, NetworkSpec, OpSpec};
 
+/// burn's `flex` device has one random generator for the whole process (`device.seed` resets
+/// it), and the tests of this file run on parallel threads: each takes this lock for its whole
+/// run, so that no other test draws from the generator between a test's seeding and its draws.
+static BURN_RNG: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn burn_rng() -> std::sync::MutexGuard<'static, ()> {
+    BURN_RNG.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 fn lif(beta: f32) -> Option<NeuronParams> {
     Some(NeuronParams::lif(beta).with_reset(Reset::Subtract))
 }
@@ -65,6 +74,7 @@ fn steps_of(input: &[f32], steps: usize, n: usize) -> Vec<Tensor<2>> {
 
 #[test]
 fn twin_forward_matches_the_time_stepped_reference() {
+    let _rng = burn_rng();
     for readout in [Readout::MaxMembrane, Readout::SpikeCount] {
         let spec = spec(readout);
         let weights = spec.init(7, 2.5).unwrap();
@@ -130,6 +140,7 @@ fn toy_set(n: usize, seed: u64) -> SpikeSet {
 
 #[test]
 fn training_learns_and_repeats_exactly() {
+    let _rng = burn_rng();
     for trainer in [Trainer::Sparse, Trainer::Dense] {
         learns_and_repeats_exactly(trainer);
     }
@@ -157,6 +168,7 @@ fn learns_and_repeats_exactly(trainer: Trainer) {
 
 #[test]
 fn both_trainers_take_the_same_steps() {
+    let _rng = burn_rng();
     // exact gradients, Adam with clipping and decoupled weight decay, augmentation drawn alike:
     // after two epochs of three steps the weights agree to float rounding
     let spec = small_spec(true);
@@ -194,6 +206,7 @@ fn both_trainers_take_the_same_steps() {
 
 #[test]
 fn the_truncation_check_measures_the_first_and_last_epochs_and_changes_nothing() {
+    let _rng = burn_rng();
     let spec = small_spec(false);
     let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
     let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
@@ -220,6 +233,7 @@ fn the_truncation_check_measures_the_first_and_last_epochs_and_changes_nothing()
 
 #[test]
 fn gradient_agreement_by_hand() {
+    let _rng = burn_rng();
     use learn::sparse::Params;
     let p = |v: Vec<f32>| Params { layers: vec![learn::sparse::Tensors { weight: v, ..Default::default() }] };
     // (3, 4) against (4, 3): cosine 24/25; |(-1, 1)| / 5
@@ -260,6 +274,7 @@ fn values(t: Tensor<2>) -> Vec<f32> {
 
 #[test]
 fn neuron_dropout_is_seeded_off_at_zero_and_silences_all_at_one() {
+    let _rng = burn_rng();
     let spec = small_spec(false);
     let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
     let device = Device::flex();
@@ -284,6 +299,7 @@ const AVERAGE_CHOSEN: bool = false;
 
 #[test]
 fn weight_averaging_and_weight_decay() {
+    let _rng = burn_rng();
     let spec = small_spec(false);
     let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
     let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
