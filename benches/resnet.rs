@@ -1,6 +1,7 @@
 //! The ResNet baseline (lite preset, the shipped model's shape: 20 frames x ON/OFF x 64x80):
 //! window inference at batch 1 on burn's CPU `flex` backend and on the folded path the reader
-//! runs (`learn::resnet::folded`), and training throughput (windows per second: forward,
+//! runs (`learn::resnet::folded`; on a dense window too, with its direct convolution and with
+//! im2col throughout), and training throughput (windows per second: forward,
 //! backward and Adam at batch 32, with the NormAug-free input) on burn.
 
 use burn::tensor::Device;
@@ -40,6 +41,17 @@ fn inference(c: &mut Criterion) {
     let folded = learn::resnet::folded::FoldedResnet::from_model(&cfg, &model).expect("folds");
     group.bench_function("lite_window_inference_batch1_folded", |b| {
         b.iter(|| black_box(folded.logits(&one.data[0]).expect("runs")))
+    });
+    // every cell non-zero: the dense work PyTorch does whatever the input (scripts/peers/resnet.sh),
+    // with the direct convolution where the CPU has it, and with im2col and gemm throughout
+    let dense: Vec<f32> =
+        one.data[0].iter().enumerate().map(|(i, &v)| if v != 0.0 { v } else { 0.5 + (i % 7) as f32 * 0.1 }).collect();
+    group.bench_function("lite_window_inference_batch1_folded_dense", |b| {
+        b.iter(|| black_box(folded.logits(&dense).expect("runs")))
+    });
+    let im2col = folded.clone().with_direct_convolution(false);
+    group.bench_function("lite_window_inference_batch1_folded_im2col_dense", |b| {
+        b.iter(|| black_box(im2col.logits(&dense).expect("runs")))
     });
     group.finish();
 }
