@@ -667,6 +667,10 @@ impl SparseSnn {
             let below = k.checked_sub(1).map(|b| (&self.plans[b], &tape[b]));
             let nb = below.map_or(0, |(b, _)| b.n_out);
             let mut g_below = vec![0f32; steps * nb];
+            // a convolution's weights by (kernel position, output channel, input channel), for
+            // the steps where every input keeps a surrogate (the exact gradient): eight input
+            // channels of a pixel at once
+            let by_input = below.is_some().then(|| conv_weights_by_input(plan, &w.weight)).flatten();
             let (mut g_u, mut carry_v, mut carry_i, mut g_rec) =
                 (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             for t in (0..steps).rev() {
@@ -736,13 +740,19 @@ impl SparseSnn {
                 }
                 if let (Some((b, bt)), Some(ts)) = (below, src) {
                     let gb = &mut g_below[ts * nb..][..nb];
-                    match b.neurons {
-                        Some(bn) if bn.kind != NeuronKind::Li => {
-                            for &i in bt.surr.at(ts).0 {
+                    let kept = match b.neurons {
+                        Some(bn) if bn.kind != NeuronKind::Li => Some(bt.surr.at(ts).0),
+                        _ => None,
+                    };
+                    match (kept, &by_input) {
+                        (Some(kept), Some(wt)) if kept.len() == nb => gather_all_conv(plan, wt, &g_u, gb),
+                        (None, Some(wt)) => gather_all_conv(plan, wt, &g_u, gb),
+                        (Some(kept), _) => {
+                            for &i in kept {
                                 gb[i as usize] = gather(plan, &w.weight, i as usize, &g_u);
                             }
                         }
-                        _ => {
+                        (None, None) => {
                             for (i, g) in gb.iter_mut().enumerate() {
                                 *g = gather(plan, &w.weight, i, &g_u);
                             }
@@ -951,6 +961,74 @@ fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
         Kernel::Pool { c, weight, offsets, targets } => {
             let (p, ch) = (i / c, i % c);
             targets[offsets[p] as usize..offsets[p + 1] as usize].iter().map(|&q| weight * g[q as usize * c + ch]).sum()
+        }
+    }
+}
+
+/// Lanes of [`gather_all_conv`]: input channels of one pixel at once.
+const GATHER_LANES: usize = 8;
+
+/// A convolution's weights `[in_c][k][out_c]` as `[k][out_c][in_c]`, when its input channels
+/// come in whole [`GATHER_LANES`] (else `None`: [`gather`] input by input).
+fn conv_weights_by_input(plan: &Plan, w: &[f32]) -> Option<Vec<f32>> {
+    let Kernel::Conv { ic, oc, kk, .. } = plan.kernel else {
+        return None;
+    };
+    if ic == 0 || !ic.is_multiple_of(GATHER_LANES) {
+        return None;
+    }
+    let mut t = vec![0f32; ic * kk * oc];
+    for c in 0..ic {
+        for k in 0..kk {
+            for o in 0..oc {
+                t[(k * oc + o) * ic + c] = w[(c * kk + k) * oc + o];
+            }
+        }
+    }
+    Some(t)
+}
+
+/// [`gather`] for every input of a convolution (`g_in[i]`, all of them), a pixel's input channels
+/// [`GATHER_LANES`] at a time from `wt` ([`conv_weights_by_input`]). Each lane does the very
+/// operations of [`gather`] in its order (the products of [`dot`] in four running sums and a tail,
+/// the targets summed from -0.0), so the result is the same to the bit (tested).
+fn gather_all_conv(plan: &Plan, wt: &[f32], g: &[f32], g_in: &mut [f32]) {
+    const L: usize = GATHER_LANES;
+    let Kernel::Conv { ic, oc, offsets, targets, .. } = &plan.kernel else {
+        unreachable!("gather_all_conv on a convolution only");
+    };
+    let (ic, oc) = (*ic, *oc);
+    let full = oc / 4 * 4;
+    for (p, out) in g_in.chunks_exact_mut(ic).enumerate() {
+        let list = &targets[offsets[p] as usize..offsets[p + 1] as usize];
+        for (c0, out) in out.chunks_exact_mut(L).enumerate() {
+            let c0 = c0 * L;
+            let mut acc = [-0.0f32; L];
+            for &(q, k) in list {
+                let gq = &g[q as usize * oc..][..oc];
+                let lanes =
+                    |o: usize| -> &[f32; L] { wt[(k as usize * oc + o) * ic + c0..][..L].try_into().expect("L lanes") };
+                let mut sums = [[0f32; L]; 4];
+                for j in (0..full).step_by(4) {
+                    for (l, sum) in sums.iter_mut().enumerate() {
+                        let (w, y) = (lanes(j + l), gq[j + l]);
+                        for c in 0..L {
+                            sum[c] += w[c] * y;
+                        }
+                    }
+                }
+                let mut tail = [-0.0f32; L];
+                for (o, &y) in gq.iter().enumerate().skip(full) {
+                    let w = lanes(o);
+                    for c in 0..L {
+                        tail[c] += w[c] * y;
+                    }
+                }
+                for c in 0..L {
+                    acc[c] += (sums[0][c] + sums[1][c]) + (sums[2][c] + sums[3][c]) + tail[c];
+                }
+            }
+            out.copy_from_slice(&acc);
         }
     }
 }
@@ -1208,5 +1286,35 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The batched gather of a convolution's every input equals [`gather`] input by input, to
+    /// the bit (zeros included), so the exact trainer's gradients are unchanged by it.
+    #[test]
+    fn batched_convolution_gather_equals_gather_to_the_bit() {
+        let net = snn::network::peers_conv(1, snn::network::PEER_GAIN);
+        let trainer = SparseSnn::new(net.spec(), Surrogate::FastSigmoid { slope: 25.0 }, Readout::SpikeCount, 0.0)
+            .expect("the peer network trains");
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut checked = 0;
+        for plan in &trainer.plans {
+            let Kernel::Conv { ic, oc, kk, offsets, .. } = &plan.kernel else {
+                continue;
+            };
+            let n_in = (offsets.len() - 1) * ic;
+            let w: Vec<f32> = (0..ic * kk * oc).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let g: Vec<f32> =
+                (0..plan.n_out).map(|_| if rng.random_bool(0.3) { 0.0 } else { rng.random_range(-1.0..1.0) }).collect();
+            let Some(wt) = conv_weights_by_input(plan, &w) else {
+                continue;
+            };
+            let mut batched = vec![f32::NAN; n_in];
+            gather_all_conv(plan, &wt, &g, &mut batched);
+            for (i, b) in batched.iter().enumerate() {
+                assert_eq!(b.to_bits(), gather(plan, &w, i, &g).to_bits(), "input {i}");
+            }
+            checked += 1;
+        }
+        assert!(checked > 0, "the peer network has a convolution of 8 input channels");
     }
 }
