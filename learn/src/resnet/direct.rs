@@ -22,11 +22,13 @@ use std::arch::x86_64::{
 /// stages are 3-4 positions wide).
 pub(super) const MIN_ROW: usize = 8;
 
-/// The widest layer the direct path takes. ResNet-34's layers of 64 and 128 channels ran slower
-/// directly than by im2col and `gemm` (2026-11-28, `scripts/peers/resnet.sh`: the `paper` preset
-/// 45.6 against 35.8 ms a window on a window's sparsity, 47.5 against 45.6 dense, batch 1), where
-/// the 8-32 channels of `tiny` and `lite` ran 1.4-4x faster: a chunk of 16 channels' weights for
-/// every input channel and offset outgrows the first-level cache, which `gemm`'s packing avoids.
+/// The widest layer the direct path takes. With ResNet-34's layers of 64 and 128 channels direct
+/// too, its `paper` preset ran slower than by im2col and `gemm` (2026-11-28, one run of
+/// `scripts/peers/resnet.sh`: 45.6 against 35.8 ms a window on a window's sparsity, 47.5 against
+/// 45.6 dense, batch 1; weak evidence on a machine whose noise within one call reached 1.7x the
+/// same morning, and not measured layer by layer), where the 8-32 channels of `tiny` and `lite`
+/// ran 1.4-4x faster. The likely cause: a chunk of 16 channels' weights for every input channel
+/// and offset outgrows the first-level cache, which `gemm`'s packing avoids.
 pub(super) const MAX_CHANNELS: usize = 32;
 
 /// Whether this CPU runs [`conv`] (AVX2 and FMA, detected at run time; std caches the answer).
