@@ -185,15 +185,20 @@ pub fn augment(map: &Heatmap, cfg: &AugmentConfig, rng: &mut impl Rng) -> Heatma
 /// `rng` is given) augmentation for `Aug`/`NormAug`.
 pub fn prepare(map: &Heatmap, mode: Preprocess, cfg: &AugmentConfig, rng: Option<&mut dyn rand::RngCore>) -> Heatmap {
     let mut m = map.clone();
-    if mode.normalises() {
-        center_vertically(&mut m);
-    }
-    if mode.scales() {
-        normalise(&mut m);
-    }
+    center_and_normalise(&mut m, mode);
     match (mode.augments(), rng) {
         (true, Some(rng)) => augment(&m, cfg, &mut RngRef(rng)),
         _ => m,
+    }
+}
+
+/// The preparation without augmentation, in place: centring and normalisation as `mode` says.
+pub fn center_and_normalise(map: &mut Heatmap, mode: Preprocess) {
+    if mode.normalises() {
+        center_vertically(map);
+    }
+    if mode.scales() {
+        normalise(map);
     }
 }
 

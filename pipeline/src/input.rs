@@ -109,9 +109,9 @@ impl CharInput {
     }
 
     /// The cropped counts of an image as a heat map again.
-    fn as_map(&self, image: &[f32]) -> Heatmap {
+    fn as_map(&self, counts: Vec<f32>) -> Heatmap {
         let [_, height, width] = self.shape();
-        Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image.to_vec() }
+        Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts }
     }
 
     /// An SNN's input from a cropped image: the window's events as input spikes, one step per
@@ -119,7 +119,7 @@ impl CharInput {
     /// preparation only the vertical centring applies (when configured: `norm`, `normaug`), as a
     /// whole-row shift that keeps every event; counts are events, so nothing is normalised.
     pub fn spikes(&self, image: &[f32], dt_us: i64) -> SpikeTrain {
-        let mut map = self.as_map(image);
+        let mut map = self.as_map(image.to_vec());
         if self.preprocess.normalises() {
             crate::augment::center_vertically(&mut map);
         }
@@ -132,7 +132,8 @@ impl CharInput {
         match rng {
             None => self.prepared(image.to_vec()),
             Some(r) => {
-                prepare(&self.as_map(image), self.preprocess, &self.augment, Some(r as &mut dyn rand::RngCore)).counts
+                prepare(&self.as_map(image.to_vec()), self.preprocess, &self.augment, Some(r as &mut dyn rand::RngCore))
+                    .counts
             }
         }
     }
@@ -140,14 +141,8 @@ impl CharInput {
     /// [`prepare`](Self::prepare) without augmentation, in place: the reader's path, which owns
     /// the crop (the same numbers, without copying the image).
     pub fn prepared(&self, image: Vec<f32>) -> Vec<f32> {
-        let [_, height, width] = self.shape();
-        let mut map = Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts: image };
-        if self.preprocess.normalises() {
-            crate::augment::center_vertically(&mut map);
-        }
-        if self.preprocess.scales() {
-            crate::augment::normalise(&mut map);
-        }
+        let mut map = self.as_map(image);
+        crate::augment::center_and_normalise(&mut map, self.preprocess);
         map.counts
     }
 }

@@ -345,36 +345,27 @@ fn stream_scaling(
 }
 
 /// The event-driven engine on the peer benchmark's network: `samples` random inputs, the median
-/// of `repeats` passes (stepped mode), per-event latency in async mode, and 1 to `streams`
-/// streams at once.
+/// of `repeats` passes over them (stepped mode) with 1 to `streams` streams at once, the first
+/// row's the time per sample; and per-event latency in async mode.
 pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineReport> {
     let net = peers_conv(1, PEER_GAIN);
     let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
     let samples: Vec<Vec<(i64, u32)>> = (0..samples.max(1)).map(|s| sample_events(1000 + s, net.n_inputs())).collect();
     let (mut events, mut synops, mut spikes, mut updates) = (0u64, 0u64, 0u64, 0u64);
-    let mut times = Vec::new();
+    // the work, counted once (every pass does the same)
     let mut st = engine.state(0);
-    for rep in 0..repeats.max(1) + 1 {
-        if rep == 0 {
-            // the work, counted once (every pass does the same)
-            for s in &samples {
-                run_samples(&engine, &mut st, std::slice::from_ref(s))?;
-                events += st.stats.input_events;
-                synops += st.stats.synops;
-                spikes += st.stats.spikes.iter().sum::<u64>();
-                updates += st.stats.neuron_updates;
-            }
-            continue;
-        }
-        let start = Instant::now();
-        run_samples(&engine, &mut st, &samples)?;
-        times.push(start.elapsed().as_secs_f64());
+    for s in &samples {
+        run_samples(&engine, &mut st, std::slice::from_ref(s))?;
+        events += st.stats.input_events;
+        synops += st.stats.synops;
+        spikes += st.stats.spikes.iter().sum::<u64>();
+        updates += st.stats.neuron_updates;
     }
-    times.sort_by(f64::total_cmp);
     let n = samples.len() as f64;
-    let per_sample = times[times.len() / 2] / n;
     let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
+    // the time per sample is the one-stream row's
     let streams = stream_scaling(&engine, &samples, repeats, streams)?;
+    let per_sample = 1.0 / streams[0].samples_per_s;
     Ok(EngineReport {
         network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
         mode: "event-driven, stepped (exactly the time-stepped network)",

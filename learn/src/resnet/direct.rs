@@ -61,8 +61,7 @@ pub(super) struct Shape {
 ///
 /// # Panics
 /// If a slice is shorter than the shape says, `c_out` is not a multiple of 8, or the CPU lacks
-/// AVX2 or FMA ([`available`]).
-#[cfg(target_arch = "x86_64")]
+/// AVX2 or FMA ([`available`]; always so off x86-64).
 pub(super) fn conv(xp: &[f32], w: &[f32], sh: Shape, out: &mut [f32]) {
     assert!(available(), "the direct convolution needs AVX2 and FMA");
     assert!(sh.c_out.is_multiple_of(8), "{} output channels, not a multiple of 8", sh.c_out);
@@ -75,7 +74,10 @@ pub(super) fn conv(xp: &[f32], w: &[f32], sh: Shape, out: &mut [f32]) {
     );
     // SAFETY: the features are present (asserted above); every read and write is inside the
     // slices, whose lengths are checked against the shape above.
-    unsafe { conv_avx2(xp.as_ptr(), w.as_ptr(), sh, out.as_mut_ptr()) }
+    #[cfg(target_arch = "x86_64")]
+    unsafe {
+        conv_avx2(xp.as_ptr(), w.as_ptr(), sh, out.as_mut_ptr())
+    }
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -170,7 +170,6 @@ impl Conv {
             }
         }
         let n = oh * ow;
-        let kk = self.c_in * self.k * self.k;
         out.clear();
         match residual {
             Some(r) => {
@@ -185,23 +184,51 @@ impl Conv {
                 }
             }
         }
-        #[cfg(target_arch = "x86_64")]
         if direct {
-            let (p, (hp, wp)) = (self.pad, (h + 2 * self.pad, w + 2 * self.pad));
-            let xp: &[f32] = if p == 0 {
-                &x[..self.c_in * h * w]
-            } else {
-                super::direct::pad(&x[..self.c_in * h * w], (self.c_in, h, w), p, col);
-                col
-            };
-            let shape =
-                super::direct::Shape { c_in: self.c_in, hp, wp, k: self.k, s: self.stride, c_out: self.c_out, oh, ow };
-            super::direct::conv(xp, &self.weight_by_input, shape, out);
-            if relu {
-                out.iter_mut().for_each(|v| *v = v.max(0.0));
-            }
-            return (oh, ow);
+            self.convolve_direct(x, (h, w), (oh, ow), out, col);
+        } else {
+            self.convolve_product(x, (h, w), (oh, ow), out, col);
         }
+        if relu {
+            out.iter_mut().for_each(|v| *v = v.max(0.0));
+        }
+        (oh, ow)
+    }
+
+    /// Adds the convolution of `x` (`[c_in, h, w]`) into `out` (`[c_out, oh, ow]`) by the direct
+    /// convolution, reading a zero-padded copy made in `col`.
+    fn convolve_direct(
+        &self,
+        x: &[f32],
+        (h, w): (usize, usize),
+        (oh, ow): (usize, usize),
+        out: &mut [f32],
+        col: &mut Vec<f32>,
+    ) {
+        let (p, (hp, wp)) = (self.pad, (h + 2 * self.pad, w + 2 * self.pad));
+        let xp: &[f32] = if p == 0 {
+            &x[..self.c_in * h * w]
+        } else {
+            super::direct::pad(&x[..self.c_in * h * w], (self.c_in, h, w), p, col);
+            col
+        };
+        let shape =
+            super::direct::Shape { c_in: self.c_in, hp, wp, k: self.k, s: self.stride, c_out: self.c_out, oh, ow };
+        super::direct::conv(xp, &self.weight_by_input, shape, out);
+    }
+
+    /// Adds the convolution of `x` (`[c_in, h, w]`) into `out` (`[c_out, oh, ow]`) as im2col
+    /// (in tiles of output rows, in `col`) and one `gemm` product per tile.
+    fn convolve_product(
+        &self,
+        x: &[f32],
+        (h, w): (usize, usize),
+        (oh, ow): (usize, usize),
+        out: &mut [f32],
+        col: &mut Vec<f32>,
+    ) {
+        let n = oh * ow;
+        let kk = self.c_in * self.k * self.k;
         let pointwise = self.k == 1 && self.stride == 1 && self.pad == 0;
         // Output rows in tiles whose columns stay in the cache (the stem's whole im2col would be
         // 10 MB a window).
@@ -245,10 +272,6 @@ impl Conv {
                 );
             }
         }
-        if relu {
-            out.iter_mut().for_each(|v| *v = v.max(0.0));
-        }
-        (oh, ow)
     }
 }
 
