@@ -27,6 +27,7 @@ mod run;
 mod sim_check;
 mod sim_dataset;
 mod simulate;
+mod tactile_report;
 mod train;
 mod translate;
 mod words_report;
@@ -85,6 +86,10 @@ enum Command {
     CharsReport(chars_report::Args),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     IcubReport(icub_report::Args),
+    /// Per tactile dataset (raw1350, th10, SIMULATED taxels), the SNN search's models beside the
+    /// GRU, LSTM, temporal CNN and linear floors chosen by the same protocol: seed means, size,
+    /// work and energy per sample (Markdown, JSON).
+    TactileReport(tactile_report::Args),
     /// Read the words in an event stream (a file, standard input or a live sensor's network stream,
     /// as it arrives): segmentation network, character classifier (ResNet or SNN), temporal
     /// filter, spelling.
@@ -152,6 +157,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval::run(a),
         Command::Baselines(a) => baselines::run(a),
         Command::IcubReport(a) => icub_report::run(a),
+        Command::TactileReport(a) => tactile_report::run(a),
         Command::CharsReport(a) => chars_report::run(a),
         Command::ChipReport(a) => chip_report::run(a),
         Command::Run(a) => run::run(a),

@@ -754,6 +754,31 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let v: serde_json::Value = serde_json::from_str(&text(&o).0).unwrap();
     let ridge = v["baselines"][0]["test_accuracy"].as_f64().unwrap();
     assert!(ridge > 0.8, "the channel tells the class: ridge reads {ridge}");
+    // the conventional networks by the same hold-out, in the same table, written to --out; two
+    // seeds, each scored on the test split once
+    let out = dir.path().join("baselines");
+    let args = ["baselines", "--data", d, "--search", "--networks", "gru,tcn", "--epochs", "3", "--seeds", "2"];
+    let o = braille(&[&args[..], &["--eval-test", "--quiet", "--out", out.to_str().unwrap()]].concat());
+    let (table, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        table.contains("| GRU (2 final seeds) | GRU ") && table.contains("| temporal CNN (2 final seeds) |"),
+        "{table}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("baselines.json")).unwrap()).unwrap();
+    let nets = v["networks"].as_array().unwrap();
+    assert_eq!(nets.len(), 2);
+    for n in nets {
+        assert_eq!(n["trials"].as_array().unwrap().len(), 4, "two bin widths by two sizes: {n}");
+        let finals = n["finals"].as_array().unwrap();
+        assert_eq!(finals.len(), 2);
+        assert!(finals.iter().all(|f| f["test_accuracy"].as_f64().is_some_and(|a| (0.0..=1.0).contains(&a))));
+        assert!(n["parameters"].as_u64().unwrap() > 0 && n["macs_per_sample"].as_u64().unwrap() > 0);
+    }
+    // the files are not replaced without --force
+    let o = braille(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+    assert!(!o.status.success() && text(&o).1.contains("--force"), "{}", text(&o).1);
 }
 
 #[test]

@@ -15,8 +15,32 @@ pub mod resnet;
 #[cfg(feature = "train")]
 pub mod snn;
 #[cfg(feature = "train")]
+pub mod temporal;
+#[cfg(feature = "train")]
 pub mod train;
 
 pub mod sparse;
 
 pub use error::{Error, Result};
+
+/// Each row's class of highest logit, of logits `[batch, classes]`.
+pub(crate) fn predicted_classes(logits: &burn::tensor::Tensor<2>) -> Vec<usize> {
+    logits
+        .clone()
+        .argmax(1)
+        .to_data()
+        .convert::<i64>()
+        .try_into_vec::<i64>()
+        .expect("int predictions")
+        .into_iter()
+        .map(|p| p as usize)
+        .collect()
+}
+
+/// burn-flex seeds one process-wide generator (`Device::seed`), which initialisation and dropout
+/// draw from: tests that train and compare seeded runs hold this lock.
+#[cfg(all(test, feature = "train"))]
+pub(crate) fn burn_rng() -> std::sync::MutexGuard<'static, ()> {
+    static BURN_RNG: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    BURN_RNG.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}

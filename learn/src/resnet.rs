@@ -305,17 +305,7 @@ pub fn evaluate(model: &Resnet, set: &ImageSet, batch_size: usize) -> (f64, f64,
         let logits = model.forward(batch(set, chunk, &device, <[f32]>::to_vec));
         let y: Vec<i64> = chunk.iter().map(|&i| set.labels[i] as i64).collect();
         let y = Tensor::<1, burn::tensor::Int>::from_data(burn::tensor::TensorData::new(y, [chunk.len()]), &device);
-        preds.extend(
-            logits
-                .clone()
-                .argmax(1)
-                .to_data()
-                .convert::<i64>()
-                .try_into_vec::<i64>()
-                .expect("int predictions")
-                .into_iter()
-                .map(|p| p as usize),
-        );
+        preds.extend(crate::predicted_classes(&logits));
         loss += loss_fn.forward(logits, y).into_scalar::<f32>() as f64 * chunk.len() as f64;
     }
     let n = set.len().max(1) as f64;
@@ -361,9 +351,7 @@ pub fn train(
         for idx in batches {
             let x = batch(train_set, idx, &device, |img| augment(img, &mut rng));
             let logits = model.forward(x);
-            let pred =
-                logits.clone().argmax(1).to_data().convert::<i64>().try_into_vec::<i64>().expect("int predictions");
-            let h = pred.iter().zip(idx).filter(|&(&p, &i)| p as usize == train_set.labels[i]).count();
+            let h = ::snn::scoring::hits(crate::predicted_classes(&logits), idx.iter().map(|&i| train_set.labels[i]));
             let y: Vec<i64> = idx.iter().map(|&i| train_set.labels[i] as i64).collect();
             let y = Tensor::<1, burn::tensor::Int>::from_data(burn::tensor::TensorData::new(y, [idx.len()]), &device);
             let loss = loss_fn.forward(logits, y);
@@ -377,17 +365,13 @@ pub fn train(
         let inference = model.valid();
         let (val_loss, val_accuracy, _) =
             if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { evaluate(&inference, val, 32) };
-        let report = crate::train::EpochReport {
+        let report = crate::train::EpochReport::without_spikes(
             epoch,
             lr,
-            train_loss: loss_sum / train_set.len().max(1) as f64,
-            train_accuracy: hits as f64 / train_set.len().max(1) as f64,
-            val_loss,
-            val_accuracy,
-            val_spikes_per_sample: Vec::new(),
-            seconds: start.elapsed().as_secs_f64(),
-            truncation: None,
-        };
+            (loss_sum, hits, train_set.len()),
+            (val_loss, val_accuracy),
+            start,
+        );
         observer.epoch_end(&report);
         let score = if val.is_empty() { epoch as f64 } else { val_accuracy };
         if score > best.1 {

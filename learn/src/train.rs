@@ -193,6 +193,31 @@ pub struct EpochReport {
     pub truncation: Option<TruncationCheck>,
 }
 
+impl EpochReport {
+    /// An epoch of a network without spikes (the ResNet, the conventional baselines): the loss
+    /// summed and the hits counted over `n` training samples, validation's loss and accuracy (NaN
+    /// without validation), the epoch's start.
+    pub fn without_spikes(
+        epoch: usize,
+        lr: f64,
+        (loss_sum, hits, n): (f64, usize, usize),
+        (val_loss, val_accuracy): (f64, f64),
+        started: Instant,
+    ) -> EpochReport {
+        EpochReport {
+            epoch,
+            lr,
+            train_loss: loss_sum / n.max(1) as f64,
+            train_accuracy: hits as f64 / n.max(1) as f64,
+            val_loss,
+            val_accuracy,
+            val_spikes_per_sample: Vec::new(),
+            seconds: started.elapsed().as_secs_f64(),
+            truncation: None,
+        }
+    }
+}
+
 /// Hears about training as it goes (the command line draws progress bars).
 pub trait Observer {
     fn epoch_begin(&mut self, _epoch: usize, _batches: usize) {}
@@ -250,7 +275,7 @@ pub fn dense_input(batch: &[crate::sparse::Entries], steps: usize, n_inputs: usi
 
 /// Sample `s`'s input as `(step, input, count)` entries, augmented when asked (the draws, in
 /// order, are the same whichever trainer takes them).
-fn sample_entries(
+pub(crate) fn sample_entries(
     set: &SpikeSet,
     s: usize,
     mut augment: Option<(&Augment, &mut rand_chacha::ChaCha8Rng)>,
@@ -301,8 +326,7 @@ fn targets(set: &SpikeSet, idx: &[usize], device: &Device) -> Tensor<1, Int> {
 }
 
 fn correct(logits: &Tensor<2>, set: &SpikeSet, idx: &[usize]) -> usize {
-    let pred = logits.clone().argmax(1).to_data().convert::<i64>().try_into_vec::<i64>().expect("int predictions");
-    snn::scoring::hits(pred.iter().map(|&p| p as usize), idx.iter().map(|&i| set.labels[i]))
+    snn::scoring::hits(crate::predicted_classes(logits), idx.iter().map(|&i| set.labels[i]))
 }
 
 /// Validation: loss, accuracy and spikes per sample with the time-stepped network (no autodiff).

@@ -64,6 +64,21 @@ impl Confusion {
     }
 }
 
+/// Mean and sample standard deviation (n - 1; NaN for one value) of `values`; `None` if empty.
+pub fn mean_sd(values: &[f64]) -> Option<(f64, f64)> {
+    if values.is_empty() {
+        return None;
+    }
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let sd = if values.len() > 1 {
+        (values.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        f64::NAN
+    };
+    Some((mean, sd))
+}
+
 /// Macro-averaged F1 over the classes that occur (in truth or prediction) of a confusion matrix
 /// `[truth][predicted]`; 0 when nothing occurs.
 pub fn macro_f1(confusion: &[Vec<u32>]) -> f64 {

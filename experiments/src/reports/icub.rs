@@ -44,20 +44,19 @@ pub struct SeedMean {
 
 impl SeedMean {
     pub fn of(models: Vec<String>, accuracies: Vec<f64>) -> SeedMean {
-        let n = accuracies.len() as f64;
-        let mean = accuracies.iter().sum::<f64>() / n;
-        let sd = if accuracies.len() > 1 {
-            (accuracies.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-        } else {
-            f64::NAN
-        };
+        let (mean, sd) = crate::eval::scoring::mean_sd(&accuracies).unwrap_or((f64::NAN, f64::NAN));
         SeedMean { models, accuracies, mean, sd }
     }
 }
 
-/// The search run of each iCub dataset whose seed mean heads the report (docs/training.md).
+/// The search run of each dataset whose seed mean heads the reports (docs/training.md): the
+/// defaults' run (`NAME-warmup`); for the SIMULATED taxel set the same search on the set as the
+/// simulator makes it since 2026-11-27 (`scripts/search_taxels.sh --current`).
 pub fn search_run(dataset: &str) -> String {
-    format!("{dataset}-warmup")
+    match dataset {
+        "sim-taxels" => "sim-taxels-2026-11-28".into(),
+        _ => format!("{dataset}-warmup"),
+    }
 }
 
 /// The final models of search run `run` under `search` (`RUN.safetensors`, `RUN.seed2...`) on the

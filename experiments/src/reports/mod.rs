@@ -7,5 +7,6 @@ pub mod chips;
 pub mod figures;
 pub mod icub;
 pub mod letters;
+pub mod tactile;
 pub mod ueb;
 pub mod words;

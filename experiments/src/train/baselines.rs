@@ -18,6 +18,10 @@ pub struct Baseline {
     /// What was chosen on validation (bins, regularisation).
     pub choice: String,
     pub features: usize,
+    /// Weights and biases.
+    pub parameters: usize,
+    /// Multiply-accumulates per sample (the features' binning not counted).
+    pub macs_per_sample: u64,
     pub val_accuracy: f64,
     /// The refitted model on the whole training split.
     pub train_accuracy: f64,
@@ -246,14 +250,7 @@ fn b1_pow(b: f64, step: usize) -> f64 {
 /// The floors on `data`: validation on the recipe's hold-out (`val_fraction`, `val_seed` as the
 /// SNN search's), then the choice refitted on the whole training split.
 pub fn baselines(data: &TactileData, val_fraction: f64, val_seed: u64, eval_test: EvalTest) -> Result<Vec<Baseline>> {
-    let hold = crate::train::recipe::SnnRecipe { val_fraction, val_seed: Some(val_seed), ..Default::default() };
-    let (train, val) = data.train_val(&hold);
-    if train.is_empty() || val.is_empty() {
-        return Err(Error::Data {
-            path: data.dir.clone(),
-            what: "baselines need training and validation samples".into(),
-        });
-    }
+    let (train, val) = data.hold_out(val_fraction, val_seed)?;
     let classes = data.classes.len();
     let prepared = |set_fit: &SpikeSet, others: &[&SpikeSet], bins: usize| {
         let fit = features(set_fit, bins);
@@ -281,6 +278,8 @@ pub fn baselines(data: &TactileData, val_fraction: f64, val_seed: u64, eval_test
         model: "ridge regression".into(),
         choice: format!("{bins} bins, alpha {alpha}"),
         features: xa.first().map_or(0, |r| r.len()),
+        parameters: m.w.len() + m.b.len(),
+        macs_per_sample: m.w.len() as u64,
         val_accuracy: val_acc,
         train_accuracy: m.accuracy(&xa, &data.train.labels),
         test_accuracy: (eval_test == EvalTest::Yes).then(|| m.accuracy(&xs[0], &data.test.labels)),
@@ -301,6 +300,8 @@ pub fn baselines(data: &TactileData, val_fraction: f64, val_seed: u64, eval_test
         model: "logistic regression".into(),
         choice: format!("{bins} bins, L2 {}", best.0),
         features: xa.first().map_or(0, |r| r.len()),
+        parameters: m.w.len() + m.b.len(),
+        macs_per_sample: m.w.len() as u64,
         val_accuracy: best.1,
         train_accuracy: m.accuracy(&xa, &data.train.labels),
         test_accuracy: (eval_test == EvalTest::Yes).then(|| m.accuracy(&xs[0], &data.test.labels)),
@@ -309,20 +310,55 @@ pub fn baselines(data: &TactileData, val_fraction: f64, val_seed: u64, eval_test
     Ok(out)
 }
 
-/// The floors as a Markdown table.
-pub fn markdown(rows: &[Baseline]) -> String {
+/// The floors, and the networks if searched, as one Markdown table: what validation chose, its
+/// score, the test split (the networks: mean and sample s.d. of the final models over seeds, each
+/// seed's score), the size and the work per sample.
+pub fn markdown(rows: &[Baseline], networks: &[crate::train::networks::NetworkResult]) -> String {
     let mut s = String::from(
-        "| model | chosen on validation | features | validation | train (refitted) | test |\n| --- | --- | --- | --- | --- | --- |\n",
+        "| model | chosen on validation | validation | test | parameters | MACs / sample | minutes |\n| --- | --- | --- | --- | --- | --- | --- |\n",
     );
     for b in rows {
         s += &format!(
-            "| {} | {} | {} | {:.1}% | {:.1}% | {} |\n",
+            "| {} | {} | {:.1}% | {} | {} | {} | {:.1} |\n",
             b.model,
             b.choice,
-            b.features,
             100.0 * b.val_accuracy,
-            100.0 * b.train_accuracy,
-            b.test_accuracy.map_or("not looked at".into(), |a| format!("{:.1}%", 100.0 * a))
+            b.test_accuracy.map_or("not looked at".into(), |a| format!("{:.1}%", 100.0 * a)),
+            b.parameters,
+            b.macs_per_sample,
+            b.seconds / 60.0
+        );
+    }
+    for n in networks {
+        let Some(t) = n.chosen() else {
+            s += &format!("| {} | no trial fitted the budget | | | | | |\n", n.kind.name());
+            continue;
+        };
+        let per: Vec<String> =
+            n.finals.iter().filter_map(|f| f.test_accuracy).map(|a| format!("{:.1}", 100.0 * a)).collect();
+        let test = match n.test_mean_sd() {
+            Some((m, sd)) if per.len() > 1 => {
+                format!("**{:.1}%** ({:.1}; seeds {})", 100.0 * m, 100.0 * sd, per.join(" / "))
+            }
+            Some((m, _)) => format!("{:.1}%", 100.0 * m),
+            None => "not looked at".into(),
+        };
+        let minutes =
+            (n.trials.iter().map(|t| t.seconds).sum::<f64>() + n.finals.iter().map(|f| f.seconds).sum::<f64>()) / 60.0;
+        s += &format!(
+            "| {} ({} final {}) | {} (best epoch {}; {} {}) | {:.1}% | {} | {} | {} | {:.1} |\n",
+            n.kind.name(),
+            n.finals.len(),
+            if n.finals.len() == 1 { "seed" } else { "seeds" },
+            t.config.describe(),
+            t.best_epoch,
+            n.trials.len(),
+            if n.trials.len() == 1 { "trial" } else { "trials" },
+            100.0 * t.val_accuracy,
+            test,
+            n.parameters,
+            n.macs_per_sample,
+            minutes
         );
     }
     s

@@ -230,6 +230,18 @@ impl TactileData {
             None => self.train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed)),
         }
     }
+
+    /// The SNN search's hold-out (`val_fraction` of the training split, stratified, drawn with
+    /// `val_seed`; or the folder's own validation split) as (training, validation), for the
+    /// models compared with it; an error if either side is empty.
+    pub fn hold_out(&self, val_fraction: f64, val_seed: u64) -> Result<(SpikeSet, SpikeSet)> {
+        let hold = SnnRecipe { val_fraction, val_seed: Some(val_seed), ..Default::default() };
+        let (train, val) = self.train_val(&hold);
+        if train.is_empty() || val.is_empty() {
+            return Err(Error::Data { path: self.dir.clone(), what: "needs training and validation samples".into() });
+        }
+        Ok((train, val))
+    }
 }
 
 /// Trains the recipe on a tactile dataset folder (iCub layout: any channel and class count).

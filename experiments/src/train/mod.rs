@@ -1,9 +1,11 @@
 //! Training: SNN recipes ([`recipe`]), fitting an SNN on simulated windows or a tactile dataset
 //! ([`fit`]), the validation-driven search on any dataset folder ([`search`], run whole by
-//! [`search::run`]), the linear floors ([`baselines`]) and the ResNet's training ([`resnet`]).
+//! [`search::run`]), the linear floors ([`baselines`]), the conventional networks chosen by the same
+//! protocol ([`networks`]) and the ResNet's training ([`resnet`]).
 
 pub mod baselines;
 pub mod fit;
+pub mod networks;
 pub mod recipe;
 pub mod resnet;
 pub mod search;

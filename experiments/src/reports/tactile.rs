@@ -1,0 +1,282 @@
+//! The SNN against conventional networks on tactile datasets (`braille tactile-report`): per
+//! dataset folder, the SNN search's final models (one per seed, run by the event-driven engine on
+//! the test split) beside the GRU, LSTM and temporal CNN and the linear floors of `braille
+//! baselines --search --eval-test` (its `baselines.json`), every one chosen on the same
+//! validation hold-out, with seed means and spreads, size, work per sample and energy estimates.
+
+use crate::error::{Error, Result};
+use crate::eval::tactile::{SplitChoice, eval_split};
+use serde::{Deserialize, Serialize};
+use snn::energy::{CMOS45_ADD, CMOS45_MAC, LOIHI_SYNOP};
+use snn::engine::Mode;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// One dataset to report: its name, folder, the SNN search's run (`RUN.safetensors`,
+/// `RUN.seed2.safetensors`, ... under the search folder) and the baselines' folder.
+#[derive(Debug, Clone)]
+pub struct TactileSource {
+    pub name: String,
+    pub data: PathBuf,
+    pub snn_run: PathBuf,
+    pub baselines: PathBuf,
+}
+
+/// One model's line.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelLine {
+    pub model: String,
+    /// What validation chose.
+    pub choice: String,
+    /// Test accuracy per seed (one for the deterministic floors).
+    pub test_accuracies: Vec<f64>,
+    pub mean: f64,
+    /// Sample standard deviation over seeds (NaN for one).
+    pub sd: f64,
+    pub parameters: usize,
+    /// Synaptic operations (SNN) or multiply-accumulates (the others) per sample.
+    pub ops_per_sample: f64,
+    pub spiking: bool,
+}
+
+impl ModelLine {
+    /// Energy per sample in microjoules: SynOps at a 45 nm float add and on Loihi; MACs at a 45
+    /// nm float multiply-accumulate.
+    pub fn energy_uj(&self) -> (f64, Option<f64>) {
+        if self.spiking {
+            (CMOS45_ADD.nanojoules(self.ops_per_sample) / 1e3, Some(LOIHI_SYNOP.nanojoules(self.ops_per_sample) / 1e3))
+        } else {
+            (CMOS45_MAC.nanojoules(self.ops_per_sample) / 1e3, None)
+        }
+    }
+}
+
+/// A dataset's lines, the SNN first.
+#[derive(Debug, Clone, Serialize)]
+pub struct TactileRow {
+    pub dataset: String,
+    pub lines: Vec<ModelLine>,
+}
+
+impl TactileRow {
+    fn best(&self, pick: impl Fn(&ModelLine) -> bool) -> Option<&ModelLine> {
+        self.lines.iter().filter(|l| pick(l)).max_by(|a, b| a.mean.total_cmp(&b.mean))
+    }
+
+    /// The SNN's mean minus the best conventional network's, and minus the best linear floor's,
+    /// in points.
+    pub fn gaps(&self) -> (Option<f64>, Option<f64>) {
+        let Some(snn) = self.lines.iter().find(|l| l.spiking) else { return (None, None) };
+        let net = self.best(|l| !l.spiking && !is_linear(l));
+        let floor = self.best(is_linear);
+        (net.map(|n| 100.0 * (snn.mean - n.mean)), floor.map(|f| 100.0 * (snn.mean - f.mean)))
+    }
+}
+
+fn is_linear(l: &ModelLine) -> bool {
+    l.model.contains("regression")
+}
+
+/// What `braille baselines --out` wrote, as far as this report reads it.
+#[derive(Deserialize)]
+struct BaselinesFile {
+    baselines: Vec<Floor>,
+    #[serde(default)]
+    networks: Vec<Net>,
+}
+
+#[derive(Deserialize)]
+struct Floor {
+    model: String,
+    choice: String,
+    parameters: usize,
+    macs_per_sample: u64,
+    test_accuracy: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct Net {
+    kind: learn::temporal::TemporalKind,
+    trials: Vec<NetTrial>,
+    winner: Option<usize>,
+    finals: Vec<NetFinal>,
+    parameters: usize,
+    macs_per_sample: u64,
+}
+
+#[derive(Deserialize)]
+struct NetTrial {
+    config: learn::temporal::TemporalConfig,
+}
+
+#[derive(Deserialize)]
+struct NetFinal {
+    test_accuracy: Option<f64>,
+}
+
+fn line(model: String, choice: String, accuracies: Vec<f64>, parameters: usize, ops: f64, spiking: bool) -> ModelLine {
+    let (mean, sd) = crate::eval::scoring::mean_sd(&accuracies).unwrap_or((f64::NAN, f64::NAN));
+    ModelLine { model, choice, test_accuracies: accuracies, mean, sd, parameters, ops_per_sample: ops, spiking }
+}
+
+/// The report's row of `source`.
+pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
+    let mut lines = Vec::new();
+    let models: Vec<PathBuf> =
+        (1..).map(|seed| crate::train::search::seed_path(&source.snn_run, seed)).take_while(|p| p.is_file()).collect();
+    if models.is_empty() {
+        return Err(Error::Model {
+            path: source.snn_run.clone(),
+            what: "no SNN search model here (`braille train --data DIR --search --seeds 3 --out FILE`)".into(),
+        });
+    }
+    let (mut accuracies, mut synops) = (Vec::new(), 0.0);
+    for m in &models {
+        let (e, _) = eval_split(m, &source.data, SplitChoice::Test, Mode::Stepped)?;
+        accuracies.push(e.accuracy);
+        synops += e.synops_per_sample / models.len() as f64;
+    }
+    let first = pipeline::models::load_snn(&models[0])?;
+    let spec = &first.config.network;
+    let parameters = spec
+        .shapes()?
+        .iter()
+        .zip(&spec.layers)
+        .map(|(s, l)| {
+            let n = |v: &[usize]| if v.is_empty() { 0 } else { v.iter().product::<usize>() };
+            n(&s.weight)
+                + if l.bias { n(&s.bias) } else { 0 }
+                + if l.recurrent { n(&s.recurrent) } else { 0 }
+                + if l.recurrent_bias { n(&s.recurrent_bias) } else { 0 }
+        })
+        .sum();
+    let hidden: Vec<String> = spec.layers[..spec.layers.len() - 1]
+        .iter()
+        .filter_map(|l| match l.op {
+            snn::spec::OpSpec::Dense { n_out } => Some(format!(
+                "{n_out} {}{}",
+                l.neurons.map_or(String::new(), |p| format!("{:?}", p.kind)),
+                if l.recurrent { " (recurrent)" } else { "" }
+            )),
+            _ => None,
+        })
+        .collect();
+    lines.push(line(
+        format!("SNN ({} seeds)", models.len()),
+        format!("the search's winner: {}, dt {} ms", hidden.join(", "), first.config.dt_us as f64 / 1e3),
+        accuracies,
+        parameters,
+        synops,
+        true,
+    ));
+    let path = source.baselines.join("baselines.json");
+    let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+    let b: BaselinesFile = serde_json::from_str(&text)
+        .map_err(|e| Error::Data { path: path.clone(), what: format!("not a `braille baselines --out` file: {e}") })?;
+    for n in &b.networks {
+        let Some(w) = n.winner else { continue };
+        let acc: Vec<f64> = n.finals.iter().filter_map(|f| f.test_accuracy).collect();
+        if acc.is_empty() {
+            return Err(Error::Data { path: path.clone(), what: "run without --eval-test: no test accuracies".into() });
+        }
+        lines.push(line(
+            format!("{} ({} seeds)", n.kind.name(), acc.len()),
+            n.trials[w].config.describe(),
+            acc,
+            n.parameters,
+            n.macs_per_sample as f64,
+            false,
+        ));
+    }
+    for f in &b.baselines {
+        let Some(a) = f.test_accuracy else {
+            return Err(Error::Data { path: path.clone(), what: "run without --eval-test: no test accuracies".into() });
+        };
+        lines.push(line(f.model.clone(), f.choice.clone(), vec![a], f.parameters, f.macs_per_sample as f64, false));
+    }
+    Ok(TactileRow { dataset: source.name.clone(), lines })
+}
+
+/// The rows of `sources`, written to `out` as `tactile.md` and `tactile.json`; the Markdown.
+pub fn write_report(sources: &[TactileSource], out: &Path) -> Result<String> {
+    let rows = sources.iter().map(tactile_row).collect::<Result<Vec<_>>>()?;
+    let md = markdown(&rows)?;
+    std::fs::create_dir_all(out).map_err(|source| Error::Io { path: out.to_path_buf(), source })?;
+    let path = out.join("tactile.md");
+    std::fs::write(&path, &md).map_err(|source| Error::Io { path, source })?;
+    crate::write_json(&out.join("tactile.json"), &rows, true)?;
+    Ok(md)
+}
+
+/// The rows as Markdown.
+pub fn markdown(rows: &[TactileRow]) -> Result<String> {
+    let mut md = String::new();
+    writeln!(md, "# The SNN against conventional networks on tactile data\n")?;
+    writeln!(
+        md,
+        "Regenerate: `braille tactile-report` (the SNN search's models from `scripts/search_icub.sh --defaults` and `scripts/search_taxels.sh --current`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
+        CMOS45_ADD.pj_per_op, LOIHI_SYNOP.pj_per_op, CMOS45_MAC.pj_per_op, CMOS45_MAC.source, LOIHI_SYNOP.source
+    )?;
+    writeln!(md, "| data | SNN minus the best network | SNN minus the best linear floor |\n| --- | --- | --- |")?;
+    for r in rows {
+        let (net, floor) = r.gaps();
+        let pts = |g: Option<f64>| g.map_or("n/a".into(), |g| format!("{g:+.1} points"));
+        writeln!(md, "| {} | {} | {} |", r.dataset, pts(net), pts(floor))?;
+    }
+    for r in rows {
+        writeln!(md, "\n## {}\n", r.dataset)?;
+        writeln!(
+            md,
+            "| model | chosen on validation | **test, mean (s.d.)** | per seed | parameters | work / sample | energy / sample: 45 nm | Loihi |\n| --- | --- | --- | --- | --- | --- | --- | --- |"
+        )?;
+        for l in &r.lines {
+            let mean = if l.sd.is_nan() {
+                format!("{:.1}%", 100.0 * l.mean)
+            } else {
+                format!("**{:.1}%** ({:.1})", 100.0 * l.mean, 100.0 * l.sd)
+            };
+            let per = if l.test_accuracies.len() > 1 {
+                l.test_accuracies.iter().map(|a| format!("{:.1}", 100.0 * a)).collect::<Vec<_>>().join(" / ")
+            } else {
+                String::new()
+            };
+            let (e45, loihi) = l.energy_uj();
+            writeln!(
+                md,
+                "| {} | {} | {mean} | {per} | {} | {:.0} {} | {:.3} uJ | {} |",
+                l.model,
+                l.choice,
+                l.parameters,
+                l.ops_per_sample,
+                if l.spiking { "SynOps" } else { "MACs" },
+                e45,
+                loihi.map_or(String::new(), |e| format!("{e:.3} uJ"))
+            )?;
+        }
+    }
+    Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaps_compare_the_snn_with_the_best_network_and_the_best_floor() {
+        let l = |m: &str, acc: f64, spiking| line(m.into(), String::new(), vec![acc], 1, 1.0, spiking);
+        let row = TactileRow {
+            dataset: "d".into(),
+            lines: vec![
+                l("SNN", 0.80, true),
+                l("GRU", 0.85, false),
+                l("temporal CNN", 0.75, false),
+                l("ridge regression", 0.60, false),
+                l("logistic regression", 0.70, false),
+            ],
+        };
+        let (net, floor) = row.gaps();
+        assert!((net.unwrap() + 5.0).abs() < 1e-9 && (floor.unwrap() - 10.0).abs() < 1e-9);
+        // SynOps cost an add, MACs a multiply-accumulate
+        assert!(l("SNN", 0.8, true).energy_uj().1.is_some() && l("GRU", 0.8, false).energy_uj().1.is_none());
+    }
+}

@@ -1,0 +1,66 @@
+//! `braille tactile-report`: per tactile dataset, the SNN search's final models beside the
+//! conventional networks and linear floors chosen by the same protocol
+//! (`experiments::reports::tactile`).
+
+use anyhow::{Result, bail};
+use experiments::reports::tactile::{TactileSource, write_report};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A dataset as NAME=FOLDER (repeatable). Its SNN is the search run `NAME-warmup` under
+    /// --search, its networks and floors `NAME/baselines.json` under --baselines
+    /// [default: raw1350 and th10 under data/icub_braille, sim-taxels=target/sim-taxels, the
+    /// folder `scripts/search_taxels.sh` generates].
+    #[arg(long = "dataset", value_name = "NAME=FOLDER")]
+    datasets: Vec<String>,
+    /// Folder of the SNN search's final models [default: the shipped ones, `models/search/`].
+    #[arg(long)]
+    search: Option<PathBuf>,
+    /// Folder of `braille baselines --search --eval-test --out` results, one folder per dataset.
+    #[arg(long, default_value = "docs/results/baselines")]
+    baselines: PathBuf,
+    /// Where to write `tactile.md` and `tactile.json`.
+    #[arg(long, default_value = "docs/results")]
+    out: PathBuf,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let search = a.search.unwrap_or_else(|| crate::common::shipped().search_dir());
+    let datasets = if a.datasets.is_empty() {
+        vec![
+            "raw1350=data/icub_braille/raw1350".to_string(),
+            "th10=data/icub_braille/th10".into(),
+            "sim-taxels=target/sim-taxels".into(),
+        ]
+    } else {
+        a.datasets
+    };
+    let mut sources = Vec::new();
+    for d in &datasets {
+        let Some((name, folder)) = d.split_once('=') else {
+            bail!("--dataset {d}: expected NAME=FOLDER");
+        };
+        let source = TactileSource {
+            name: name.to_string(),
+            data: PathBuf::from(folder),
+            snn_run: search.join(format!("{}.safetensors", experiments::reports::icub::search_run(name))),
+            baselines: a.baselines.join(name),
+        };
+        if !source.data.is_dir() {
+            bail!(
+                "{}: no dataset folder here{}",
+                source.data.display(),
+                if name == "sim-taxels" {
+                    " (generate it: bash scripts/search_taxels.sh, or braille sim-dataset --out DIR)"
+                } else {
+                    ""
+                }
+            );
+        }
+        sources.push(source);
+    }
+    let md = write_report(&sources, &a.out)?;
+    print!("{md}");
+    Ok(())
+}
