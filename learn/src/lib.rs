@@ -36,11 +36,3 @@ pub(crate) fn predicted_classes(logits: &burn::tensor::Tensor<2>) -> Vec<usize> 
         .map(|p| p as usize)
         .collect()
 }
-
-/// burn-flex seeds one process-wide generator (`Device::seed`), which initialisation and dropout
-/// draw from: tests that train and compare seeded runs hold this lock.
-#[cfg(all(test, feature = "train"))]
-pub(crate) fn burn_rng() -> std::sync::MutexGuard<'static, ()> {
-    static BURN_RNG: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    BURN_RNG.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
