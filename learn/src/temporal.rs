@@ -170,8 +170,8 @@ impl TemporalNet {
     }
 }
 
-/// Sample `s` of `set` as `bins` rows of `ln(1 + events)` per input, from its (augmented)
-/// entries.
+/// One sample's (augmented) `(step, input, count)` entries as `bins` rows of `ln(1 + events)`
+/// per input.
 fn binned(entries: &crate::sparse::Entries, n_inputs: usize, steps_per_bin: usize, bins: usize) -> Vec<f32> {
     let mut out = vec![0f32; bins * n_inputs];
     for &(t, i, c) in entries {
