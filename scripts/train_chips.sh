@@ -5,6 +5,10 @@
 #   12 inputs, 256 CubaLIF, 7 leaky-integrator outputs (Xylo: 16 inputs, 1000 hidden, 8 outputs);
 # - speck-chars: a convolutional IF character classifier with sum pooling on SIMULATED windows
 #   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
+# - qat/speck-chars-seed{1,2,3}: speck-chars fine-tuned for Speck (quantisation-aware, `--chip speck` on the
+#   dense trainer: every forward pass Sinabs's model of the chip in float units, 8-bit weights at one scale per
+#   core, the threshold at that scale, several spikes per step), 15 epochs (half the recipe's, as for Xylo, not
+#   tuned), one per fine-tuning seed (the validation hold-out stays the float model's, seed 1); about 6 minutes each.
 # - qat/xylo-braille7-seed{1,2,3}: xylo-braille7 fine-tuned for Xylo (quantisation-aware, `--chip xylo`:
 #   Xylo's decays and reset, every forward pass in Xylo's arithmetic), 30 epochs (half the recipe's, not
 #   tuned), one per fine-tuning seed (the shuffling; the validation hold-out stays the float model's, seed 2);
@@ -18,13 +22,13 @@ cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 # REALISM=clean|nominal|harsh (default nominal): the preset of the SIMULATED model's scans, which
-# goes to models/$REALISM/chip/; `--simulated-only` leaves the Xylo model
+# goes to models/$REALISM/chip/; `--speck-qat-only` only fine-tunes the Speck model; `--simulated-only` leaves the Xylo model
 # (real recordings) as it is.
 realism="${REALISM:-nominal}"
 sim="models/$realism/chip"
 hist="docs/results/$realism/chip"
 mkdir -p models/icub/chip docs/results/icub/chip "$sim" "$hist"
-if [[ "${1:-}" != "--simulated-only" ]]; then
+if [[ "${1:-}" != "--simulated-only" && "${1:-}" != "--speck-qat-only" ]]; then
   $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/icub/chip/xylo-braille7.safetensors \
     --history docs/results/icub/chip/xylo_braille7_history.json --force --quiet
   mkdir -p models/icub/chip/qat
@@ -34,8 +38,16 @@ if [[ "${1:-}" != "--simulated-only" ]]; then
       --history "docs/results/icub/chip/qat_xylo_braille7_seed${seed}_history.json" --force --quiet
   done
 fi
-$b train --trainer dense --arch snn --recipe speck --realism "$realism" --out "$sim/speck-chars.safetensors" \
-  --history "$hist/speck_chars_history.json" --force --quiet
+if [[ "${1:-}" != "--speck-qat-only" ]]; then
+  $b train --trainer dense --arch snn --recipe speck --realism "$realism" --out "$sim/speck-chars.safetensors" \
+    --history "$hist/speck_chars_history.json" --force --quiet
+fi
+mkdir -p "$sim/qat"
+for seed in 1 2 3; do
+  $b train --trainer dense --arch snn --recipe speck --realism "$realism" --chip speck --init "$sim/speck-chars.safetensors" \
+    --epochs 15 --seed "$seed" --val-seed 1 --out "$sim/qat/speck-chars-seed$seed.safetensors" \
+    --history "$hist/qat_speck_chars_seed${seed}_history.json" --force --quiet
+done
 if [[ "${1:-}" != "--no-report" && "${2:-}" != "--no-report" ]]; then
   $b chip-report --realism "$realism" --out docs/results
 fi

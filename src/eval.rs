@@ -55,22 +55,48 @@ pub struct Args {
     /// order), for confusion analysis or combining models.
     #[arg(long)]
     predictions: Option<PathBuf>,
+    #[command(flatten)]
+    on_chip: ChipArgs,
+}
+
+/// A model in a chip's arithmetic (`--chip`), shared by `eval` and `eval chars`.
+#[derive(clap::Args)]
+pub struct ChipArgs {
     /// Run the model in a chip's arithmetic (docs/chips.md): mapped into its number formats
     /// (integer weights, fixed-point state, bit-shift decays), every sample as the chip computes.
     #[arg(long, value_enum)]
     chip: Option<snn::chip::Chip>,
-    /// --chip: how float weights become the chip's integers (Rockpool's quantisers).
+    /// --chip: how float weights become the chip's integers (Xylo: Rockpool's quantisers; Speck:
+    /// Sinabs's one scale per core, `global` only).
     #[arg(long, value_enum, default_value = "global", requires = "chip")]
     quantisation: snn::chip::xylo::Quantisation,
     /// --chip: every neuron every step (`stepped`, the vendor simulator's loop) or only neurons
     /// with state or input (`event-driven`); the two agree bit for bit.
     #[arg(long, value_enum, default_value = "event-driven", requires = "chip")]
     chip_run: snn::chip::xylo::Run,
-    /// --chip xylo: also write every sample as the chip ran it (the mapped specification, inputs,
-    /// hidden spikes, output membranes; JSON), for a spike-for-spike check with XyloSim
-    /// (scripts/chips/xylosim_check.py).
+    /// --chip: also write every sample as the chip ran it (JSON: the mapped specification, the
+    /// inputs and every spike), for a spike-for-spike check with the vendor's simulator
+    /// (scripts/chips/xylosim_check.py, scripts/chips/sinabs_check.py).
     #[arg(long, requires = "chip")]
     trace: Option<PathBuf>,
+}
+
+impl ChipArgs {
+    fn choice(&self) -> Option<experiments::eval::chip::ChipChoice> {
+        self.chip.map(|chip| experiments::eval::chip::ChipChoice {
+            chip,
+            quantisation: self.quantisation,
+            run: self.chip_run,
+        })
+    }
+
+    fn write_trace(&self, trace: Option<experiments::eval::chip::ChipTrace>) -> Result<()> {
+        if let (Some(path), Some(trace)) = (&self.trace, trace) {
+            let json = serde_json::to_vec(&trace)?;
+            std::fs::write(path, json).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+        }
+        Ok(())
+    }
 }
 
 #[derive(clap::Subcommand)]
@@ -96,8 +122,8 @@ pub fn run(args: Args) -> Result<()> {
         SplitArg::Test => SplitChoice::Test,
         SplitArg::All => SplitChoice::All,
     };
-    if let Some(chip) = args.chip {
-        return eval_chip(&args, chip, &model_path, &data_dir, split);
+    if let Some(choice) = args.on_chip.choice() {
+        return eval_chip(&args, choice, &model_path, &data_dir, split);
     }
     let (report, csv) = experiments::eval::tactile::eval_split(&model_path, &data_dir, split, args.mode)?;
     if let Some(path) = &args.predictions {
@@ -123,22 +149,24 @@ pub fn run(args: Args) -> Result<()> {
 
 fn eval_chip(
     args: &Args,
-    chip: snn::chip::Chip,
+    choice: experiments::eval::chip::ChipChoice,
     model_path: &std::path::Path,
     data_dir: &std::path::Path,
     split: SplitChoice,
 ) -> Result<()> {
-    use experiments::eval::chip::{ChipChoice, eval_split_chip};
-    let choice = ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
-    let (report, csv, trace) =
-        eval_split_chip(model_path, data_dir, split, choice, args.trace.is_some(), &Bar::default())?;
+    let chip = choice.chip;
+    let (report, csv, trace) = experiments::eval::chip::eval_split_chip(
+        model_path,
+        data_dir,
+        split,
+        choice,
+        args.on_chip.trace.is_some(),
+        &Bar::default(),
+    )?;
     if let Some(path) = &args.predictions {
         std::fs::write(path, csv).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
     }
-    if let (Some(path), Some(trace)) = (&args.trace, trace) {
-        let json = serde_json::to_vec(&trace)?;
-        std::fs::write(path, json).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
-    }
+    args.on_chip.write_trace(trace)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
@@ -149,7 +177,7 @@ fn eval_chip(
         e.data,
         e.split,
         e.n,
-        args.quantisation,
+        choice.quantisation,
         report.weight_shifts,
         e.mode,
         100.0 * e.accuracy,
@@ -207,6 +235,8 @@ pub struct CharsArgs {
     role: corpus::recordings::Role,
     #[command(flatten)]
     realism: crate::common::RealismArg,
+    #[command(flatten)]
+    on_chip: ChipArgs,
 }
 
 fn chars(args: CharsArgs) -> Result<()> {
@@ -239,6 +269,24 @@ fn chars(args: CharsArgs) -> Result<()> {
         blank_cells: false,
         sweep: None,
     };
+    if let Some(choice) = args.on_chip.choice() {
+        let (r, trace) =
+            experiments::eval::chars::eval_chip(&path, &spec, choice, args.on_chip.trace.is_some(), &Bar::default())?;
+        args.on_chip.write_trace(trace)?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            print!("{}", r.eval);
+            println!(
+                "in {}'s arithmetic ({:?} quantisation, {:?} run): {:.0} neuron updates per window; what the mapping changed:",
+                choice.chip, choice.quantisation, choice.run, r.neuron_updates_per_sample
+            );
+            for a in &r.approximations {
+                println!("  {a}");
+            }
+        }
+        return Ok(());
+    }
     let r = experiments::eval::chars::eval(&path, &spec, &Bar::default())?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

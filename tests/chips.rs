@@ -258,3 +258,46 @@ fn quantisation_aware_training_scores_its_validation_as_eval_chip_scores_the_wri
     let err = failed(&train(&["--init", s(&shipped), "--epochs", "1", "--out", s(&dir.path().join("i.safetensors"))]));
     assert!(err.contains("xylo-braille7.safetensors") && err.contains("layers, sizes or neurons"), "{err}");
 }
+
+#[test]
+fn eval_chars_runs_the_speck_model_in_specks_arithmetic_stepped_and_event_driven_alike() {
+    let model = root("models/nominal/chip/speck-chars.safetensors");
+    let run = |how: &str, extra: &[&str]| -> Output {
+        let mut args = vec![
+            "eval",
+            "chars",
+            "--arch",
+            "snn",
+            "--model",
+            s(&model),
+            "--realism",
+            "nominal",
+            "--trials",
+            "1",
+            "--chip",
+            "speck",
+            "--chip-run",
+            how,
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        braille(&args)
+    };
+    let json = |o: &Output| -> serde_json::Value { serde_json::from_str(&ok(o).0).unwrap() };
+    let (a, b) = (json(&run("stepped", &[])), json(&run("event-driven", &[])));
+    // bit for bit the same: the same predictions, spikes and synaptic operations
+    for key in ["accuracy", "accuracy_all", "synops_per_sample", "spikes_per_sample", "confusion"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    assert_eq!((a["n"].as_u64(), a["printed"].as_u64()), (Some(26), Some(26)));
+    assert!(b["neuron_updates_per_sample"].as_f64() < a["neuron_updates_per_sample"].as_f64());
+    let changed: Vec<&str> = a["approximations"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert!(changed.iter().any(|c| c.contains("MultiSpike")), "{changed:?}");
+    // Speck's cores have one threshold each: no per-channel scales
+    let err = failed(&run("stepped", &["--quantisation", "channel"]));
+    assert!(err.contains("speck-chars.safetensors") && err.contains("one threshold"), "{err}");
+    // a model Speck cannot hold is named with the rule
+    let xylo = root("models/icub/chip/xylo-braille7.safetensors");
+    let err = failed(&braille(&["bench", "--model", s(&xylo), "--chip", "speck"]));
+    assert!(err.contains("xylo-braille7.safetensors") && err.contains("IF neurons only"), "{err}");
+}

@@ -7,7 +7,7 @@
 //! `cargo run --release -p experiments --example xylo_differences`
 
 use encoders::spike_train::SpikeTrain;
-use experiments::eval::chip::xylo_accuracy;
+use experiments::eval::chip::chip_accuracy;
 use experiments::eval::tactile::{SplitChoice, encoding_of, load_split};
 use snn::chip::xylo::{self, Quantisation, Run, dash_of, decay_of};
 use snn::network::{Network, Op};
@@ -107,8 +107,8 @@ fn main() {
     println!("Xylo's fixed-point arithmetic, global quantisation, by ceiling on hidden thresholds:");
     for bits in 8..=14u8 {
         let mapped = xylo::map_with(&model.network, Quantisation::Global, bits).expect("maps");
-        let chip = mapped.spec.clone().compile().expect("compiles");
-        let (s, _) = xylo_accuracy(&chip, &set, Run::EventDriven).expect("runs");
+        let chip = snn::chip::ChipModel::Xylo(Box::new(mapped.spec.clone().compile().expect("compiles")));
+        let (s, _) = chip_accuracy(&chip, &set, Run::EventDriven).expect("runs");
         println!("  2^{bits} (weight shift {}): {:.2}%", mapped.spec.weight_shift_in, 100.0 * s.accuracy);
     }
 }

@@ -10,6 +10,13 @@
 //! v[t] = v_reset where z[t] (Zero) or v'[t] - v_th z[t] (Subtract); the reset is detached
 //! ```
 //!
+//! With [`SnnTwin::chip`] set to Speck, the forward pass is Sinabs's model of the chip
+//! ([`snn::chip::speck`]) in float units, for quantisation-aware training: each spiking layer's
+//! weights fake-quantised to 8 bits with Sinabs's one scale per layer (the value rounded, the
+//! gradient straight through), its threshold rounded at that scale, `z[t] = floor(v'[t] / v_th)`
+//! spikes for `v' > 0` (`MultiSpike`; backward: the surrogate at the nearest threshold crossing),
+//! the reset per spike and the membrane's floor at the 16-bit minimum.
+//!
 //! A leaky-integrator output layer never fires; its readout is `max(0, max_t v[t])`, what the
 //! engine's [`snn::engine::EngineState::output_v_max`] keeps; its gradient passes the clamp at
 //! zero straight through (a straight-through estimator), so no class's readout can die.
@@ -139,20 +146,52 @@ pub struct SnnTwin {
     /// Backpropagate the readout's clamp at zero as it is (zero gradient below it) instead of
     /// straight through.
     pub clamped_readout_gradient: bool,
+    /// Quantisation-aware: the chip whose arithmetic the forward pass models (Speck only; Xylo's
+    /// runs on the sparse trainer).
+    pub chip: Option<snn::chip::Chip>,
+}
+
+/// The surrogate derivative at `xd` (detached).
+fn surrogate_derivative(xd: Tensor<2>, surrogate: Surrogate) -> Tensor<2> {
+    match surrogate {
+        Surrogate::FastSigmoid { slope } => (xd.abs() * slope + 1.0).powi_scalar(2).recip(),
+        Surrogate::Arctan { alpha } => {
+            let a = xd * (std::f32::consts::PI * alpha / 2.0);
+            (a.clone() * a + 1.0).recip() * (alpha / 2.0)
+        }
+        Surrogate::Triangle { width } => (xd.abs() * (-1.0 / width) + 1.0).clamp_min(0.0) / width,
+    }
+}
+
+/// One spiking layer's quantisation for Speck: Sinabs's scale of its current weights, the
+/// threshold and floor at that scale.
+#[derive(Debug, Clone, Copy)]
+struct SpeckQuant {
+    scale: f32,
+    /// The integer threshold.
+    threshold: f32,
+    /// The floor in float units.
+    floor: f32,
+}
+
+/// One layer's weights for one forward pass (fake-quantised for a chip).
+struct LayerTensors {
+    dense: Option<Tensor<2>>,
+    conv: Option<Tensor<4>>,
+    bias: Option<Tensor<1>>,
+}
+
+/// `w` with the value of its 8-bit quantisation at `scale` and the gradient of `w`.
+fn fake_quantise<const D: usize>(w: Tensor<D>, scale: f32) -> Tensor<D> {
+    let q = (w.clone().detach() * scale).round().clamp(-128.0, 127.0) / scale;
+    w.clone() + (q - w.detach())
 }
 
 /// The spike: the step forward, `d(x)` backward (`x * d(x).detach()` carries the gradient; its
 /// value cancels exactly).
 fn spike(x: Tensor<2>, surrogate: Surrogate) -> Tensor<2> {
     let xd = x.clone().detach();
-    let d = match surrogate {
-        Surrogate::FastSigmoid { slope } => (xd.clone().abs() * slope + 1.0).powi_scalar(2).recip(),
-        Surrogate::Arctan { alpha } => {
-            let a = xd.clone() * (std::f32::consts::PI * alpha / 2.0);
-            (a.clone() * a + 1.0).recip() * (alpha / 2.0)
-        }
-        Surrogate::Triangle { width } => (xd.clone().abs() * (-1.0 / width) + 1.0).clamp_min(0.0) / width,
-    };
+    let d = surrogate_derivative(xd.clone(), surrogate);
     let hard = xd.greater_elem(0.0).float();
     let soft = x * d;
     hard + soft.clone() - soft.detach()
@@ -162,7 +201,7 @@ impl SnnTwin {
     pub fn new(spec: NetworkSpec, surrogate: Surrogate, readout: Readout) -> snn::Result<SnnTwin> {
         let shapes = spec.shapes()?;
         crate::sparse::check_trainable(&spec, readout)?;
-        Ok(SnnTwin { spec, shapes, surrogate, readout, clamped_readout_gradient: false })
+        Ok(SnnTwin { spec, shapes, surrogate, readout, clamped_readout_gradient: false, chip: None })
     }
 
     /// Runs `input`: one `[batch, n_inputs]` tensor per step.
@@ -185,10 +224,53 @@ impl SnnTwin {
         let mut counts: Vec<Option<Tensor<2>>> = vec![None; n_layers];
         let mut out_v: Vec<Tensor<2>> = Vec::new();
         let mut masks: Vec<Option<Tensor<2>>> = vec![None; n_layers];
+        let speck = self.chip == Some(snn::chip::Chip::Speck);
+        // Speck: each spiking layer's weights fake-quantised once per pass
+        let quant: Vec<Option<SpeckQuant>> = self
+            .spec
+            .layers
+            .iter()
+            .zip(&params.layers)
+            .map(|(l, p)| {
+                let np = l.neurons?;
+                if !speck {
+                    return None;
+                }
+                let (hi, lo) = match (&p.dense, &p.conv) {
+                    (Some(w), _) => {
+                        (w.val().detach().max().into_scalar::<f32>(), w.val().detach().min().into_scalar::<f32>())
+                    }
+                    (_, Some(w)) => {
+                        (w.val().detach().max().into_scalar::<f32>(), w.val().detach().min().into_scalar::<f32>())
+                    }
+                    _ => return None,
+                };
+                let scale = snn::chip::speck::discretization_scale([hi, lo], 8);
+                let low = snn::chip::speck::THRESHOLD_LOW as f32;
+                let scale = scale.min(snn::chip::speck::discretization_scale([low / scale, np.v_th], 16));
+                Some(SpeckQuant { scale, threshold: (np.v_th * scale).round().max(1.0), floor: low / scale })
+            })
+            .collect();
+        let weights: Vec<LayerTensors> = params
+            .layers
+            .iter()
+            .zip(&quant)
+            .map(|(p, q)| {
+                let fq2 = |w: Tensor<2>| q.map_or(w.clone(), |q| fake_quantise(w, q.scale));
+                let fq4 = |w: Tensor<4>| q.map_or(w.clone(), |q| fake_quantise(w, q.scale));
+                LayerTensors {
+                    dense: p.dense.as_ref().map(|w| fq2(w.val())),
+                    conv: p.conv.as_ref().map(|w| fq4(w.val())),
+                    bias: p.bias.as_ref().map(|b| b.val()),
+                }
+            })
+            .collect();
         for x_t in input {
             let mut x = x_t.clone();
-            for (k, ((l, s), p)) in self.spec.layers.iter().zip(&self.shapes).zip(&params.layers).enumerate() {
-                let mut u = self.op(l.op, s, p, x, batch);
+            for (k, ((l, s), (p, w))) in
+                self.spec.layers.iter().zip(&self.shapes).zip(params.layers.iter().zip(&weights)).enumerate()
+            {
+                let mut u = self.op(l.op, s, w, x, batch);
                 let Some(np) = l.neurons else {
                     x = u;
                     continue;
@@ -222,9 +304,30 @@ impl SnnTwin {
                     x = vn;
                     continue;
                 }
-                let z = spike(vn.clone() - np.v_th, self.surrogate);
-                let zd = z.clone().detach();
-                v[k] = Some(reset(vn, zd, &np));
+                let z = match quant[k] {
+                    Some(q) if np.kind == NeuronKind::If => {
+                        // Sinabs's MultiSpike on the chip's integers: floor(V / T) for V > 0
+                        let vi = (vn.clone().detach() * q.scale).round();
+                        let n_hard = (vi.clone() / q.threshold).floor().clamp_min(0.0);
+                        // backward: the surrogate at the nearest threshold crossing
+                        let crossing = (vi / q.threshold).round().clamp_min(1.0) * (q.threshold / q.scale);
+                        let xs = vn.clone() - crossing;
+                        let soft = xs.clone() * surrogate_derivative(xs.detach(), self.surrogate);
+                        let z = n_hard.clone() + soft.clone() - soft.detach();
+                        let kept = match np.reset {
+                            Reset::Subtract => vn - n_hard * (q.threshold / q.scale),
+                            Reset::Zero => vn * n_hard.equal_elem(0.0).float(),
+                        };
+                        v[k] = Some(kept.clamp_min(q.floor));
+                        z
+                    }
+                    _ => {
+                        let z = spike(vn.clone() - np.v_th, self.surrogate);
+                        let zd = z.clone().detach();
+                        v[k] = Some(reset(vn, zd, &np));
+                        z
+                    }
+                };
                 counts[k] = Some(match counts[k].take() {
                     Some(c) => c + z.clone(),
                     None => z.clone(),
@@ -269,22 +372,21 @@ impl SnnTwin {
         self.shapes.last().map_or(0, |s| s.output.iter().product())
     }
 
-    fn op(&self, op: OpSpec, s: &LayerShapes, p: &LayerParams, x: Tensor<2>, batch: usize) -> Tensor<2> {
+    fn op(&self, op: OpSpec, s: &LayerShapes, p: &LayerTensors, x: Tensor<2>, batch: usize) -> Tensor<2> {
         let chw = |x: Tensor<2>| x.reshape([batch, s.input[0], s.input[1], s.input[2]]);
         let n_out: usize = s.output.iter().product();
         match op {
             OpSpec::Dense { .. } => {
-                let w = p.dense.as_ref().expect("dense layers have weights").val();
+                let w = p.dense.clone().expect("dense layers have weights");
                 let y = x.matmul(w);
                 match &p.bias {
-                    Some(b) => y + b.val().unsqueeze_dim::<2>(0),
+                    Some(b) => y + b.clone().unsqueeze_dim::<2>(0),
                     None => y,
                 }
             }
             OpSpec::Conv2d { stride, padding, .. } => {
-                let w = p.conv.as_ref().expect("conv layers have weights").val();
-                let y =
-                    conv2d(chw(x), w, p.bias.as_ref().map(|b| b.val()), ConvOptions::new(stride, padding, [1, 1], 1));
+                let w = p.conv.clone().expect("conv layers have weights");
+                let y = conv2d(chw(x), w, p.bias.clone(), ConvOptions::new(stride, padding, [1, 1], 1));
                 y.reshape([batch, n_out])
             }
             OpSpec::Pool { kind, kernel, stride } => {

@@ -500,10 +500,29 @@ pub fn train(
         )));
     }
     match cfg.trainer {
-        Trainer::Dense if cfg.chip.is_some() => {
-            Err(snn::Error::input("quantisation-aware training runs on the sparse trainer (--trainer sparse)"))
+        Trainer::Dense if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Xylo) => {
+            Err(snn::Error::input("quantisation-aware training for Xylo runs on the sparse trainer (--trainer sparse)"))
+        }
+        Trainer::Sparse if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Speck) => {
+            Err(snn::Error::input("quantisation-aware training for Speck runs on the dense trainer (--trainer dense)"))
+        }
+        _ if cfg.chip.is_some_and(|c| c.quantisation != snn::chip::xylo::Quantisation::Global)
+            && cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Speck) =>
+        {
+            Err(snn::Error::input("Speck has one scale per core: global quantisation only"))
+        }
+        _ if cfg.chip.is_some() && cfg.dropout > 0.0 => {
+            Err(snn::Error::input("quantisation-aware training runs the chip as it is: no dropout (set it to 0)"))
         }
         Trainer::Dense => {
+            let chip_twin;
+            let twin = match cfg.chip {
+                Some(c) => {
+                    chip_twin = SnnTwin { chip: Some(c.chip), ..twin.clone() };
+                    &chip_twin
+                }
+                None => twin,
+            };
             let device = Device::flex().autodiff();
             device.seed(cfg.seed);
             let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
@@ -524,11 +543,6 @@ pub fn train(
             fit(&mut fitter, init, train, val, cfg, observer)
         }
         Trainer::Sparse => {
-            if cfg.chip.is_some() && cfg.dropout > 0.0 {
-                return Err(snn::Error::input(
-                    "quantisation-aware training runs the chip as it is: no dropout (set it to 0)",
-                ));
-            }
             let mut net = SparseSnn::new(twin.spec.clone(), twin.surrogate, twin.readout, cfg.gradient_cutoff)?;
             net.clamped_readout_gradient = twin.clamped_readout_gradient;
             let params = net.params(init)?;

@@ -351,3 +351,67 @@ fn weight_averaging_and_weight_decay() {
         assert!(train(&twin, &init, &train_set, &val, &bad, &mut Silent).is_err());
     }
 }
+
+/// With `chip` Speck, the twin's forward pass is the chip's arithmetic (in float units): its
+/// spike-count readout equals `snn::chip::speck`'s on the same integer input, sample by sample.
+#[test]
+fn speck_twin_reads_out_what_the_speck_chip_reads_out() {
+    let _rng = burn_rng();
+    let if_layer = |op, reset| LayerSpec {
+        op,
+        neurons: Some(NeuronParams::integrate_and_fire().with_reset(reset)),
+        recurrent: false,
+        bias: false,
+        recurrent_bias: false,
+    };
+    for reset in [Reset::Zero, Reset::Subtract] {
+        let spec = NetworkSpec {
+            input_shape: vec![2, 8, 8],
+            layers: vec![
+                if_layer(OpSpec::Conv2d { out_channels: 4, kernel: [3, 3], stride: [1, 1], padding: [1, 1] }, reset),
+                LayerSpec {
+                    op: OpSpec::Pool { kind: PoolKind::Sum, kernel: [2, 2], stride: [2, 2] },
+                    neurons: None,
+                    recurrent: false,
+                    bias: false,
+                    recurrent_bias: false,
+                },
+                if_layer(OpSpec::Dense { n_out: 6 }, reset),
+            ],
+        };
+        let weights = spec.init(3, 2.0).unwrap();
+        let net = spec.build(weights.clone()).unwrap();
+        let chip = snn::chip::speck::map(&net).unwrap().spec.compile().unwrap();
+        let mut twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::SpikeCount).unwrap();
+        twin.chip = Some(snn::chip::Chip::Speck);
+        let params = SnnParams::from_weights(&spec, &weights, &Device::flex()).unwrap();
+        let (steps, n) = (25, 2 * 8 * 8);
+        let (mut spiking, mut agree) = (0, 0);
+        for sample in 0..6u64 {
+            // event counts per input and step (0 to 3)
+            let draws: Vec<Vec<f32>> = (0..3).map(|j| random_input(100 + 3 * sample + j, steps, n, 0.15)).collect();
+            let input: Vec<f32> = (0..steps * n).map(|i| draws.iter().map(|d| d[i]).sum()).collect();
+            let out = twin.forward(&params, &steps_of(&input, steps, n));
+            let counts: Vec<f32> = out.logits.to_data().convert::<f32>().try_into_vec::<f32>().unwrap();
+            let per_step: Vec<(Vec<u32>, Vec<u16>)> = (0..steps)
+                .map(|t| {
+                    let row = &input[t * n..(t + 1) * n];
+                    let ch: Vec<u32> = (0..n as u32).filter(|&i| row[i as usize] > 0.0).collect();
+                    let ev = ch.iter().map(|&i| row[i as usize] as u16).collect();
+                    (ch, ev)
+                })
+                .collect();
+            let (readout, work) = chip
+                .run_sample(
+                    per_step.iter().map(|(c, e)| (c.as_slice(), e.as_slice())),
+                    snn::chip::xylo::Run::EventDriven,
+                )
+                .unwrap();
+            spiking += (work.output_spikes > 0) as usize;
+            agree += (readout == counts) as usize;
+            assert_eq!(readout, counts, "sample {sample}, {reset:?}");
+        }
+        assert!(spiking >= 3, "the test network's outputs spike ({spiking} of 6 samples)");
+        assert_eq!(agree, 6);
+    }
+}

@@ -8,8 +8,8 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pipeline::network::{self as model_bench, InputMap, LoadedNetwork, ModelSource, NirReading};
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use snn::chip::Chip;
-use snn::chip::xylo::{self, Quantisation, Run, Xylo};
+use snn::chip::xylo::{Quantisation, Run};
+use snn::chip::{Chip, ChipModel};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::Readout;
 use snn::nir::{self, Convention, ExportOptions, ImportReset, SubtractExport, Target};
@@ -33,7 +33,7 @@ pub struct Network {
 }
 
 /// A network mapped into a chip's formats, and by which quantiser.
-type MappedChip = ((Chip, Quantisation), Arc<Xylo>);
+type MappedChip = ((Chip, Quantisation), Arc<ChipModel>);
 
 /// What one run of a sample gives.
 #[pyclass(frozen, get_all, module = "braille")]
@@ -116,16 +116,14 @@ impl Network {
     }
 
     /// The network in `chip`'s formats, quantised by `q` (mapped once, then shared).
-    fn chip(&self, chip: Chip, q: Quantisation) -> PyResult<Arc<Xylo>> {
+    fn chip(&self, chip: Chip, q: Quantisation) -> PyResult<Arc<ChipModel>> {
         let mut chips = self.chips.lock().expect("chip cache poisoned");
         if let Some((_, x)) = chips.iter().find(|(k, _)| *k == (chip, q)) {
             return Ok(x.clone());
         }
-        let Chip::Xylo = chip;
-        let mut mapped =
-            xylo::map(&self.net.network, q).map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?;
-        mapped.spec.readout = self.net.readout.into();
-        let x = Arc::new(mapped.spec.compile().map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?);
+        let mapped = ChipModel::map(&self.net.network, chip, q, self.net.readout)
+            .map_err(|e| BrailleError::new_err(format!("{}: {e}", self.name)))?;
+        let x = Arc::new(mapped.model);
         chips.push(((chip, q), x.clone()));
         Ok(x)
     }
@@ -135,7 +133,7 @@ impl Network {
     /// chip computes it.
     fn run_chip_inputs(
         &self,
-        chip: &Xylo,
+        chip: &ChipModel,
         inputs: &[(i64, u32)],
         t_start_us: i64,
         t_end_us: Option<i64>,
@@ -146,7 +144,7 @@ impl Network {
         let dt = self.net.dt_us;
         let t_end = t_end_us.unwrap_or_else(|| inputs.last().map_or(t_start_us, |e| e.0) + 1);
         let steps = ((t_end - t_start_us).max(0) + dt - 1) / dt;
-        let n_in = chip.spec().n_in;
+        let n_in = chip.n_in();
         let mut st = chip.state();
         let (mut counts, mut channels, mut events) = (vec![0u16; n_in], Vec::new(), Vec::new());
         let mut output = Vec::new();
@@ -169,17 +167,30 @@ impl Network {
                 counts[c as usize] = 0;
             }
             chip.step(&mut st, &channels, &events, run).map_err(|e| BrailleError::new_err(format!("{what}: {e}")))?;
-            for (j, &n) in st.out_spikes.iter().enumerate() {
-                if n > 0 {
-                    output.push((t_start_us + k * dt, j as u32));
-                }
+            for (j, _) in chip.out_spikes(&st) {
+                output.push((t_start_us + k * dt, j as u32));
             }
         }
+        let work = ChipModel::work(&st);
+        // per layer of the network, as the engine counts them (layers without neurons count 0):
+        // Xylo's hidden and output neurons, or each Speck core's spikes at its layer of neurons
+        let spikes_per_layer = match chip {
+            ChipModel::Xylo(_) => work.spikes_per_layer.clone(),
+            ChipModel::Speck(_) => {
+                let mut cores = work.spikes_per_layer.iter();
+                self.net
+                    .network
+                    .layers
+                    .iter()
+                    .map(|l| if l.neurons.is_some() { cores.next().copied().unwrap_or(0) } else { 0 })
+                    .collect()
+            }
+        };
         Ok(Outcome {
             readout: chip.readout(&st),
-            spikes_per_layer: vec![st.stats.hidden_spikes, st.stats.output_spikes],
-            synops: st.stats.synops,
-            input_events: st.stats.input_events,
+            spikes_per_layer,
+            synops: work.synops,
+            input_events: work.input_events,
             output,
             latency_ns: None,
         })
@@ -383,13 +394,14 @@ impl Network {
     /// `t_end_us` [default: just past the last event]. `mode`: "stepped" (exactly the
     /// time-stepped network) or "async" (each event's effects complete at once).
     ///
-    /// `chip="xylo"` runs the sample in that chip's arithmetic instead (docs/chips.md): the
-    /// network mapped into its number formats by `quantisation` ("global" or "channel",
-    /// Rockpool's quantisers), the events counted per input and step, every step as the chip
-    /// computes it; `mode` is then "stepped" (every neuron every step) or "event-driven" (only
-    /// neurons with state or input), bit for bit the same. `spikes_per_layer` is then the hidden
-    /// and the output neurons' spikes, `input_events` those the chip took (at most 15 per input
-    /// and step).
+    /// `chip="xylo"` or `chip="speck"` runs the sample in that chip's arithmetic instead
+    /// (docs/chips.md): the network mapped into its number formats by `quantisation` ("global" or
+    /// "channel", Rockpool's quantisers on Xylo; Speck takes "global", Sinabs's one scale per
+    /// core), the events counted per input and step, every step as the chip computes it; `mode`
+    /// is then "stepped" (every neuron every step) or "event-driven" (only neurons with state or
+    /// input), bit for bit the same. `spikes_per_layer` is then Xylo's hidden and output
+    /// neurons' spikes or each Speck core's, `input_events` those the chip took (at most 15 per
+    /// input and step on Xylo).
     #[pyo3(signature = (events, mode="stepped", sensor_size=None, t_start_us=0, t_end_us=None, latency=false, chip=None, quantisation="global"))]
     #[allow(clippy::too_many_arguments)]
     fn run(

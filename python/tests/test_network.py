@@ -164,3 +164,36 @@ def test_python_runs_the_xylo_model_in_xylos_arithmetic_as_the_cli(tmp_path, cli
         net.run(ev, chip="xylo", quantisation="none")
     with pytest.raises(ValueError, match="chip"):
         net.run(ev, chip="loihi")
+
+
+def test_python_runs_the_speck_model_in_specks_arithmetic_as_the_cli(tmp_path, cli):
+    """Network.run(chip="speck") on the events of simulated character windows (rebuilt from the
+    CLI's trace: its input counts per step) gives the CLI's output counts and prediction."""
+    model = ROOT / "models" / "nominal" / "chip" / "speck-chars.safetensors"
+    trace_path = tmp_path / "trace.json"
+    subprocess.run(
+        [cli, "eval", "chars", "--arch", "snn", "--model", str(model), "--realism", "nominal", "--trials", "1",
+         "--chip", "speck", "--trace", str(trace_path), "--json"],
+        check=True, capture_output=True,
+    )
+    trace = json.loads(trace_path.read_text())
+    c, h, w = trace["spec"]["cores"][0]["in_shape"]
+    net = braille.Network.load(model)
+    dt = net.dt_us
+    for s in trace["samples"][:6]:
+        rows = [(t * dt + 10, ch) for t, ch, n in s["input"] for _ in range(n)]
+        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev["t"] = [t for t, _ in rows]
+        ev["x"] = [ch % w for _, ch in rows]
+        ev["y"] = [(ch // w) % h for _, ch in rows]
+        ev["p"] = [ch // (h * w) for _, ch in rows]
+        for mode in ["stepped", "event-driven"]:
+            r = net.run(ev, mode=mode, chip="speck", t_start_us=0, t_end_us=s["steps"] * dt)
+            np.testing.assert_array_equal(r.readout, s["out_counts"])
+            assert r.prediction == s["predicted"]
+            # each core's spikes, the last core's being the output
+            per_core = [sum(n for _, c, _, n in s["spikes"] if c == k) for k in range(3)]
+            assert list(r.spikes_per_layer) == per_core
+            assert per_core[-1] == sum(s["out_counts"])
+    with pytest.raises(braille.BrailleError, match="one threshold"):
+        net.run(ev, chip="speck", quantisation="channel")

@@ -11,8 +11,8 @@ use crate::error::{Error, Result};
 use crate::eval::chip::ChipChoice;
 use pipeline::network::LoadedNetwork;
 use serde::Serialize;
-use snn::chip::Chip;
-use snn::chip::xylo::{self, Xylo, XyloState};
+use snn::chip::xylo;
+use snn::chip::{ChipModel, ChipState, ChipWork};
 use snn::engine::Mode;
 use std::time::Instant;
 
@@ -81,20 +81,20 @@ impl Step {
 struct Pass {
     latency: hdrhistogram::Histogram<u64>,
     steps: u64,
-    stats: xylo::XyloStats,
+    stats: ChipWork,
     readouts: Vec<(Vec<f32>, Option<usize>)>,
 }
 
 /// Runs the events of one stream, `(t_us, input)` in time order from `t0_us` to `end_us`, as
 /// steps of `dt_us`.
 struct Stepper<'a> {
-    chip: &'a Xylo,
+    chip: &'a ChipModel,
     dt_us: i64,
     t0_us: i64,
     /// The step being gathered.
     step: i64,
     input: Step,
-    st: XyloState,
+    st: ChipState,
     run: xylo::Run,
     per_step: bool,
 }
@@ -115,7 +115,7 @@ impl Stepper<'_> {
     }
 
     fn push(&mut self, events: &[(i64, u32)], out: &mut Pass) -> Result<()> {
-        let n_in = self.chip.spec().n_in as u32;
+        let n_in = self.chip.n_in() as u32;
         for &(t, i) in events {
             if i >= n_in {
                 return Err(Error::Setting {
@@ -139,11 +139,11 @@ impl Stepper<'_> {
         while self.step <= last {
             self.run_step(out)?;
         }
-        let s = &self.st.stats;
+        let s = ChipModel::work(&self.st);
         let o = &mut out.stats;
         o.input_events += s.input_events;
         o.synops += s.synops;
-        o.hidden_spikes += s.hidden_spikes;
+        o.spikes += s.spikes;
         o.output_spikes += s.output_spikes;
         o.neuron_updates += s.neuron_updates;
         out.readouts.push((self.chip.readout(&self.st), label));
@@ -157,9 +157,9 @@ impl Stepper<'_> {
     }
 }
 
-fn pass(chip: &Xylo, dt_us: i64, run: xylo::Run, feed: &Feed, per_step: bool) -> Result<Pass> {
+fn pass(chip: &ChipModel, dt_us: i64, run: xylo::Run, feed: &Feed, per_step: bool) -> Result<Pass> {
     let mut out = Pass { latency: new_histogram(), steps: 0, stats: Default::default(), readouts: Vec::new() };
-    let input = Step { counts: vec![0; chip.spec().n_in], ..Default::default() };
+    let input = Step { counts: vec![0; chip.n_in()], ..Default::default() };
     let mut s = Stepper { chip, dt_us, t0_us: 0, step: 0, input, st: chip.state(), run, per_step };
     match feed {
         Feed::Samples(samples) => {
@@ -190,19 +190,17 @@ fn pass(chip: &Xylo, dt_us: i64, run: xylo::Run, feed: &Feed, per_step: bool) ->
 /// Benchmarks `net` mapped to `choice`'s chip on `input` (one stream), and the float engine on
 /// the same input in the same run.
 pub fn run(net: &LoadedNetwork, model: &str, input: &BenchInput, choice: ChipChoice) -> Result<ChipBench> {
-    let Chip::Xylo = choice.chip;
     let wrap = |source: snn::Error| Error::Engine { what: model.to_string(), source, hint: "" };
-    let mut mapped = xylo::map(&net.network, choice.quantisation).map_err(wrap)?;
-    mapped.spec.readout = net.readout.into();
-    let chip = mapped.spec.clone().compile().map_err(wrap)?;
+    let mapped = ChipModel::map(&net.network, choice.chip, choice.quantisation, net.readout).map_err(wrap)?;
+    let chip = &mapped.model;
     let (feed, what) = feed(net, input)?;
     // warm up, and the work and readouts (identical in every pass)
-    let warm = pass(&chip, net.dt_us, choice.run, &feed, false)?;
+    let warm = pass(chip, net.dt_us, choice.run, &feed, false)?;
     let n = warm.readouts.len().max(1) as f64;
     let accuracy = accuracy_of(&warm.readouts);
-    let timed = pass(&chip, net.dt_us, choice.run, &feed, true)?;
+    let timed = pass(chip, net.dt_us, choice.run, &feed, true)?;
     let t0 = Instant::now();
-    pass(&chip, net.dt_us, choice.run, &feed, false)?;
+    pass(chip, net.dt_us, choice.run, &feed, false)?;
     let ms_per_sample = 1e3 * t0.elapsed().as_secs_f64() / n;
     let float = super::models::run(net, model, input, Mode::Stepped, 1)?;
     let float_ms_per_sample = 1e3 * float.input_events_per_sample / float.input_events_per_s.max(1e-12);
@@ -215,7 +213,7 @@ pub fn run(net: &LoadedNetwork, model: &str, input: &BenchInput, choice: ChipCho
         steps_per_sample: warm.steps as f64 / n,
         input_events_per_sample: s.input_events as f64 / n,
         synops_per_sample: s.synops as f64 / n,
-        spikes_per_sample: (s.hidden_spikes + s.output_spikes) as f64 / n,
+        spikes_per_sample: s.spikes as f64 / n,
         neuron_updates_per_sample: s.neuron_updates as f64 / n,
         accuracy,
         step_latency: latency_of(&timed.latency),
@@ -223,7 +221,7 @@ pub fn run(net: &LoadedNetwork, model: &str, input: &BenchInput, choice: ChipCho
         float_ms_per_sample,
         time_ratio: ms_per_sample / float_ms_per_sample,
         float,
-        approximations: mapped.approximations.iter().map(ToString::to_string).collect(),
+        approximations: mapped.approximations.clone(),
     })
 }
 

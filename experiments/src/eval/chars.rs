@@ -225,6 +225,87 @@ pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<
     })
 }
 
+/// A character SNN on simulated windows in a chip's arithmetic (`braille eval chars --chip`).
+#[derive(Debug, Clone, Serialize)]
+pub struct CharChipEval {
+    #[serde(flatten)]
+    pub eval: CharEval,
+    pub chip: crate::eval::chip::ChipChoice,
+    /// What the mapping changed.
+    pub approximations: Vec<String>,
+    pub neuron_updates_per_sample: f64,
+}
+
+/// Scores the SNN at `path` on the windows of `spec` mapped into `choice`'s chip, every window as
+/// the chip computes it (the windows and their encoding are [`eval`]'s); with `trace`, every
+/// window as the chip ran it.
+pub fn eval_chip(
+    path: &Path,
+    spec: &CharSetSpec,
+    choice: crate::eval::chip::ChipChoice,
+    trace: bool,
+    progress: &dyn Progress,
+) -> Result<(CharChipEval, Option<crate::eval::chip::ChipTrace>)> {
+    use crate::eval::chip::{ChipTrace, chip_accuracy, map_model};
+    let m = CharModel::load(path)?;
+    let Model::Snn(model) = &m.model else {
+        return Err(crate::Error::Model {
+            path: path.to_path_buf(),
+            what: "a chip runs spiking networks: this model is a ResNet".into(),
+        });
+    };
+    let spec = &CharSetSpec { task: m.task(), ..spec.clone() };
+    let (raw, w) = build(spec, &m.input, progress)?;
+    let set = snn_set(&m.input, &raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, m.task());
+    let mapped = map_model(model, path, choice)?;
+    let (s, updates) = chip_accuracy(&mapped.model, &set, choice.run)?;
+    let score = Score {
+        n: s.n,
+        accuracy: s.accuracy,
+        macro_f1: crate::eval::scoring::macro_f1(&s.confusion),
+        // no loss in the chip's arithmetic: its readout is a spike count, not logits
+        loss: f64::NAN,
+        confusion: s.confusion,
+        synops_per_sample: Some(s.synops_per_sample),
+        spikes_per_sample: Some(s.spikes_per_sample),
+        input_events_per_sample: Some(s.input_events_per_sample),
+        accuracy_async: None,
+        predictions: s.predictions.iter().map(|p| p.0).collect(),
+        first_trial: vec![],
+    }
+    .with_first_trial(&w.origin, &raw.labels);
+    let right = crate::reports::chars::right(&score);
+    let trace = if trace {
+        let data = format!(
+            "{} at {} mm/s, {} mm, seed {}",
+            spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
+            spec.speed_mm_s,
+            spec.depth_mm,
+            spec.seed
+        );
+        Some(ChipTrace::of(&mapped.model, model, path, data, "windows", choice, &set, progress)?)
+    } else {
+        None
+    };
+    let eval = CharEval {
+        data: "simulated (virtual Evetac)",
+        arch: m.arch(),
+        model: path.display().to_string(),
+        board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
+        speed_mm_s: spec.speed_mm_s,
+        depth_mm: spec.depth_mm,
+        scans: w.scans,
+        skipped_scans: w.skipped_scans,
+        printed: w.printed,
+        accuracy_all: w.accuracy_all(right),
+        score,
+    };
+    Ok((
+        CharChipEval { eval, chip: choice, approximations: mapped.approximations, neuron_updates_per_sample: updates },
+        trace,
+    ))
+}
+
 /// Scores the model at `path` on the windows of a recordings folder's scans of `role` (the
 /// labeler told each scan's character count and commanded speed by the manifest, as for
 /// simulated scans), one score per commanded speed and depth (`braille eval chars

@@ -10,8 +10,9 @@ use crate::eval::tactile::{Scored, SplitChoice, SplitEval, encoding_of, load_spl
 use learn::data::SpikeSet;
 use rayon::prelude::*;
 use serde::Serialize;
-use snn::chip::Chip;
-use snn::chip::xylo::{self, Quantisation, Run, Xylo, XyloSpec, XyloStats};
+use snn::chip::speck::{Speck, SpeckSpec};
+use snn::chip::xylo::{Quantisation, Run, Xylo, XyloSpec};
+use snn::chip::{Chip, ChipModel, ChipWork, MappedModel};
 use std::path::Path;
 
 /// Which chip's arithmetic, quantised how, visited how.
@@ -35,31 +36,25 @@ pub struct ChipEval {
     pub neuron_updates_per_sample: f64,
 }
 
-/// Every sample of `set` through `spec` as Xylo computes: accuracy and work, scored as the float
-/// engine's ([`crate::eval::tactile::snn_accuracy`]).
-pub fn xylo_accuracy(chip: &Xylo, set: &SpikeSet, run: Run) -> Result<(Scored, f64)> {
-    let spec = chip.spec();
-    let results: Vec<(Vec<f32>, XyloStats)> = set
+/// Every sample of `set` through `chip` as the chip computes: accuracy and work, scored as the
+/// float engine's ([`crate::eval::tactile::snn_accuracy`]), and neuron updates per sample.
+pub fn chip_accuracy(chip: &ChipModel, set: &SpikeSet, run: Run) -> Result<(Scored, f64)> {
+    let results: Vec<(Vec<f32>, ChipWork)> = set
         .trains
         .par_iter()
         .map(|t| chip.run_sample((0..t.n_steps()).map(|k| t.step(k)), run).map_err(Error::from))
         .collect::<Result<_>>()?;
     let n = set.len().max(1) as f64;
     let updates: u64 = results.iter().map(|(_, s)| s.neuron_updates).sum();
-    let results = results.into_iter().map(|(r, s)| (r, s.synops, s.hidden_spikes + s.output_spikes)).collect();
-    Ok((score_readouts(set, spec.n_out, results), updates as f64 / n))
+    let results = results.into_iter().map(|(r, s)| (r, s.synops, s.spikes)).collect();
+    Ok((score_readouts(set, chip.n_out(), results), updates as f64 / n))
 }
 
-/// A model file's network mapped to Xylo, read out as the model file says (the highest output
-/// membrane, or output spikes counted).
-fn map_model(model: &snn::model_file::SnnModel, path: &Path, quantisation: Quantisation) -> Result<xylo::Mapped> {
-    let mut mapped = xylo::map(&model.network, quantisation).map_err(|source| Error::Engine {
-        what: path.display().to_string(),
-        source,
-        hint: "",
-    })?;
-    mapped.spec.readout = model.config.readout.into();
-    Ok(mapped)
+/// A model file's network mapped to `choice`'s chip, read out as the model file says (the
+/// highest output membrane, or output spikes counted).
+pub fn map_model(model: &snn::model_file::SnnModel, path: &Path, choice: ChipChoice) -> Result<MappedModel> {
+    ChipModel::map(&model.network, choice.chip, choice.quantisation, model.config.readout)
+        .map_err(|source| Error::Engine { what: path.display().to_string(), source, hint: "" })
 }
 
 /// The SNN at `model_path` on `split` of `data_dir` in `choice`'s arithmetic; with each sample's
@@ -72,14 +67,12 @@ pub fn eval_split_chip(
     choice: ChipChoice,
     trace: bool,
     progress: &dyn Progress,
-) -> Result<(ChipEval, String, Option<XyloTrace>)> {
+) -> Result<(ChipEval, String, Option<ChipTrace>)> {
     let model = pipeline::models::load_snn(model_path)?;
     let encoding = encoding_of(&model, model_path)?;
     let set = load_split(data_dir, &encoding, split)?;
-    let Chip::Xylo = choice.chip;
-    let mapped = map_model(&model, model_path, choice.quantisation)?;
-    let chip = mapped.spec.clone().compile()?;
-    let (s, updates) = xylo_accuracy(&chip, &set, choice.run)?;
+    let mapped = map_model(&model, model_path, choice)?;
+    let (s, updates) = chip_accuracy(&mapped.model, &set, choice.run)?;
     let csv = predictions_csv(&model.classes, &set.labels, &s.predictions);
     let mode = match choice.run {
         Run::Stepped => "stepped",
@@ -88,19 +81,21 @@ pub fn eval_split_chip(
     let eval = ChipEval {
         eval: SplitEval::of(data_dir, split, model_path, mode, &s),
         chip: choice,
-        approximations: mapped.approximations.iter().map(ToString::to_string).collect(),
-        weight_shifts: [mapped.spec.weight_shift_in, mapped.spec.weight_shift_rec, mapped.spec.weight_shift_out],
+        approximations: mapped.approximations.clone(),
+        weight_shifts: mapped.weight_shifts,
         neuron_updates_per_sample: updates,
     };
     let trace = if trace {
-        Some(XyloTrace {
-            model: model_path.display().to_string(),
-            data: data_dir.display().to_string(),
-            split: split.name(),
-            quantisation: choice.quantisation,
-            samples: trace_samples(&chip, &set, choice.run, progress)?,
-            spec: mapped.spec,
-        })
+        Some(ChipTrace::of(
+            &mapped.model,
+            &model,
+            model_path,
+            data_dir.display().to_string(),
+            split.name(),
+            choice,
+            &set,
+            progress,
+        )?)
     } else {
         None
     };
@@ -134,8 +129,93 @@ pub struct XyloTrace {
     pub samples: Vec<SampleTrace>,
 }
 
+/// One sample as Speck ran it, sparse.
+#[derive(Debug, Clone, Serialize)]
+pub struct SpeckSampleTrace {
+    pub label: usize,
+    pub predicted: usize,
+    pub steps: usize,
+    /// `[step, channel, events]` of every input channel with events.
+    pub input: Vec<[u32; 3]>,
+    /// `[step, core, neuron, spikes]` of every neuron that spiked (before pooling).
+    pub spikes: Vec<[u32; 4]>,
+    /// Output spikes per output neuron over the sample.
+    pub out_counts: Vec<u32>,
+}
+
+/// The float parameters a Speck core was quantised from, for a check of the quantiser.
+#[derive(Debug, Clone, Serialize)]
+pub struct FloatCore {
+    pub weights: Vec<f32>,
+    pub threshold: f32,
+}
+
+/// A model mapped to Speck and every sample as it ran.
+#[derive(Debug, Clone, Serialize)]
+pub struct SpeckTrace {
+    pub model: String,
+    pub data: String,
+    pub split: &'static str,
+    pub spec: SpeckSpec,
+    pub float: Vec<FloatCore>,
+    pub samples: Vec<SpeckSampleTrace>,
+}
+
+/// Every sample as the chip ran it (`braille eval --chip ... --trace`).
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "chip", rename_all = "lowercase")]
+pub enum ChipTrace {
+    Xylo(Box<XyloTrace>),
+    Speck(SpeckTrace),
+}
+
+impl ChipTrace {
+    /// Runs every sample of `set` through `chip`, each step recorded.
+    #[allow(clippy::too_many_arguments)]
+    pub fn of(
+        chip: &ChipModel,
+        model: &snn::model_file::SnnModel,
+        model_path: &Path,
+        data: String,
+        split: &'static str,
+        choice: ChipChoice,
+        set: &SpikeSet,
+        progress: &dyn Progress,
+    ) -> Result<ChipTrace> {
+        let model_name = model_path.display().to_string();
+        Ok(match chip {
+            ChipModel::Xylo(x) => ChipTrace::Xylo(Box::new(XyloTrace {
+                model: model_name,
+                data,
+                split,
+                quantisation: choice.quantisation,
+                spec: x.spec().clone(),
+                samples: trace_xylo(x, set, choice.run, progress)?,
+            })),
+            ChipModel::Speck(s) => ChipTrace::Speck(SpeckTrace {
+                model: model_name,
+                data,
+                split,
+                spec: s.spec().clone(),
+                float: model
+                    .network
+                    .layers
+                    .iter()
+                    .filter_map(|l| match (&l.op, l.neurons) {
+                        (snn::network::Op::Conv2d { weight, .. } | snn::network::Op::Dense { weight, .. }, Some(p)) => {
+                            Some(FloatCore { weights: weight.clone(), threshold: p.v_th })
+                        }
+                        _ => None,
+                    })
+                    .collect(),
+                samples: trace_speck(s, set, choice.run, progress)?,
+            }),
+        })
+    }
+}
+
 /// Every sample of `set` through `chip`, each step recorded.
-fn trace_samples(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SampleTrace>> {
+fn trace_xylo(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SampleTrace>> {
     let n_in = chip.spec().n_in;
     progress.start("Xylo trace", set.len() as u64);
     let samples = set
@@ -166,6 +246,45 @@ fn trace_samples(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress)
                 s.v_mem_out.push(st.v_mem_out.clone());
                 s.out_spikes.push(st.out_spikes.clone());
             }
+            s.predicted = argmax(chip.readout(&st));
+            progress.inc();
+            Ok(s)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    progress.finish();
+    Ok(samples)
+}
+
+/// Every sample of `set` through Speck, every spike of every core recorded.
+fn trace_speck(chip: &Speck, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SpeckSampleTrace>> {
+    progress.start("Speck trace", set.len() as u64);
+    let samples = set
+        .trains
+        .iter()
+        .zip(&set.labels)
+        .map(|(t, &label)| {
+            let mut st = chip.state();
+            let mut s = SpeckSampleTrace {
+                label,
+                predicted: 0,
+                steps: t.n_steps(),
+                input: Vec::new(),
+                spikes: Vec::new(),
+                out_counts: Vec::new(),
+            };
+            for k in 0..t.n_steps() {
+                let (channels, events) = t.step(k);
+                for (&c, &n) in channels.iter().zip(events).filter(|(_, n)| **n > 0) {
+                    s.input.push([k as u32, c, n as u32]);
+                }
+                chip.step(&mut st, channels, events, run)?;
+                for (core, cs) in st.cores.iter().enumerate() {
+                    let mut fired = cs.fired().to_vec();
+                    fired.sort_unstable();
+                    s.spikes.extend(fired.iter().map(|&j| [k as u32, core as u32, j, cs.spikes[j as usize]]));
+                }
+            }
+            s.out_counts = st.out_spike_counts.clone();
             s.predicted = argmax(chip.readout(&st));
             progress.inc();
             Ok(s)

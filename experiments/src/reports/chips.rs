@@ -83,7 +83,8 @@ pub struct ArithmeticRow {
     pub float: f64,
     /// After plain quantisation (the mapping, then Rockpool's global and per-channel quantisers).
     pub global: f64,
-    pub channel: f64,
+    /// `None` where the chip has no per-channel scales (Speck: one threshold per core).
+    pub channel: Option<f64>,
     pub format: NumberFormat,
     /// Bit shifts of the input, recurrent and output weights (global quantisation).
     pub weight_shifts: [u8; 3],
@@ -343,36 +344,71 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
     Ok(ChipReport { faithful, chips, arithmetic, trials: spec.trials, realism: spec.realism })
 }
 
-/// Every tactile model that passes a modelled chip's rules, on its dataset's test split in that
-/// chip's arithmetic (both quantisers), beside the float engine.
+/// A model's score in a chip's arithmetic.
+struct InChip {
+    accuracy: f64,
+    synops: f64,
+    spikes: f64,
+    approximations: Vec<String>,
+    weight_shifts: [u8; 3],
+}
+
+/// Every model that passes a modelled chip's rules, on its test in that chip's arithmetic (each
+/// quantiser the chip has), beside the float engine: a tactile model on its dataset's test split,
+/// a character classifier on the chip table's simulated windows.
 fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) -> Result<Vec<ArithmeticRow>> {
     use crate::eval::chip::{ChipChoice, eval_split_chip};
     let mut rows = Vec::new();
-    for c in chips.iter().filter(|c| c.data == "REAL") {
+    for c in chips {
         let path = Path::new(&c.model);
         let model = pipeline::models::load_snn(path)?;
-        let set = model.provenance["data"].as_str().unwrap_or_default();
-        let dir = spec.icub.join(set);
-        let (float, _) = eval_split(path, &dir, SplitChoice::Test, Mode::Stepped)?;
+        let real = c.data == "REAL";
+        let dir = spec.icub.join(model.provenance["data"].as_str().unwrap_or_default());
+        let float = if real { Some(eval_split(path, &dir, SplitChoice::Test, Mode::Stepped)?.0) } else { None };
         for chip in Chip::ALL {
             let target = match chip {
                 Chip::Xylo => Target::Xylo,
+                Chip::Speck => Target::Speck,
             };
             if !c.targets.iter().any(|t| t.target == target && t.passes) {
                 continue;
             }
-            let run = |quantisation| {
-                eval_split_chip(
-                    path,
-                    &dir,
-                    SplitChoice::Test,
-                    ChipChoice { chip, quantisation, run: Run::EventDriven },
-                    false,
-                    progress,
-                )
+            // accuracy, SynOps and spikes per sample, approximations and shifts in the chip
+            let run = |model: &Path, quantisation| -> Result<InChip> {
+                let choice = ChipChoice { chip, quantisation, run: Run::EventDriven };
+                if real {
+                    let (e, _, _) = eval_split_chip(model, &dir, SplitChoice::Test, choice, false, progress)?;
+                    Ok(InChip {
+                        accuracy: e.eval.accuracy,
+                        synops: e.eval.synops_per_sample,
+                        spikes: e.eval.spikes_per_sample,
+                        approximations: e.approximations,
+                        weight_shifts: e.weight_shifts,
+                    })
+                } else {
+                    let (e, _) = crate::eval::chars::eval_chip(
+                        model,
+                        &chars_spec(spec.trials, spec.realism),
+                        choice,
+                        false,
+                        progress,
+                    )?;
+                    let sc = &e.eval.score;
+                    Ok(InChip {
+                        accuracy: e.eval.accuracy_all,
+                        synops: sc.synops_per_sample.unwrap_or(0.0),
+                        spikes: sc.spikes_per_sample.unwrap_or(0.0),
+                        approximations: e.approximations,
+                        weight_shifts: [0; 3],
+                    })
+                }
             };
-            let (global, _, _) = run(Quantisation::Global)?;
-            let (channel, _, _) = run(Quantisation::Channel)?;
+            let InChip { accuracy: global, synops, spikes, approximations, weight_shifts } =
+                run(path, Quantisation::Global)?;
+            let channel = match chip {
+                Chip::Xylo => Some(run(path, Quantisation::Channel)?.accuracy),
+                Chip::Speck => None,
+            };
             let tuned = qat_models(path);
             let qat = if tuned.is_empty() {
                 None
@@ -384,13 +420,16 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                     synops_per_sample: Vec::new(),
                 };
                 for m in &tuned {
-                    let choice = ChipChoice { chip, quantisation: Quantisation::Global, run: Run::EventDriven };
-                    let (e, _, _) = eval_split_chip(m, &dir, SplitChoice::Test, choice, false, progress)?;
-                    let (f, _) = eval_split(m, &dir, SplitChoice::Test, Mode::Stepped)?;
+                    let InChip { accuracy: acc, synops, .. } = run(m, Quantisation::Global)?;
+                    let f = if real {
+                        eval_split(m, &dir, SplitChoice::Test, Mode::Stepped)?.0.accuracy
+                    } else {
+                        score_model(m, spec, progress)?.accuracy
+                    };
                     q.models.push(m.display().to_string());
-                    q.chip.push(e.eval.accuracy);
-                    q.float.push(f.accuracy);
-                    q.synops_per_sample.push(e.eval.synops_per_sample);
+                    q.chip.push(acc);
+                    q.float.push(f);
+                    q.synops_per_sample.push(synops);
                 }
                 Some(q)
             };
@@ -399,16 +438,16 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                 chip,
                 test: c.reads.clone(),
                 data: c.data,
-                n: float.n,
-                float: float.accuracy,
-                global: global.eval.accuracy,
-                channel: channel.eval.accuracy,
+                n: c.n,
+                float: float.as_ref().map_or(c.accuracy, |f| f.accuracy),
+                global,
+                channel,
                 format: chip.format(),
-                weight_shifts: global.weight_shifts,
-                synops_per_sample: global.eval.synops_per_sample,
-                spikes_per_sample: global.eval.spikes_per_sample,
-                float_spikes_per_sample: float.spikes_per_sample,
-                approximations: global.approximations,
+                weight_shifts,
+                synops_per_sample: synops,
+                spikes_per_sample: spikes,
+                float_spikes_per_sample: float.as_ref().map_or(c.spikes_per_sample, |f| f.spikes_per_sample),
+                approximations,
                 qat,
             });
         }
@@ -485,7 +524,7 @@ pub fn markdown(r: &ChipReport) -> String {
         let _ = writeln!(s, "\n## In the chip's arithmetic\n");
         let _ = writeln!(
             s,
-            "Each model that passes a modelled chip's rules, mapped into that chip's number formats and run as the chip computes (`braille eval --chip`; the formats and their sources in docs/chips.md), on the same test as the float engine. Plain quantisation: the mapping (decays to bit shifts, the chip's order of operations), then Rockpool's global or per-channel 8-bit quantiser; no retraining. The engine's Xylo arithmetic agrees spike for spike with SynSense's XyloSim (`scripts/chips/xylosim_check.py`, python/tests/test_xylosim.py).\n"
+            "Each model that passes a modelled chip's rules, mapped into that chip's number formats and run as the chip computes (`braille eval --chip`; the formats and their sources in docs/chips.md), on the same test as the float engine. Plain quantisation, no retraining: on Xylo the mapping (decays to bit shifts, the chip's order of operations), then Rockpool's global or per-channel 8-bit quantiser; on Speck Sinabs's discretisation (one scale per core for its 8-bit weights and 16-bit threshold) and Sinabs's model of the chip's neurons (several spikes per step). The engine's Xylo arithmetic agrees spike for spike with SynSense's XyloSim (`scripts/chips/xylosim_check.py`, python/tests/test_xylosim.py), its Speck arithmetic with SynSense's Sinabs (`scripts/chips/sinabs_check.py`, python/tests/test_sinabs.py).\n"
         );
         let _ = writeln!(
             s,
@@ -495,7 +534,7 @@ pub fn markdown(r: &ChipReport) -> String {
         for a in &r.arithmetic {
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {} | {} | {:.2}% (n = {}) | {:.2}% | {:.2}% | {} / {} | {:?} | {:.0} | {:.0} ({:.0}) |",
+                "| `{}` | {} | {} | {} | {:.2}% (n = {}) | {:.2}% | {} | {} / {} | {:?} | {:.0} | {:.0} ({:.0}) |",
                 a.model,
                 a.chip,
                 a.test,
@@ -503,7 +542,7 @@ pub fn markdown(r: &ChipReport) -> String {
                 100.0 * a.float,
                 a.n,
                 100.0 * a.global,
-                100.0 * a.channel,
+                a.channel.map_or("none on this chip".to_string(), |c| format!("{:.2}%", 100.0 * c)),
                 a.format.weight_bits,
                 a.format.state_bits,
                 a.weight_shifts,

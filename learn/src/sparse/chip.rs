@@ -50,7 +50,13 @@ impl SparseSnn {
     /// `params` mapped to `target` as a model file with these weights would be mapped (an error
     /// says why a network cannot be: a convolution, a bias, IF neurons...).
     pub fn chip_forward(&self, params: &Params, target: ChipTarget) -> snn::Result<ChipForward> {
-        let Chip::Xylo = target.chip;
+        if target.chip != Chip::Xylo {
+            return Err(snn::Error::Chip {
+                chip: target.chip,
+                layer: None,
+                what: "quantisation-aware training runs Xylo's arithmetic only (docs/chips.md)".into(),
+            });
+        }
         let net = self.spec.build(self.weights(params)?)?;
         let mut mapped = xylo::map(&net, target.quantisation)?;
         mapped.spec.readout = self.readout.into();

@@ -11,6 +11,9 @@
 //!   it, with Rockpool's mapping of time constants to bit shifts (`xylo_graph_modules.py`:
 //!   `dash = log2(tau / dt)`) and its quantisers (`rockpool.transform.quantize_methods`).
 //!   See [`xylo`].
+//! - [`Chip::Speck`]: SynSense Speck (DYNAP-CNN cores), as Sinabs 3.1.3 (PyPI `sinabs`,
+//!   `backend/dynapcnn/discretize.py`, `chips/dynapcnn.py`, `layers/iaf.py` with `MultiSpike`)
+//!   discretises and runs it. See [`speck`].
 //!
 //! ```
 //! use snn::chip::xylo::{self, Quantisation, Run};
@@ -34,6 +37,7 @@
 //! assert!(st.stats.synops > 0);
 //! ```
 
+pub mod speck;
 pub mod xylo;
 
 use serde::{Deserialize, Serialize};
@@ -45,14 +49,17 @@ use serde::{Deserialize, Serialize};
 pub enum Chip {
     /// SynSense Xylo Audio 2 (SYNS61201).
     Xylo,
+    /// SynSense Speck (DYNAP-CNN cores).
+    Speck,
 }
 
 impl Chip {
-    pub const ALL: [Chip; 1] = [Chip::Xylo];
+    pub const ALL: [Chip; 2] = [Chip::Xylo, Chip::Speck];
 
     pub fn name(self) -> &'static str {
         match self {
             Chip::Xylo => "Xylo",
+            Chip::Speck => "Speck",
         }
     }
 
@@ -60,6 +67,7 @@ impl Chip {
     pub fn format(self) -> NumberFormat {
         match self {
             Chip::Xylo => xylo::FORMAT,
+            Chip::Speck => speck::FORMAT,
         }
     }
 
@@ -68,6 +76,8 @@ impl Chip {
     pub fn neurons(self, p: crate::neuron::NeuronParams) -> crate::neuron::NeuronParams {
         match self {
             Chip::Xylo => xylo::neurons(p),
+            // Speck's IF neurons have no decay to round, and reset either way
+            Chip::Speck => p,
         }
     }
 }
@@ -83,6 +93,8 @@ impl std::fmt::Display for Chip {
 pub enum DecayArithmetic {
     /// `x -= x >> dash` (arithmetic shift), at least one unit towards zero; `dash` of `bits` bits.
     BitShift { bits: u8 },
+    /// No decay: integrate-and-fire neurons.
+    None,
 }
 
 /// What a neuron does after it spikes, in the chip.
@@ -90,6 +102,9 @@ pub enum DecayArithmetic {
 pub enum ChipReset {
     /// The threshold is subtracted once per spike, several spikes per step allowed.
     Subtract,
+    /// Per layer, the threshold subtracted per spike or the membrane set to zero after a spike
+    /// (`return_to_zero`); several spikes per step allowed.
+    SubtractOrZero,
 }
 
 /// A chip's number formats: what a model must become to run there.
@@ -106,12 +121,195 @@ pub struct NumberFormat {
     pub threshold_bits: u8,
     pub decay: DecayArithmetic,
     pub reset: ChipReset,
-    /// Spikes a hidden neuron may send in one step.
-    pub max_spikes_per_step: u8,
+    /// Spikes a hidden neuron may send in one step (`None`: as many as its membrane holds
+    /// thresholds).
+    pub max_spikes_per_step: Option<u8>,
     /// Spikes an output neuron may send in one step.
-    pub max_output_spikes_per_step: u8,
-    /// Input events per channel and step the chip takes (more are dropped).
-    pub max_input_events_per_step: u8,
+    pub max_output_spikes_per_step: Option<u8>,
+    /// Input events per channel and step the chip takes, more are dropped (`None`: no cap).
+    pub max_input_events_per_step: Option<u8>,
     /// Where these figures come from.
     pub source: &'static str,
+}
+
+/// A network mapped into one chip's formats, ready to run: shared by every stream
+/// ([`ChipState`] is each stream's own).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ChipModel {
+    Xylo(Box<xylo::Xylo>),
+    Speck(speck::Speck),
+}
+
+/// One stream's state on a chip.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ChipState {
+    Xylo(Box<xylo::XyloState>),
+    Speck(Box<speck::SpeckState>),
+}
+
+/// Work done by one stream on a chip.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct ChipWork {
+    /// Input events the chip took (after Xylo's cap of 15 per channel and step).
+    pub input_events: u64,
+    /// Synaptic operations: one weight added to one state.
+    pub synops: u64,
+    /// Spikes of every neuron, output neurons included.
+    pub spikes: u64,
+    pub output_spikes: u64,
+    /// Spikes per layer of neurons: Xylo's hidden and output neurons; each Speck core's.
+    pub spikes_per_layer: Vec<u64>,
+    /// Neurons updated (every neuron every step in a stepped run).
+    pub neuron_updates: u64,
+}
+
+/// A network mapped into a chip's formats, with what the mapping changed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MappedModel {
+    pub model: ChipModel,
+    /// What the mapping changed, one sentence each.
+    pub approximations: Vec<String>,
+    /// Bit shifts of the input, recurrent and output weights (Xylo; zero elsewhere).
+    pub weight_shifts: [u8; 3],
+}
+
+impl ChipModel {
+    /// Maps `net` into `chip`'s formats, quantised by `quantisation` and read out by `readout`
+    /// (Speck counts output spikes, and quantises one scale per core: Sinabs's rule, which
+    /// `Quantisation::Global` names; per-channel scales are refused there, since a core has one
+    /// threshold).
+    pub fn map(
+        net: &crate::network::Network,
+        chip: Chip,
+        quantisation: xylo::Quantisation,
+        readout: crate::model_file::Readout,
+    ) -> crate::Result<MappedModel> {
+        match chip {
+            Chip::Xylo => {
+                let mut m = xylo::map(net, quantisation)?;
+                m.spec.readout = readout.into();
+                let weight_shifts = [m.spec.weight_shift_in, m.spec.weight_shift_rec, m.spec.weight_shift_out];
+                Ok(MappedModel {
+                    approximations: m.approximations.iter().map(ToString::to_string).collect(),
+                    model: ChipModel::Xylo(Box::new(m.spec.compile()?)),
+                    weight_shifts,
+                })
+            }
+            Chip::Speck => {
+                if quantisation == xylo::Quantisation::Channel {
+                    return Err(crate::Error::Chip {
+                        chip,
+                        layer: None,
+                        what: "a Speck core has one threshold for all its neurons: one scale per core (global quantisation), not per channel".into(),
+                    });
+                }
+                // what the network is decides first; then how it is read
+                let m = speck::map(net)?;
+                if readout != crate::model_file::Readout::SpikeCount {
+                    return Err(crate::Error::Chip {
+                        chip,
+                        layer: None,
+                        what: "Speck's output is spikes: the model must read out by counting them (it reads the highest membrane)".into(),
+                    });
+                }
+                Ok(MappedModel {
+                    approximations: m.approximations.iter().map(ToString::to_string).collect(),
+                    model: ChipModel::Speck(m.spec.compile()?),
+                    weight_shifts: [0; 3],
+                })
+            }
+        }
+    }
+
+    pub fn chip(&self) -> Chip {
+        match self {
+            ChipModel::Xylo(_) => Chip::Xylo,
+            ChipModel::Speck(_) => Chip::Speck,
+        }
+    }
+
+    pub fn n_in(&self) -> usize {
+        match self {
+            ChipModel::Xylo(x) => x.spec().n_in,
+            ChipModel::Speck(s) => s.spec().n_in(),
+        }
+    }
+
+    pub fn n_out(&self) -> usize {
+        match self {
+            ChipModel::Xylo(x) => x.spec().n_out,
+            ChipModel::Speck(s) => s.spec().n_out(),
+        }
+    }
+
+    /// A stream at rest.
+    pub fn state(&self) -> ChipState {
+        match self {
+            ChipModel::Xylo(x) => ChipState::Xylo(Box::new(x.state())),
+            ChipModel::Speck(s) => ChipState::Speck(Box::new(s.state())),
+        }
+    }
+
+    /// One step of one stream (`channels` ascending, their event counts in `events`).
+    pub fn step(&self, st: &mut ChipState, channels: &[u32], events: &[u16], run: xylo::Run) -> crate::Result<()> {
+        match (self, st) {
+            (ChipModel::Xylo(x), ChipState::Xylo(s)) => x.step(s, channels, events, run),
+            (ChipModel::Speck(x), ChipState::Speck(s)) => x.step(s, channels, events, run),
+            _ => Err(crate::Error::input("a stream's state belongs to another chip")),
+        }
+    }
+
+    /// The output spikes of the stream's last step: (output neuron, spikes).
+    pub fn out_spikes(&self, st: &ChipState) -> Vec<(usize, u32)> {
+        match st {
+            ChipState::Xylo(s) => {
+                s.out_spikes.iter().enumerate().filter(|(_, n)| **n > 0).map(|(j, &n)| (j, n as u32)).collect()
+            }
+            ChipState::Speck(s) => s.last_out_spikes().iter().map(|&(j, n)| (j as usize, n)).collect(),
+        }
+    }
+
+    /// The readout since rest, per output neuron.
+    pub fn readout(&self, st: &ChipState) -> Vec<f32> {
+        match (self, st) {
+            (ChipModel::Xylo(x), ChipState::Xylo(s)) => x.readout(s),
+            (ChipModel::Speck(x), ChipState::Speck(s)) => x.readout(s),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The stream's work since rest.
+    pub fn work(st: &ChipState) -> ChipWork {
+        match st {
+            ChipState::Xylo(s) => ChipWork {
+                input_events: s.stats.input_events,
+                synops: s.stats.synops,
+                spikes: s.stats.hidden_spikes + s.stats.output_spikes,
+                output_spikes: s.stats.output_spikes,
+                spikes_per_layer: vec![s.stats.hidden_spikes, s.stats.output_spikes],
+                neuron_updates: s.stats.neuron_updates,
+            },
+            ChipState::Speck(s) => ChipWork {
+                input_events: s.stats.input_events,
+                synops: s.stats.synops,
+                spikes: s.stats.spikes,
+                output_spikes: s.stats.output_spikes,
+                spikes_per_layer: s.stats.spikes_per_core.clone(),
+                neuron_updates: s.stats.neuron_updates,
+            },
+        }
+    }
+
+    /// A whole sample from rest: its readout and the work.
+    pub fn run_sample<'a>(
+        &self,
+        steps: impl IntoIterator<Item = (&'a [u32], &'a [u16])>,
+        run: xylo::Run,
+    ) -> crate::Result<(Vec<f32>, ChipWork)> {
+        let mut st = self.state();
+        for (channels, events) in steps {
+            self.step(&mut st, channels, events, run)?;
+        }
+        Ok((self.readout(&st), ChipModel::work(&st)))
+    }
 }

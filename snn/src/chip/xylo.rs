@@ -35,9 +35,9 @@ pub const FORMAT: NumberFormat = NumberFormat {
     threshold_bits: 16,
     decay: DecayArithmetic::BitShift { bits: 4 },
     reset: ChipReset::Subtract,
-    max_spikes_per_step: MAX_SPIKES,
-    max_output_spikes_per_step: MAX_OUT_SPIKES,
-    max_input_events_per_step: MAX_INPUT_EVENTS,
+    max_spikes_per_step: Some(MAX_SPIKES),
+    max_output_spikes_per_step: Some(MAX_OUT_SPIKES),
+    max_input_events_per_step: Some(MAX_INPUT_EVENTS),
     source: "XyloSim v2 (PyPI xylosim 0.1.3: src/v2/cpp/XyloIAFNeuron.h BITS_STATE 16, BITS_WEIGHT 8, MAX_NUM_INP_SPIKES 15, MAX_NUM_SPIKES 31, MAX_NUM_OUT_SPIKES 1; dash 4 bits), run by Rockpool 3.1's XyloSim for SYNS61201",
 };
 

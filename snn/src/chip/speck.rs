@@ -1,0 +1,870 @@
+//! Speck (DYNAP-CNN) as Sinabs models it (PyPI `sinabs` 3.1.3, `sinabs/backend/dynapcnn/`): the
+//! arithmetic Sinabs's `DynapcnnNetwork` runs on a CPU and writes to the chip. Each core is a
+//! convolution (a dense layer is a convolution over its whole input, Sinabs's
+//! `_convert_linear_to_conv`), integrate-and-fire neurons and an optional sum pooling of their
+//! spikes. Per step, core after core (a core's spikes reach the next core in the same step, as in
+//! Sinabs's forward pass):
+//!
+//! 1. every input event (or pooled spike) adds its 8-bit weight to the membranes its kernel
+//!    covers, once per event;
+//! 2. every neuron: `n = v / threshold` (truncated) spikes if `v > 0` (Sinabs's `MultiSpike`,
+//!    which SynSense recommends for the chip: the chip is asynchronous, so a neuron fires on every
+//!    event that carries it past its threshold, several times in one step of the model), then
+//!    `v -= n * threshold` or, with `return_to_zero`, `v = 0` after a spike (`MembraneSubtract`,
+//!    `MembraneReset`); then `v = max(v, threshold_low)` (`min_v_mem`);
+//! 3. the spikes, summed over each `pool x pool` window (`SumPool2d`), are the next core's input.
+//!
+//! Weights are 8-bit signed, the membrane and both thresholds 16-bit signed
+//! (`discretize.py`: `DYNAPCNN_WEIGHT_PRECISION_BITS = 8`, `DYNAPCNN_STATE_PRECISION_BITS = 16`);
+//! a step's input is summed whole before the spikes are taken, as Sinabs's time-stepped model sums
+//! it (the chip itself fires between events, so its membrane never holds more than a threshold
+//! and one weight: the state left after a step fits 16 bits). There is no leak (Speck's leak is a
+//! bias applied at a clock of its own; biases are refused).
+//!
+//! The event-driven run ([`Run::EventDriven`]) updates only neurons that received input in the
+//! step; a neuron without input keeps a membrane below its threshold (what a step leaves) and stays
+//! silent, so it is the stepped run bit for bit (tested).
+//!
+//! [`map`] quantises a trained network as Sinabs's `discretize_conv_spike_` does, one scale per
+//! core for its weights and thresholds.
+
+use super::xylo::Run;
+use super::{Chip, ChipReset, DecayArithmetic, NumberFormat};
+use crate::error::{Error, Result};
+use crate::network::{Network, Op, PoolKind};
+use crate::neuron::{NeuronKind, Reset};
+use serde::{Deserialize, Serialize};
+
+/// Speck's number formats, as Sinabs discretises and configures a network.
+pub const FORMAT: NumberFormat = NumberFormat {
+    weight_bits: 8,
+    max_weight_shift: 0,
+    state_bits: 16,
+    threshold_bits: 16,
+    decay: DecayArithmetic::None,
+    reset: ChipReset::SubtractOrZero,
+    max_spikes_per_step: None,
+    max_output_spikes_per_step: None,
+    max_input_events_per_step: None,
+    source: "Sinabs 3.1.3 (PyPI sinabs): backend/dynapcnn/discretize.py (DYNAPCNN_WEIGHT_PRECISION_BITS 8, DYNAPCNN_STATE_PRECISION_BITS 16, determine_discretization_scale), chips/dynapcnn.py (threshold_high, threshold_low = min_v_mem or -2^15, return_to_zero, sum pooling), layers/iaf.py with activation.MultiSpike (docs/speck/dangers.md: the spike function that best matches the chip)",
+};
+
+/// The membrane's floor: the 16-bit state's minimum, what Sinabs writes to the chip's
+/// `threshold_low` when a layer sets no `min_v_mem`.
+pub const THRESHOLD_LOW: i16 = i16::MIN;
+
+/// A core's synapses.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CoreOp {
+    /// A 2-D convolution (PyTorch's layout: `weights[out][in][ky][kx]`).
+    Conv { out_channels: usize, kernel: [usize; 2], stride: [usize; 2], padding: [usize; 2] },
+    /// A dense layer over the flattened input (`weights[out][in]`): on the chip, a convolution
+    /// whose kernel covers the whole input.
+    Dense { n_out: usize },
+}
+
+/// One core: synapses, integrate-and-fire neurons, optional sum pooling of their spikes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpeckCore {
+    /// `[channels, height, width]` (a dense core's input may be `[n, 1, 1]`).
+    pub in_shape: [usize; 3],
+    pub op: CoreOp,
+    pub weights: Vec<i8>,
+    pub threshold: i16,
+    pub threshold_low: i16,
+    pub return_to_zero: bool,
+    /// Sum pooling of the spikes, `pool x pool`, stride `pool` (1: none).
+    pub pool: usize,
+    /// Chip units per unit of the float network's state (the quantiser's scale).
+    pub scale: f32,
+}
+
+impl SpeckCore {
+    /// The neurons' shape `[channels, height, width]`.
+    pub fn neuron_shape(&self) -> [usize; 3] {
+        let [c, h, w] = self.in_shape;
+        match self.op {
+            CoreOp::Conv { out_channels, kernel, stride, padding } => {
+                let o = |n: usize, d: usize| (n + 2 * padding[d]).saturating_sub(kernel[d]) / stride[d] + 1;
+                [out_channels, o(h, 0), o(w, 1)]
+            }
+            CoreOp::Dense { n_out } => {
+                let _ = (c, h, w);
+                [n_out, 1, 1]
+            }
+        }
+    }
+
+    /// The shape of what the core sends on (after pooling).
+    pub fn out_shape(&self) -> [usize; 3] {
+        let [c, h, w] = self.neuron_shape();
+        [c, h / self.pool, w / self.pool]
+    }
+}
+
+/// A network in Speck's formats: its cores in order, the first taking the input events.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpeckSpec {
+    pub cores: Vec<SpeckCore>,
+}
+
+/// Something of the float network Speck computes otherwise, and what the mapping made of it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub enum Approximation {
+    /// The float network's neurons send at most one spike per step; Speck's send as many as
+    /// their membrane holds thresholds (Sinabs's `MultiSpike`).
+    SeveralSpikesPerStep { layer: usize },
+    /// The float membrane has no floor; Speck's stops at `threshold_low`.
+    MembraneFloor { layer: usize, floor: i16 },
+}
+
+impl std::fmt::Display for Approximation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Approximation::SeveralSpikesPerStep { layer } => write!(
+                f,
+                "layer {layer}: a neuron sends floor(v / threshold) spikes per step (the asynchronous chip, Sinabs's MultiSpike), where the float network sends one"
+            ),
+            Approximation::MembraneFloor { layer, floor } => {
+                write!(f, "layer {layer}: the membrane stops at {floor} (the 16-bit state's floor)")
+            }
+        }
+    }
+}
+
+/// A mapped network and what the mapping changed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Mapped {
+    pub spec: SpeckSpec,
+    pub approximations: Vec<Approximation>,
+}
+
+fn cannot(layer: Option<usize>, what: impl Into<String>) -> Error {
+    Error::Chip { chip: Chip::Speck, layer, what: what.into() }
+}
+
+/// Sinabs's `determine_discretization_scale`: the factor that takes the values' range to
+/// `bits`-bit signed integers (the larger magnitude of the two ends decides, the negative end
+/// holding one more value).
+pub fn discretization_scale(values: impl IntoIterator<Item = f32>, bits: u8) -> f32 {
+    let (min_disc, max_disc) = (-(2f64.powi(bits as i32 - 1)), 2f64.powi(bits as i32 - 1) - 1.0);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values {
+        lo = lo.min(v as f64);
+        hi = hi.max(v as f64);
+    }
+    if !lo.is_finite() || (lo == 0.0 && hi == 0.0) {
+        return 1.0;
+    }
+    let ratio = (min_disc / max_disc).abs();
+    let s = if lo.abs() <= hi.abs() * ratio { (max_disc / hi).abs() } else { (min_disc / lo).abs() };
+    s as f32
+}
+
+/// Maps a trained network onto Speck: what `braille export --target speck` admits (IF neurons, no
+/// bias, no recurrence, convolutions and dense layers each feeding IF neurons, sum pooling after
+/// them, the cores' memory) with neurons that rest and reset at zero. Each core's weights and
+/// threshold take one scale, Sinabs's rule: the largest that keeps the weights in 8 bits and the
+/// thresholds (`threshold_low`, `threshold`) in 16, with `threshold_low` the state's floor
+/// ([`THRESHOLD_LOW`]; in Sinabs's float units `min_v_mem = -2^15 / scale`).
+pub fn map(net: &Network) -> Result<Mapped> {
+    net.validate()?;
+    crate::nir::check_target(net, crate::nir::Target::Speck).map_err(|e| {
+        // "<target>: layer k (node ...): Speck: the rule" as "layer k (node ...): the rule"
+        let msg = e.to_string();
+        cannot(None, msg.trim_start_matches("<target>: ").replacen(": Speck: ", ": ", 1))
+    })?;
+    let mut cores: Vec<SpeckCore> = Vec::new();
+    let mut approximations = Vec::new();
+    let mut shape = net.input_shape.clone();
+    for (k, l) in net.layers.iter().enumerate() {
+        let in_shape = match shape[..] {
+            [c, h, w] => [c, h, w],
+            _ => [shape.iter().product(), 1, 1],
+        };
+        match &l.op {
+            Op::Pool { kind: PoolKind::Sum, kernel, .. } => {
+                let Some(core) = cores.last_mut() else {
+                    return Err(cannot(Some(k), "pooling sits at a core's output: it must follow a spiking layer"));
+                };
+                core.pool *= kernel[0];
+                if ![1, 2, 4].contains(&core.pool) {
+                    return Err(cannot(
+                        Some(k),
+                        format!("a core pools by 1, 2 or 4; the pools before here make {}", core.pool),
+                    ));
+                }
+            }
+            Op::Pool { kind: PoolKind::Avg, .. } => {
+                return Err(cannot(Some(k), "Speck pools by summing (SumPool2d), not averaging"));
+            }
+            Op::Conv2d { weight, .. } | Op::Dense { weight, .. } => {
+                let Some(p) = l.neurons else {
+                    return Err(cannot(Some(k), "every convolution or dense layer feeds IF neurons on its core"));
+                };
+                if p.kind != NeuronKind::If {
+                    return Err(cannot(Some(k), "Speck runs IF neurons only (no leak)"));
+                }
+                if p.v_leak != 0.0 || p.v_reset != 0.0 {
+                    return Err(cannot(
+                        Some(k),
+                        format!(
+                            "Speck's membranes rest and reset at zero; this layer's rest at {} and reset to {}",
+                            p.v_leak, p.v_reset
+                        ),
+                    ));
+                }
+                if p.v_th <= 0.0 {
+                    return Err(cannot(Some(k), format!("thresholds are positive here; this layer's is {}", p.v_th)));
+                }
+                let scale_w = discretization_scale(weight.iter().copied(), FORMAT.weight_bits);
+                let low_float = THRESHOLD_LOW as f32 / scale_w;
+                let scale_t = discretization_scale([low_float, p.v_th], FORMAT.state_bits);
+                let scale = scale_w.min(scale_t);
+                let threshold = (p.v_th * scale).round();
+                if threshold < 1.0 {
+                    return Err(cannot(Some(k), format!("the threshold {} rounds to zero at scale {scale}", p.v_th)));
+                }
+                let op = match &l.op {
+                    Op::Conv2d { out_channels, kernel, stride, padding, .. } => CoreOp::Conv {
+                        out_channels: *out_channels,
+                        kernel: *kernel,
+                        stride: *stride,
+                        padding: *padding,
+                    },
+                    _ => CoreOp::Dense { n_out: l.op.n_out() },
+                };
+                approximations.push(Approximation::SeveralSpikesPerStep { layer: k });
+                approximations.push(Approximation::MembraneFloor { layer: k, floor: THRESHOLD_LOW });
+                cores.push(SpeckCore {
+                    in_shape,
+                    op,
+                    weights: weight.iter().map(|w| (w * scale).round().clamp(-128.0, 127.0) as i8).collect(),
+                    threshold: threshold.min(i16::MAX as f32) as i16,
+                    threshold_low: THRESHOLD_LOW,
+                    return_to_zero: p.reset == Reset::Zero,
+                    pool: 1,
+                    scale,
+                });
+            }
+        }
+        shape = l.op.out_shape();
+    }
+    let spec = SpeckSpec { cores };
+    spec.validate()?;
+    Ok(Mapped { spec, approximations })
+}
+
+impl SpeckSpec {
+    /// Checks shapes and ranges: what the chip's configuration takes.
+    pub fn validate(&self) -> Result<()> {
+        if self.cores.is_empty() {
+            return Err(cannot(None, "no cores"));
+        }
+        if self.cores.len() > 9 {
+            return Err(cannot(None, format!("Speck has 9 cores, the network needs {}", self.cores.len())));
+        }
+        for (k, c) in self.cores.iter().enumerate() {
+            let n_in: usize = c.in_shape.iter().product();
+            let want = match c.op {
+                CoreOp::Conv { out_channels, kernel, stride, .. } => {
+                    if stride.contains(&0) || kernel.contains(&0) {
+                        return Err(cannot(Some(k), "kernel and stride are at least 1"));
+                    }
+                    out_channels * c.in_shape[0] * kernel[0] * kernel[1]
+                }
+                CoreOp::Dense { n_out } => n_out * n_in,
+            };
+            if c.weights.len() != want {
+                return Err(cannot(Some(k), format!("{} weights, the shapes need {want}", c.weights.len())));
+            }
+            if c.threshold <= 0 || c.threshold_low > 0 {
+                return Err(cannot(
+                    Some(k),
+                    format!(
+                        "thresholds {} (high) and {} (low): the high one positive, the low one at most zero",
+                        c.threshold, c.threshold_low
+                    ),
+                ));
+            }
+            if ![1, 2, 4].contains(&c.pool) {
+                return Err(cannot(Some(k), format!("a core pools by 1, 2 or 4, not {}", c.pool)));
+            }
+            if k > 0 {
+                let prev: usize = self.cores[k - 1].out_shape().iter().product();
+                if prev != n_in {
+                    return Err(cannot(Some(k), format!("takes {n_in} inputs, the core before sends {prev}")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub fn n_in(&self) -> usize {
+        self.cores[0].in_shape.iter().product()
+    }
+
+    pub fn n_out(&self) -> usize {
+        self.cores.last().map_or(0, |c| c.out_shape().iter().product())
+    }
+
+    /// Ready to run.
+    pub fn compile(self) -> Result<Speck> {
+        Speck::new(self)
+    }
+}
+
+/// One core's synapses per pre-synaptic input: targets and 8-bit weights.
+#[derive(Debug, Clone, PartialEq)]
+struct Fanout {
+    start: Vec<u32>,
+    post: Vec<u32>,
+    weight: Vec<i32>,
+}
+
+impl Fanout {
+    fn of(&self, pre: usize) -> (&[u32], &[i32]) {
+        let r = self.start[pre] as usize..self.start[pre + 1] as usize;
+        (&self.post[r.clone()], &self.weight[r])
+    }
+
+    fn new(core: &SpeckCore) -> Fanout {
+        let [ic, ih, iw] = core.in_shape;
+        let n_in = ic * ih * iw;
+        let mut per_pre: Vec<Vec<(u32, i32)>> = vec![Vec::new(); n_in];
+        match core.op {
+            CoreOp::Dense { n_out } => {
+                for o in 0..n_out {
+                    for (i, pre) in per_pre.iter_mut().enumerate() {
+                        let w = core.weights[o * n_in + i];
+                        if w != 0 {
+                            pre.push((o as u32, w as i32));
+                        }
+                    }
+                }
+            }
+            CoreOp::Conv { out_channels, kernel: [kh, kw], stride: [sy, sx], padding: [py, px] } => {
+                let [_, oh, ow] = core.neuron_shape();
+                for oc in 0..out_channels {
+                    for oy in 0..oh {
+                        for ox in 0..ow {
+                            let post = ((oc * oh + oy) * ow + ox) as u32;
+                            for c in 0..ic {
+                                for ky in 0..kh {
+                                    let Some(y) = (oy * sy + ky).checked_sub(py).filter(|&y| y < ih) else {
+                                        continue;
+                                    };
+                                    for kx in 0..kw {
+                                        let Some(x) = (ox * sx + kx).checked_sub(px).filter(|&x| x < iw) else {
+                                            continue;
+                                        };
+                                        let w = core.weights[((oc * ic + c) * kh + ky) * kw + kx];
+                                        if w != 0 {
+                                            per_pre[(c * ih + y) * iw + x].push((post, w as i32));
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut f = Fanout { start: vec![0], post: Vec::new(), weight: Vec::new() };
+        for pre in per_pre {
+            for (p, w) in pre {
+                f.post.push(p);
+                f.weight.push(w);
+            }
+            f.start.push(f.post.len() as u32);
+        }
+        f
+    }
+}
+
+/// A [`SpeckSpec`] ready to run, shared by every stream ([`SpeckState`] is each stream's own).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Speck {
+    spec: SpeckSpec,
+    fanout: Vec<Fanout>,
+}
+
+/// One core's state in one stream.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CoreState {
+    /// Membranes, `[channel][y][x]`; after a step each is below the threshold and at least
+    /// `threshold_low` (16 bits); during a step the input is summed in 32 bits.
+    pub v_mem: Vec<i32>,
+    /// This step's spikes per neuron.
+    pub spikes: Vec<u32>,
+    /// Neurons that received input this step, and the flags behind the list.
+    touched: Vec<u32>,
+    is_touched: Vec<bool>,
+    /// Neurons that spiked this step (ascending in a stepped run, in the order of their first
+    /// input in an event-driven one).
+    fired: Vec<u32>,
+}
+
+/// One stream's state on Speck (the spec is shared).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SpeckState {
+    pub cores: Vec<CoreState>,
+    /// Output spikes per output neuron since rest.
+    pub out_spike_counts: Vec<u32>,
+    pub step: u64,
+    pub stats: SpeckStats,
+    /// The pooled spikes sent to the next core this step: (input index, count).
+    sent: Vec<(u32, u32)>,
+    pooled: Vec<u32>,
+}
+
+/// Work done, per stream.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct SpeckStats {
+    pub input_events: u64,
+    /// Synaptic operations: one weight added to one membrane.
+    pub synops: u64,
+    /// Spikes of every core's neurons (the last core's included).
+    pub spikes: u64,
+    /// The same per core.
+    pub spikes_per_core: Vec<u64>,
+    pub output_spikes: u64,
+    /// Neurons updated (every neuron every step in a stepped run).
+    pub neuron_updates: u64,
+}
+
+impl Speck {
+    pub fn new(spec: SpeckSpec) -> Result<Speck> {
+        spec.validate()?;
+        let fanout = spec.cores.iter().map(Fanout::new).collect();
+        Ok(Speck { spec, fanout })
+    }
+
+    pub fn spec(&self) -> &SpeckSpec {
+        &self.spec
+    }
+
+    /// A stream at rest.
+    pub fn state(&self) -> SpeckState {
+        let cores = self
+            .spec
+            .cores
+            .iter()
+            .map(|c| {
+                let n: usize = c.neuron_shape().iter().product();
+                CoreState { v_mem: vec![0; n], spikes: vec![0; n], is_touched: vec![false; n], ..CoreState::default() }
+            })
+            .collect();
+        SpeckState {
+            cores,
+            out_spike_counts: vec![0; self.spec.n_out()],
+            stats: SpeckStats { spikes_per_core: vec![0; self.spec.cores.len()], ..SpeckStats::default() },
+            ..SpeckState::default()
+        }
+    }
+
+    /// One step: `channels` (ascending, no repeats) and their event counts are this step's input.
+    /// Afterwards each core's `spikes` holds its spikes of the step.
+    pub fn step(&self, st: &mut SpeckState, channels: &[u32], events: &[u16], run: Run) -> Result<()> {
+        if channels.len() != events.len() {
+            return Err(Error::input(format!(
+                "{} channels and {} event counts at step {}",
+                channels.len(),
+                events.len(),
+                st.step
+            )));
+        }
+        let n_in = self.spec.n_in();
+        let mut input = std::mem::take(&mut st.sent);
+        input.clear();
+        let mut prev: Option<u32> = None;
+        for (&c, &n) in channels.iter().zip(events) {
+            if c as usize >= n_in || prev.is_some_and(|p| p >= c) {
+                return Err(Error::input(format!(
+                    "input channel {c} at step {} (channels ascending, fewer than {n_in})",
+                    st.step
+                )));
+            }
+            prev = Some(c);
+            if n > 0 {
+                input.push((c, n as u32));
+                st.stats.input_events += n as u64;
+            }
+        }
+        let last = self.spec.cores.len() - 1;
+        let mut pooled = std::mem::take(&mut st.pooled);
+        for (k, core) in self.spec.cores.iter().enumerate() {
+            let cs = &mut st.cores[k];
+            // 1. the input, summed in 32 bits (integer sums: the order of events does not matter)
+            for &(pre, n) in &input {
+                let (posts, weights) = self.fanout[k].of(pre as usize);
+                let n = n as i32;
+                match run {
+                    Run::Stepped => {
+                        for (&post, &w) in posts.iter().zip(weights) {
+                            cs.v_mem[post as usize] += n * w;
+                        }
+                    }
+                    Run::EventDriven => {
+                        for (&post, &w) in posts.iter().zip(weights) {
+                            let p = post as usize;
+                            cs.v_mem[p] += n * w;
+                            if !cs.is_touched[p] {
+                                cs.is_touched[p] = true;
+                                cs.touched.push(post);
+                            }
+                        }
+                    }
+                }
+                st.stats.synops += n as u64 * posts.len() as u64;
+            }
+            // 2. the neurons
+            for &j in &cs.fired {
+                cs.spikes[j as usize] = 0;
+            }
+            cs.fired.clear();
+            let (th, low, zero) = (core.threshold as i32, core.threshold_low as i32, core.return_to_zero);
+            match run {
+                Run::Stepped => {
+                    for j in 0..cs.v_mem.len() {
+                        let n = fire(&mut cs.v_mem[j], th, low, zero);
+                        if n > 0 {
+                            cs.spikes[j] = n;
+                            cs.fired.push(j as u32);
+                        }
+                    }
+                    st.stats.neuron_updates += cs.v_mem.len() as u64;
+                }
+                Run::EventDriven => {
+                    for &j in &cs.touched {
+                        let j = j as usize;
+                        cs.is_touched[j] = false;
+                        let n = fire(&mut cs.v_mem[j], th, low, zero);
+                        if n > 0 {
+                            cs.spikes[j] = n;
+                            cs.fired.push(j as u32);
+                        }
+                    }
+                    st.stats.neuron_updates += cs.touched.len() as u64;
+                }
+            }
+            cs.touched.clear();
+            let fired_spikes: u64 = cs.fired.iter().map(|&j| cs.spikes[j as usize] as u64).sum();
+            st.stats.spikes += fired_spikes;
+            st.stats.spikes_per_core[k] += fired_spikes;
+            // 3. pooled spikes, the next core's input (in ascending order)
+            input.clear();
+            let [c, h, w] = core.neuron_shape();
+            let p = core.pool;
+            let (oh, ow) = (h / p, w / p);
+            if p == 1 {
+                input.extend(cs.fired.iter().map(|&j| (j, cs.spikes[j as usize])));
+                if k == last {
+                    input.sort_unstable();
+                }
+            } else {
+                pooled.clear();
+                pooled.resize(c * oh * ow, 0);
+                let mut targets = Vec::with_capacity(cs.fired.len());
+                for &j in &cs.fired {
+                    let j = j as usize;
+                    let (ch, y, x) = (j / (h * w), (j / w) % h, j % w);
+                    if y / p >= oh || x / p >= ow {
+                        continue; // beyond the last whole window, as SumPool2d floors
+                    }
+                    let t = (ch * oh + y / p) * ow + x / p;
+                    if pooled[t] == 0 {
+                        targets.push(t as u32);
+                    }
+                    pooled[t] += cs.spikes[j];
+                }
+                if k == last {
+                    targets.sort_unstable();
+                }
+                input.extend(targets.iter().map(|&t| (t, pooled[t as usize])));
+            }
+            if k == last {
+                st.stats.output_spikes += input.iter().map(|&(_, n)| n as u64).sum::<u64>();
+                for &(j, n) in &input {
+                    st.out_spike_counts[j as usize] += n;
+                }
+            }
+        }
+        st.sent = input;
+        st.pooled = pooled;
+        st.step += 1;
+        Ok(())
+    }
+
+    /// A stream's readout since rest: the output spikes counted, per output neuron.
+    pub fn readout(&self, st: &SpeckState) -> Vec<f32> {
+        st.out_spike_counts.iter().map(|&c| c as f32).collect()
+    }
+
+    /// A whole sample from rest: per step, its input channels and their events. Returns the
+    /// readout and the stream's work.
+    pub fn run_sample<'a>(
+        &self,
+        steps: impl IntoIterator<Item = (&'a [u32], &'a [u16])>,
+        run: Run,
+    ) -> Result<(Vec<f32>, SpeckStats)> {
+        let mut st = self.state();
+        for (channels, events) in steps {
+            self.step(&mut st, channels, events, run)?;
+        }
+        Ok((self.readout(&st), st.stats))
+    }
+}
+
+impl CoreState {
+    /// The neurons that spiked in the last step (their counts in `spikes`).
+    pub fn fired(&self) -> &[u32] {
+        &self.fired
+    }
+}
+
+impl SpeckState {
+    /// The last core's spikes of the last step, pooled: (output neuron, spikes), ascending.
+    pub fn last_out_spikes(&self) -> &[(u32, u32)] {
+        &self.sent
+    }
+}
+
+/// Sinabs's IAF step after the input: `MultiSpike`, the reset, the floor. Returns the spikes.
+#[inline]
+fn fire(v: &mut i32, threshold: i32, low: i32, return_to_zero: bool) -> u32 {
+    let n = if *v > 0 { *v / threshold } else { 0 };
+    if n > 0 {
+        if return_to_zero {
+            *v = 0;
+        } else {
+            *v -= n * threshold;
+        }
+    }
+    if *v < low {
+        *v = low;
+    }
+    n as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::Layer;
+    use crate::neuron::NeuronParams;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn discretization_scale_is_sinabs() {
+        // max 0.5 decides: 127 / 0.5
+        assert_eq!(discretization_scale([-0.25, 0.5], 8), 254.0);
+        // min -1 decides (|-1| > 0.5 * 128/127): 128 / 1
+        assert_eq!(discretization_scale([-1.0, 0.5], 8), 128.0);
+        // -0.5 against 0.5: |-0.5| <= 0.5 * 128/127, the positive end decides
+        assert_eq!(discretization_scale([-0.5, 0.5], 8), 254.0);
+        assert_eq!(discretization_scale([0.0, 0.0], 8), 1.0);
+    }
+
+    #[test]
+    fn fire_is_multispike_with_either_reset_and_the_floor() {
+        let mut v = 250;
+        assert_eq!(fire(&mut v, 100, -1000, false), 2);
+        assert_eq!(v, 50);
+        let mut v = 250;
+        assert_eq!(fire(&mut v, 100, -1000, true), 2);
+        assert_eq!(v, 0);
+        let mut v = 99;
+        assert_eq!(fire(&mut v, 100, -1000, false), 0);
+        assert_eq!(v, 99);
+        let mut v = -5000;
+        assert_eq!(fire(&mut v, 100, -1000, false), 0);
+        assert_eq!(v, -1000);
+    }
+
+    fn if_layer(op: Op, reset: Reset) -> Layer {
+        let mut p = NeuronParams::integrate_and_fire();
+        p.reset = reset;
+        Layer { op, neurons: Some(p), recurrent: None, recurrent_bias: None }
+    }
+
+    /// 2x8x8 -> conv 3x3 (4, padded) -> IF -> sum-pool 2 -> conv 3x3 (3, stride 2) -> IF -> dense 5 IF.
+    fn random_net(seed: u64, reset: Reset) -> Network {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut w = |n: usize, r: f32| (0..n).map(|_| rng.random_range(-r..r)).collect::<Vec<f32>>();
+        let c1 = Op::Conv2d {
+            in_shape: [2, 8, 8],
+            out_channels: 4,
+            kernel: [3, 3],
+            stride: [1, 1],
+            padding: [1, 1],
+            weight: w(4 * 2 * 9, 1.2),
+            bias: None,
+        };
+        let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [4, 8, 8], kernel: [2, 2], stride: [2, 2] };
+        let c2 = Op::Conv2d {
+            in_shape: [4, 4, 4],
+            out_channels: 3,
+            kernel: [3, 3],
+            stride: [2, 2],
+            padding: [1, 1],
+            weight: w(3 * 4 * 9, 0.9),
+            bias: None,
+        };
+        let d = Op::Dense { n_in: 3 * 2 * 2, n_out: 5, weight: w(5 * 12, 1.0), bias: None };
+        Network::new(
+            vec![2, 8, 8],
+            vec![
+                if_layer(c1, reset),
+                Layer { op: pool, neurons: None, recurrent: None, recurrent_bias: None },
+                if_layer(c2, reset),
+                if_layer(d, reset),
+            ],
+        )
+        .unwrap()
+    }
+
+    fn random_input(rng: &mut ChaCha8Rng, n_in: usize, steps: usize) -> Vec<(Vec<u32>, Vec<u16>)> {
+        (0..steps)
+            .map(|_| {
+                let mut ch: Vec<u32> = (0..n_in as u32).filter(|_| rng.random_bool(0.15)).collect();
+                ch.dedup();
+                let ev = ch.iter().map(|_| rng.random_range(1..4u16)).collect();
+                (ch, ev)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn event_driven_is_stepped_bit_for_bit() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for (seed, reset) in [(1, Reset::Zero), (2, Reset::Subtract), (3, Reset::Zero)] {
+            let net = random_net(seed, reset);
+            let chip = map(&net).unwrap().spec.compile().unwrap();
+            let steps = random_input(&mut rng, 128, 40);
+            let mut a = chip.state();
+            let mut b = chip.state();
+            let mut spikes = 0;
+            for (c, e) in &steps {
+                chip.step(&mut a, c, e, Run::Stepped).unwrap();
+                chip.step(&mut b, c, e, Run::EventDriven).unwrap();
+                for (x, y) in a.cores.iter().zip(&b.cores) {
+                    assert_eq!(x.v_mem, y.v_mem);
+                    assert_eq!(x.spikes, y.spikes);
+                }
+                spikes = a.stats.spikes;
+            }
+            assert!(spikes > 0, "the test network spikes");
+            assert_eq!(a.out_spike_counts, b.out_spike_counts);
+            assert_eq!((a.stats.synops, a.stats.spikes), (b.stats.synops, b.stats.spikes));
+            assert!(b.stats.neuron_updates < a.stats.neuron_updates);
+        }
+    }
+
+    /// The chip's run against a direct dense computation of Sinabs's model on the integer
+    /// weights: convolution by its definition, `MultiSpike`, reset, floor, sum pooling.
+    #[test]
+    fn equals_sinabs_model_computed_densely() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for reset in [Reset::Zero, Reset::Subtract] {
+            let net = random_net(9, reset);
+            let spec = map(&net).unwrap().spec;
+            let chip = spec.clone().compile().unwrap();
+            let steps = random_input(&mut rng, 128, 30);
+            let mut st = chip.state();
+            let mut v: Vec<Vec<i64>> = spec.cores.iter().map(|c| vec![0; c.neuron_shape().iter().product()]).collect();
+            for (ch, ev) in &steps {
+                chip.step(&mut st, ch, ev, Run::EventDriven).unwrap();
+                let mut x = vec![0i64; spec.n_in()];
+                for (&c, &n) in ch.iter().zip(ev) {
+                    x[c as usize] = n as i64;
+                }
+                for (k, core) in spec.cores.iter().enumerate() {
+                    let [ic, ih, iw] = core.in_shape;
+                    let [oc, oh, ow] = core.neuron_shape();
+                    let mut s = vec![0i64; oc * oh * ow];
+                    for o in 0..oc * oh * ow {
+                        let sum: i64 = match core.op {
+                            CoreOp::Dense { .. } => {
+                                (0..x.len()).map(|i| x[i] * core.weights[o * x.len() + i] as i64).sum()
+                            }
+                            CoreOp::Conv { kernel, stride, padding, .. } => {
+                                let (c_out, oy, ox) = (o / (oh * ow), (o / ow) % oh, o % ow);
+                                let mut acc = 0;
+                                for c in 0..ic {
+                                    for ky in 0..kernel[0] {
+                                        for kx in 0..kernel[1] {
+                                            let y = (oy * stride[0] + ky) as i64 - padding[0] as i64;
+                                            let xx = (ox * stride[1] + kx) as i64 - padding[1] as i64;
+                                            if y < 0 || xx < 0 || y >= ih as i64 || xx >= iw as i64 {
+                                                continue;
+                                            }
+                                            let w = core.weights[((c_out * ic + c) * kernel[0] + ky) * kernel[1] + kx]
+                                                as i64;
+                                            acc += w * x[(c * ih + y as usize) * iw + xx as usize];
+                                        }
+                                    }
+                                }
+                                acc
+                            }
+                        };
+                        let vm = &mut v[k][o];
+                        *vm += sum;
+                        let n = if *vm > 0 { *vm / core.threshold as i64 } else { 0 };
+                        if n > 0 {
+                            *vm = if core.return_to_zero { 0 } else { *vm - n * core.threshold as i64 };
+                        }
+                        *vm = (*vm).max(core.threshold_low as i64);
+                        s[o] = n;
+                    }
+                    assert_eq!(
+                        st.cores[k].v_mem.iter().map(|&a| a as i64).collect::<Vec<_>>(),
+                        v[k],
+                        "core {k}, {reset:?}"
+                    );
+                    let p = core.pool;
+                    let [pc, ph, pw] = core.out_shape();
+                    let mut y = vec![0i64; pc * ph * pw];
+                    for c in 0..pc {
+                        for a in 0..ph * p {
+                            for b in 0..pw * p {
+                                y[(c * ph + a / p) * pw + b / p] += s[(c * oh + a) * ow + b];
+                            }
+                        }
+                    }
+                    x = y;
+                }
+            }
+            assert!(st.stats.spikes > 0);
+        }
+    }
+
+    #[test]
+    fn refuses_what_speck_cannot_hold() {
+        let mut net = random_net(1, Reset::Zero);
+        net.layers[0].neurons = Some(NeuronParams::lif(0.9));
+        let e = map(&net).unwrap_err().to_string();
+        assert!(e.contains("Speck") && e.contains("IF"), "{e}");
+        let mut net = random_net(1, Reset::Zero);
+        if let Op::Pool { kind, .. } = &mut net.layers[1].op {
+            *kind = PoolKind::Avg;
+        }
+        let e = map(&net).unwrap_err().to_string();
+        assert!(e.contains("summing"), "{e}");
+    }
+
+    #[test]
+    fn weights_take_one_scale_per_core_and_fit_eight_bits() {
+        let net = random_net(4, Reset::Subtract);
+        let m = map(&net).unwrap();
+        for (core, layer) in m.spec.cores.iter().zip(net.layers.iter().filter(|l| l.neurons.is_some())) {
+            let (Op::Conv2d { weight: w, .. } | Op::Dense { weight: w, .. }) = &layer.op else {
+                unreachable!("a spiking layer of the test network has weights")
+            };
+            let top = w.iter().fold(0.0f32, |a, &b| a.max(b.abs()));
+            assert!(core.weights.iter().any(|&q| q == 127 || q == -128), "the largest weight reaches the range");
+            assert_eq!(core.threshold, (1.0 * core.scale).round() as i16);
+            assert!((core.scale * top - 127.0).abs() < 1.5, "{} {top}", core.scale);
+        }
+    }
+}
