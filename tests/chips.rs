@@ -300,4 +300,25 @@ fn eval_chars_runs_the_speck_model_in_specks_arithmetic_stepped_and_event_driven
     let xylo = root("models/icub/chip/xylo-braille7.safetensors");
     let err = failed(&braille(&["bench", "--model", s(&xylo), "--chip", "speck"]));
     assert!(err.contains("xylo-braille7.safetensors") && err.contains("IF neurons only"), "{err}");
+    // quantisation-aware training for Speck refuses such a network before it trains
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("q.safetensors");
+    let data = root("data/icub_braille/raw1350");
+    let err = failed(&braille(&[
+        "train",
+        "--data",
+        s(&data),
+        "--recipe",
+        "xylo",
+        "--chip",
+        "speck",
+        "--trainer",
+        "dense",
+        "--epochs",
+        "1",
+        "--out",
+        s(&out),
+        "--quiet",
+    ]));
+    assert!(err.contains("IF neurons only") && !out.exists(), "{err}");
 }

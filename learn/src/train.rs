@@ -518,6 +518,8 @@ pub fn train(
             let chip_twin;
             let twin = match cfg.chip {
                 Some(c) => {
+                    // a network the chip cannot hold is refused before training, with the rule
+                    snn::chip::ChipModel::map(&twin.spec.build(init.to_vec())?, c.chip, c.quantisation, twin.readout)?;
                     chip_twin = SnnTwin { chip: Some(c.chip), ..twin.clone() };
                     &chip_twin
                 }
