@@ -61,6 +61,24 @@ pub struct ScanRead {
 }
 
 impl Score {
+    /// An SNN's score on windows (the work per window its run's), with the loss of its twin
+    /// and the async engine's accuracy beside it where they exist.
+    fn spiking(s: crate::eval::tactile::Scored, loss: f64, accuracy_async: Option<f64>) -> Score {
+        Score {
+            n: s.n,
+            accuracy: s.accuracy,
+            macro_f1: crate::eval::scoring::macro_f1(&s.confusion),
+            loss,
+            confusion: s.confusion,
+            synops_per_sample: Some(s.synops_per_sample),
+            spikes_per_sample: Some(s.spikes_per_sample),
+            input_events_per_sample: Some(s.input_events_per_sample),
+            accuracy_async,
+            predictions: s.predictions.iter().map(|p| p.0).collect(),
+            first_trial: vec![],
+        }
+    }
+
     /// The score with [`Score::first_trial`] filled from the windows' scans (`origin`, one per
     /// window, in the order scored) and the windows' true classes.
     pub fn with_first_trial(mut self, origin: &[ScanId], labels: &[usize]) -> Score {
@@ -165,19 +183,7 @@ impl CharModel {
                     &burn::tensor::Device::flex(),
                 )?;
                 let (loss, _, _) = learn::train::evaluate(&twin, &params, &set, 64);
-                Ok(Score {
-                    n: stepped.n,
-                    accuracy: stepped.accuracy,
-                    macro_f1: crate::eval::scoring::macro_f1(&stepped.confusion),
-                    loss,
-                    confusion: stepped.confusion,
-                    synops_per_sample: Some(stepped.synops_per_sample),
-                    spikes_per_sample: Some(stepped.spikes_per_sample),
-                    input_events_per_sample: Some(stepped.input_events_per_sample),
-                    accuracy_async,
-                    predictions: stepped.predictions.iter().map(|p| p.0).collect(),
-                    first_trial: vec![],
-                })
+                Ok(Score::spiking(stepped, loss, accuracy_async))
             }
         }
     }
@@ -209,20 +215,27 @@ pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<
     let spec = &CharSetSpec { task: m.task(), ..spec.clone() };
     let (raw, w) = build(spec, &m.input, progress)?;
     let score = m.score(&raw)?.with_first_trial(&w.origin, &raw.labels);
-    let right = crate::reports::chars::right(&score);
-    Ok(CharEval {
-        data: "simulated (virtual Evetac)",
-        arch: m.arch(),
-        model: path.display().to_string(),
-        board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
-        speed_mm_s: spec.speed_mm_s,
-        depth_mm: spec.depth_mm,
-        scans: w.scans,
-        skipped_scans: w.skipped_scans,
-        printed: w.printed,
-        accuracy_all: w.accuracy_all(right),
-        score,
-    })
+    Ok(CharEval::of(&m, path, spec, &w, score))
+}
+
+impl CharEval {
+    /// `score` of model `m` (file `path`) on the windows `w` of `spec`.
+    fn of(m: &CharModel, path: &Path, spec: &CharSetSpec, w: &corpus::windows::Windows, score: Score) -> CharEval {
+        let right = crate::reports::chars::right(&score);
+        CharEval {
+            data: "simulated (virtual Evetac)",
+            arch: m.arch(),
+            model: path.display().to_string(),
+            board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
+            speed_mm_s: spec.speed_mm_s,
+            depth_mm: spec.depth_mm,
+            scans: w.scans,
+            skipped_scans: w.skipped_scans,
+            printed: w.printed,
+            accuracy_all: w.accuracy_all(right),
+            score,
+        }
+    }
 }
 
 /// A character SNN on simulated windows in a chip's arithmetic (`braille eval chars --chip`).
@@ -259,46 +272,14 @@ pub fn eval_chip(
     let set = snn_set(&m.input, &raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, m.task());
     let mapped = map_model(model, path, choice)?;
     let (s, updates) = chip_accuracy(&mapped.model, &set, choice.run)?;
-    let score = Score {
-        n: s.n,
-        accuracy: s.accuracy,
-        macro_f1: crate::eval::scoring::macro_f1(&s.confusion),
-        // no loss in the chip's arithmetic: its readout is a spike count, not logits
-        loss: f64::NAN,
-        confusion: s.confusion,
-        synops_per_sample: Some(s.synops_per_sample),
-        spikes_per_sample: Some(s.spikes_per_sample),
-        input_events_per_sample: Some(s.input_events_per_sample),
-        accuracy_async: None,
-        predictions: s.predictions.iter().map(|p| p.0).collect(),
-        first_trial: vec![],
-    }
-    .with_first_trial(&w.origin, &raw.labels);
-    let right = crate::reports::chars::right(&score);
+    // no loss in the chip's arithmetic: its readout is a spike count, not logits
+    let score = Score::spiking(s, f64::NAN, None).with_first_trial(&w.origin, &raw.labels);
+    let eval = CharEval::of(&m, path, spec, &w, score);
     let trace = if trace {
-        let data = format!(
-            "{} at {} mm/s, {} mm, seed {}",
-            spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
-            spec.speed_mm_s,
-            spec.depth_mm,
-            spec.seed
-        );
+        let data = format!("{} at {} mm/s, {} mm, seed {}", eval.board, spec.speed_mm_s, spec.depth_mm, spec.seed);
         Some(ChipTrace::of(&mapped.model, model, path, data, "windows", choice, &set, progress)?)
     } else {
         None
-    };
-    let eval = CharEval {
-        data: "simulated (virtual Evetac)",
-        arch: m.arch(),
-        model: path.display().to_string(),
-        board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
-        speed_mm_s: spec.speed_mm_s,
-        depth_mm: spec.depth_mm,
-        scans: w.scans,
-        skipped_scans: w.skipped_scans,
-        printed: w.printed,
-        accuracy_all: w.accuracy_all(right),
-        score,
     };
     Ok((
         CharChipEval { eval, chip: choice, approximations: mapped.approximations, neuron_updates_per_sample: updates },

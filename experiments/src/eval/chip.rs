@@ -214,39 +214,20 @@ impl ChipTrace {
     }
 }
 
-/// Every sample of `set` through `chip`, each step recorded.
-fn trace_xylo(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SampleTrace>> {
-    let n_in = chip.spec().n_in;
-    progress.start("Xylo trace", set.len() as u64);
+/// `record` on every sample of `set` (its spike train and label), in order, with progress.
+fn trace_each<T>(
+    set: &SpikeSet,
+    what: &str,
+    progress: &dyn Progress,
+    record: impl Fn(&encoders::spike_train::SpikeTrain, usize) -> Result<T>,
+) -> Result<Vec<T>> {
+    progress.start(what, set.len() as u64);
     let samples = set
         .trains
         .iter()
         .zip(&set.labels)
         .map(|(t, &label)| {
-            let mut st = chip.state();
-            let mut s = SampleTrace {
-                label,
-                predicted: 0,
-                input: Vec::new(),
-                hidden_spikes: Vec::new(),
-                v_mem_out: Vec::new(),
-                out_spikes: Vec::new(),
-            };
-            for k in 0..t.n_steps() {
-                let (channels, events) = t.step(k);
-                let mut row = vec![0u16; n_in];
-                for (&c, &n) in channels.iter().zip(events) {
-                    row[c as usize] = n;
-                }
-                s.input.push(row);
-                chip.step(&mut st, channels, events, run)?;
-                for (j, &n) in st.spikes.iter().enumerate().filter(|(_, n)| **n > 0) {
-                    s.hidden_spikes.push([k as u32, j as u32, n as u32]);
-                }
-                s.v_mem_out.push(st.v_mem_out.clone());
-                s.out_spikes.push(st.out_spikes.clone());
-            }
-            s.predicted = argmax(chip.readout(&st));
+            let s = record(t, label)?;
             progress.inc();
             Ok(s)
         })
@@ -255,41 +236,64 @@ fn trace_xylo(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) ->
     Ok(samples)
 }
 
+/// Every sample of `set` through `chip`, each step recorded.
+fn trace_xylo(chip: &Xylo, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SampleTrace>> {
+    let n_in = chip.spec().n_in;
+    trace_each(set, "Xylo trace", progress, |t, label| {
+        let mut st = chip.state();
+        let mut s = SampleTrace {
+            label,
+            predicted: 0,
+            input: Vec::new(),
+            hidden_spikes: Vec::new(),
+            v_mem_out: Vec::new(),
+            out_spikes: Vec::new(),
+        };
+        for k in 0..t.n_steps() {
+            let (channels, events) = t.step(k);
+            let mut row = vec![0u16; n_in];
+            for (&c, &n) in channels.iter().zip(events) {
+                row[c as usize] = n;
+            }
+            s.input.push(row);
+            chip.step(&mut st, channels, events, run)?;
+            for (j, &n) in st.spikes.iter().enumerate().filter(|(_, n)| **n > 0) {
+                s.hidden_spikes.push([k as u32, j as u32, n as u32]);
+            }
+            s.v_mem_out.push(st.v_mem_out.clone());
+            s.out_spikes.push(st.out_spikes.clone());
+        }
+        s.predicted = argmax(chip.readout(&st));
+        Ok(s)
+    })
+}
+
 /// Every sample of `set` through Speck, every spike of every core recorded.
 fn trace_speck(chip: &Speck, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<SpeckSampleTrace>> {
-    progress.start("Speck trace", set.len() as u64);
-    let samples = set
-        .trains
-        .iter()
-        .zip(&set.labels)
-        .map(|(t, &label)| {
-            let mut st = chip.state();
-            let mut s = SpeckSampleTrace {
-                label,
-                predicted: 0,
-                steps: t.n_steps(),
-                input: Vec::new(),
-                spikes: Vec::new(),
-                out_counts: Vec::new(),
-            };
-            for k in 0..t.n_steps() {
-                let (channels, events) = t.step(k);
-                for (&c, &n) in channels.iter().zip(events).filter(|(_, n)| **n > 0) {
-                    s.input.push([k as u32, c, n as u32]);
-                }
-                chip.step(&mut st, channels, events, run)?;
-                for (core, cs) in st.cores.iter().enumerate() {
-                    let mut fired = cs.fired().to_vec();
-                    fired.sort_unstable();
-                    s.spikes.extend(fired.iter().map(|&j| [k as u32, core as u32, j, cs.spikes[j as usize]]));
-                }
+    trace_each(set, "Speck trace", progress, |t, label| {
+        let mut st = chip.state();
+        let mut s = SpeckSampleTrace {
+            label,
+            predicted: 0,
+            steps: t.n_steps(),
+            input: Vec::new(),
+            spikes: Vec::new(),
+            out_counts: Vec::new(),
+        };
+        for k in 0..t.n_steps() {
+            let (channels, events) = t.step(k);
+            for (&c, &n) in channels.iter().zip(events).filter(|(_, n)| **n > 0) {
+                s.input.push([k as u32, c, n as u32]);
             }
-            s.out_counts = st.out_spike_counts.clone();
-            s.predicted = argmax(chip.readout(&st));
-            progress.inc();
-            Ok(s)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    progress.finish();
-    Ok(samples)
+            chip.step(&mut st, channels, events, run)?;
+            for (core, cs) in st.cores.iter().enumerate() {
+                let mut fired = cs.fired().to_vec();
+                fired.sort_unstable();
+                s.spikes.extend(fired.iter().map(|&j| [k as u32, core as u32, j, cs.spikes[j as usize]]));
+            }
+        }
+        s.out_counts = st.out_spike_counts.clone();
+        s.predicted = argmax(chip.readout(&st));
+        Ok(s)
+    })
 }

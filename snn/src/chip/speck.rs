@@ -415,6 +415,7 @@ pub struct SpeckState {
     pub stats: SpeckStats,
     /// The pooled spikes sent to the next core this step: (input index, count).
     sent: Vec<(u32, u32)>,
+    /// Spikes per pooling window while a core's output is pooled (zeros otherwise).
     pooled: Vec<u32>,
 }
 
@@ -552,20 +553,19 @@ impl Speck {
             let fired_spikes: u64 = cs.fired.iter().map(|&j| cs.spikes[j as usize] as u64).sum();
             st.stats.spikes += fired_spikes;
             st.stats.spikes_per_core[k] += fired_spikes;
-            // 3. pooled spikes, the next core's input (in ascending order)
+            // 3. pooled spikes, the next core's input (integer sums need no order; the output's
+            //    ascending)
             input.clear();
             let [c, h, w] = core.neuron_shape();
             let p = core.pool;
             let (oh, ow) = (h / p, w / p);
             if p == 1 {
                 input.extend(cs.fired.iter().map(|&j| (j, cs.spikes[j as usize])));
-                if k == last {
-                    input.sort_unstable();
-                }
             } else {
-                pooled.clear();
-                pooled.resize(c * oh * ow, 0);
-                let mut targets = Vec::with_capacity(cs.fired.len());
+                // `pooled` is all zeros between uses: each window's count is taken back out
+                if pooled.len() < c * oh * ow {
+                    pooled.resize(c * oh * ow, 0);
+                }
                 for &j in &cs.fired {
                     let j = j as usize;
                     let (ch, y, x) = (j / (h * w), (j / w) % h, j % w);
@@ -574,16 +574,16 @@ impl Speck {
                     }
                     let t = (ch * oh + y / p) * ow + x / p;
                     if pooled[t] == 0 {
-                        targets.push(t as u32);
+                        input.push((t as u32, 0));
                     }
                     pooled[t] += cs.spikes[j];
                 }
-                if k == last {
-                    targets.sort_unstable();
+                for (t, n) in input.iter_mut() {
+                    *n = std::mem::take(&mut pooled[*t as usize]);
                 }
-                input.extend(targets.iter().map(|&t| (t, pooled[t as usize])));
             }
             if k == last {
+                input.sort_unstable();
                 st.stats.output_spikes += input.iter().map(|&(_, n)| n as u64).sum::<u64>();
                 for &(j, n) in &input {
                     st.out_spike_counts[j as usize] += n;
