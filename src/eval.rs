@@ -3,7 +3,7 @@
 //! simulated scans (`eval words`).
 
 use crate::common::Bar;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use corpus::windows::{CharSetSpec, Task};
 use experiments::eval::tactile::SplitChoice;
 use experiments::eval::words::WordsSpec;
@@ -63,11 +63,12 @@ pub struct Args {
 #[derive(clap::Args)]
 pub struct ChipArgs {
     /// Run the model in a chip's arithmetic (docs/chips.md): mapped into its number formats
-    /// (integer weights, fixed-point state, bit-shift decays), every sample as the chip computes.
+    /// (integer weights, fixed-point state, decays by bit shifts or integer multiplies), every
+    /// sample as the chip computes.
     #[arg(long, value_enum)]
     chip: Option<snn::chip::Chip>,
     /// --chip: how float weights become the chip's integers (Xylo: Rockpool's quantisers; Speck:
-    /// Sinabs's one scale per core, `global` only).
+    /// Sinabs's one scale per core; Loihi 2: one exponent per layer; the last two `global` only).
     #[arg(long, value_enum, default_value = "global", requires = "chip")]
     quantisation: snn::chip::xylo::Quantisation,
     /// --chip: every neuron every step (`stepped`, the vendor simulator's loop) or only neurons
@@ -76,7 +77,7 @@ pub struct ChipArgs {
     chip_run: snn::chip::xylo::Run,
     /// --chip: also write every sample as the chip ran it (JSON: the mapped specification, the
     /// inputs and every spike), for a spike-for-spike check with the vendor's simulator
-    /// (scripts/chips/xylosim_check.py, scripts/chips/sinabs_check.py).
+    /// (scripts/chips/xylosim_check.py, sinabs_check.py, lava_check.py).
     #[arg(long, requires = "chip")]
     trace: Option<PathBuf>,
 }
@@ -349,6 +350,13 @@ pub struct WordsArgs {
     seed: u64,
     #[arg(long, value_enum, default_value = "sliding")]
     snn_runner: SnnRunner,
+    /// Run both SNNs (segmentation network and classifier) in a chip's arithmetic (docs/chips.md),
+    /// every window from rest as the chip computes it (in place of `--snn-runner`).
+    #[arg(long, value_enum)]
+    chip: Option<snn::chip::Chip>,
+    /// --chip: how float weights become the chip's integers.
+    #[arg(long, value_enum, default_value = "global", requires = "chip")]
+    quantisation: snn::chip::xylo::Quantisation,
     /// Read a lab's recordings folder instead of simulated scans (docs/recordings.md): its
     /// `test` scans (or `--role`'s), one table per commanded speed and depth; the board, speed,
     /// depth, trials, seed and builds options do not apply (`given` timing hands the reader the
@@ -373,7 +381,16 @@ fn words(args: WordsArgs) -> Result<()> {
     let mut files = pipeline::shipped::reader_for(&args.realism.models_dir(), args.arch, args.braille);
     files.segmenter = args.segmenter.clone().unwrap_or(files.segmenter);
     files.classifier = args.classifier.clone().unwrap_or(files.classifier);
-    let readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
+    let mut readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
+    if let Some(chip) = args.chip {
+        let on_chip = |m: pipeline::classify::WindowModel, path: &std::path::Path| {
+            m.on_chip(chip, args.quantisation).with_context(|| format!("{}: in {chip}'s arithmetic", path.display()))
+        };
+        readers = ReaderModels {
+            segmenter: on_chip(readers.segmenter, &files.segmenter)?,
+            classifier: on_chip(readers.classifier, &files.classifier)?,
+        };
+    }
     if let Some(dir) = &args.recordings {
         let rec = corpus::recordings::Recordings::open(dir)?;
         let tables = experiments::eval::words::eval_recordings(

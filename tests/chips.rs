@@ -322,3 +322,105 @@ fn eval_chars_runs_the_speck_model_in_specks_arithmetic_stepped_and_event_driven
     ]));
     assert!(err.contains("IF neurons only") && !out.exists(), "{err}");
 }
+
+#[test]
+fn eval_runs_a_recurrent_biased_model_in_loihi_2s_arithmetic_alike_stepped_and_event_driven() {
+    // th10's shipped twin: CubaLIF with a bias and a recurrent connection, a leaky-integrator
+    // readout; its validation hold-out (never a test split in a test)
+    let model = root("models/icub/nir/snn-th10.safetensors");
+    let data = root("data/icub_braille/th10");
+    let run = |how: &str| -> serde_json::Value {
+        let (out, _) = ok(&braille(&[
+            "eval",
+            "--data",
+            s(&data),
+            "--model",
+            s(&model),
+            "--split",
+            "validation",
+            "--val-seed",
+            "2",
+            "--chip",
+            "loihi2",
+            "--chip-run",
+            how,
+            "--json",
+        ]));
+        serde_json::from_str(&out).unwrap()
+    };
+    let (a, b) = (run("stepped"), run("event-driven"));
+    for key in ["correct", "synops_per_sample", "spikes_per_sample"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    assert!(b["neuron_updates_per_sample"].as_f64() <= a["neuron_updates_per_sample"].as_f64());
+    let changed: Vec<&str> = a["approximations"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert!(changed.iter().any(|c| c.contains("(12 bits)")), "{changed:?}");
+    assert!(changed.iter().any(|c| c.contains("bias enters the membrane")), "{changed:?}");
+    assert!(changed.iter().any(|c| c.contains("2 synapse blocks")), "{changed:?}");
+    assert!(a["accuracy"].as_f64().unwrap() > 0.5, "{}", a["accuracy"]);
+    // per-channel scales are refused: a block has one exponent
+    let err = failed(&braille(&[
+        "eval",
+        "--data",
+        s(&data),
+        "--model",
+        s(&model),
+        "--chip",
+        "loihi2",
+        "--quantisation",
+        "channel",
+    ]));
+    assert!(err.contains("one weight exponent"), "{err}");
+    // quantisation-aware training is not built for Loihi 2: refused, not run as float
+    let err = failed(&braille(&[
+        "train",
+        "--data",
+        s(&data),
+        "--recipe",
+        "xylo",
+        "--chip",
+        "loihi2",
+        "--epochs",
+        "1",
+        "--out",
+        s(&tempfile::tempdir().unwrap().path().join("q.safetensors")),
+    ]));
+    assert!(err.contains("not Loihi 2"), "{err}");
+}
+
+#[test]
+fn eval_words_reads_with_both_snns_in_loihi_2s_arithmetic_and_refuses_a_resnet() {
+    // the validation words, one scan per row (never a test board in a test)
+    fn args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+        let mut a = vec![
+            "eval",
+            "words",
+            "--board",
+            "VAL-WORDS",
+            "--sensor-builds",
+            "training",
+            "--trials",
+            "1",
+            "--speed",
+            "16",
+            "--realism",
+            "nominal",
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        a
+    }
+    let (out, _) = ok(&braille(&args(&["--chip", "loihi2"])));
+    let e: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(e["chip"], serde_json::json!(["loihi2", "global"]));
+    assert!(e["word_accuracy"].as_f64().unwrap() > 0.5, "{}", e["word_accuracy"]);
+    // the float reader names no chip
+    let (out, _) = ok(&braille(&args(&[])));
+    let f: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(f.get("chip").is_none());
+    // a ResNet runs on no chip; Xylo cannot hold a window's 2560 inputs: each named with its file
+    let err = failed(&braille(&args(&["--arch", "resnet", "--chip", "loihi2"])));
+    assert!(err.contains("resnet-tiny-segment") && err.contains("ResNet"), "{err}");
+    let err = failed(&braille(&args(&["--chip", "xylo"])));
+    assert!(err.contains("snn-segment") && err.contains("Xylo"), "{err}");
+}

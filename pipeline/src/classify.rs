@@ -9,6 +9,8 @@ use crate::models::Model;
 use crate::reader::{Window, WindowClassifier};
 use learn::resnet::folded::FoldedResnet;
 use serde::{Deserialize, Serialize};
+use snn::chip::xylo::{Quantisation, Run};
+use snn::chip::{Chip, ChipModel};
 use snn::engine::{Engine, EngineState, Mode};
 use snn::model_file::{Readout, SnnModel};
 use snn::sliding::{RunScratch, Sliding};
@@ -43,9 +45,29 @@ struct BinCache {
 /// What a loaded model runs: shared by every stream (nothing here changes while reading).
 #[allow(clippy::large_enum_variant)] // one per model: the size does not matter
 enum Runner {
-    Resnet { model: FoldedResnet, input: CharInput },
-    Engine { model: SnnModel, input: CharInput, engine: Engine },
-    Sliding { model: SnnModel, input: CharInput, net: Sliding },
+    Resnet {
+        model: FoldedResnet,
+        input: CharInput,
+    },
+    Engine {
+        model: SnnModel,
+        input: CharInput,
+        engine: Engine,
+    },
+    Sliding {
+        model: SnnModel,
+        input: CharInput,
+        net: Sliding,
+    },
+    /// The SNN mapped into a chip's number formats, every window run as the chip computes from
+    /// rest; `readout_scale` takes its readout back to the float network's units.
+    Chip {
+        model: SnnModel,
+        input: CharInput,
+        chip: ChipModel,
+        quantisation: Quantisation,
+        readout_scale: f32,
+    },
 }
 
 /// A trained network that reads windows. It holds parameters only: it is shared (`&self`,
@@ -214,7 +236,10 @@ impl WindowModel {
 
     pub fn input(&self) -> &CharInput {
         match &self.runner {
-            Runner::Resnet { input, .. } | Runner::Engine { input, .. } | Runner::Sliding { input, .. } => input,
+            Runner::Resnet { input, .. }
+            | Runner::Engine { input, .. }
+            | Runner::Sliding { input, .. }
+            | Runner::Chip { input, .. } => input,
         }
     }
 
@@ -222,8 +247,35 @@ impl WindowModel {
     pub fn arch(&self) -> snn::model_file::Arch {
         match self.runner {
             Runner::Resnet { .. } => snn::model_file::Arch::Resnet,
-            Runner::Engine { .. } | Runner::Sliding { .. } => snn::model_file::Arch::Snn,
+            Runner::Engine { .. } | Runner::Sliding { .. } | Runner::Chip { .. } => snn::model_file::Arch::Snn,
         }
+    }
+
+    /// The chip whose arithmetic runs it, and how it was quantised (`None`: the float engine).
+    pub fn chip(&self) -> Option<(Chip, Quantisation)> {
+        match &self.runner {
+            Runner::Chip { chip, quantisation, .. } => Some((chip.chip(), *quantisation)),
+            _ => None,
+        }
+    }
+
+    /// The same SNN run in `chip`'s arithmetic (docs/chips.md), quantised by `quantisation`,
+    /// every window from rest with the chip's latency steps; a ResNet, or a network the chip cannot
+    /// hold, is an error naming the rule.
+    pub fn on_chip(self, chip: Chip, quantisation: Quantisation) -> Result<WindowModel> {
+        let (model, input) = match self.runner {
+            Runner::Engine { model, input, .. }
+            | Runner::Sliding { model, input, .. }
+            | Runner::Chip { model, input, .. } => (model, input),
+            Runner::Resnet { .. } => return Err(Error::Mismatch { what: "a ResNet runs on no chip" }),
+        };
+        let mapped = ChipModel::map(&model.network, chip, quantisation, model.config.readout)?;
+        let readout_scale = mapped.model.readout_scale();
+        Ok(WindowModel {
+            runner: Runner::Chip { chip: mapped.model, model, input, quantisation, readout_scale },
+            classes: self.classes,
+            operating_point: self.operating_point,
+        })
     }
 }
 
@@ -337,7 +389,7 @@ impl WindowClassifier for WindowModel {
 
     fn new_state(&self) -> WindowState {
         let kind = match &self.runner {
-            Runner::Resnet { .. } => StateKind::None,
+            Runner::Resnet { .. } | Runner::Chip { .. } => StateKind::None,
             Runner::Engine { engine, .. } => StateKind::Engine(engine.state(0)),
             Runner::Sliding { .. } => {
                 StateKind::Sliding { bins: Default::default(), scratch: Vec::new(), run: RunScratch::default() }
@@ -368,6 +420,13 @@ impl WindowClassifier for WindowModel {
                 }
             }
             (Runner::Sliding { .. }, _) => self.sliding(st, w)?,
+            (Runner::Chip { model, input, chip, readout_scale, .. }, _) => {
+                let image = input.crop_window(w)?;
+                let train = input.spikes(&image, model.config.dt_us);
+                let (readout, work) = chip.run_sample((0..train.n_steps()).map(|k| train.step(k)), Run::EventDriven)?;
+                st.stats.synops += work.synops;
+                softmax(&readout.iter().map(|r| r / readout_scale).collect::<Vec<_>>())
+            }
             (Runner::Engine { .. }, _) => return Err(Error::Mismatch { what: "a window state of another model" }),
         };
         let ns = t.elapsed().as_nanos() as u64;

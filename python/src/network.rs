@@ -171,12 +171,20 @@ impl Network {
                 output.push((t_start_us + k * dt, j as u32));
             }
         }
+        // Loihi 2 answers its last input a step per layer later: the window runs on, without input
+        for k in steps..steps + chip.drain_steps() as i64 {
+            chip.step(&mut st, &[], &[], run).map_err(|e| BrailleError::new_err(format!("{what}: {e}")))?;
+            for (j, _) in chip.out_spikes(&st) {
+                output.push((t_start_us + k * dt, j as u32));
+            }
+        }
         let work = ChipModel::work(&st);
         // per layer of the network, as the engine counts them (layers without neurons count 0):
-        // Xylo's hidden and output neurons, or each Speck core's spikes at its layer of neurons
+        // Xylo's hidden and output neurons, or each Speck core's (Loihi 2 layer's) spikes at its
+        // layer of neurons
         let spikes_per_layer = match chip {
             ChipModel::Xylo(_) => work.spikes_per_layer.clone(),
-            ChipModel::Speck(_) => {
+            ChipModel::Speck(_) | ChipModel::Loihi2(_) => {
                 let mut cores = work.spikes_per_layer.iter();
                 self.net
                     .network
@@ -394,14 +402,15 @@ impl Network {
     /// `t_end_us` [default: just past the last event]. `mode`: "stepped" (exactly the
     /// time-stepped network) or "async" (each event's effects complete at once).
     ///
-    /// `chip="xylo"` or `chip="speck"` runs the sample in that chip's arithmetic instead
-    /// (docs/chips.md): the network mapped into its number formats by `quantisation` ("global" or
-    /// "channel", Rockpool's quantisers on Xylo; Speck takes "global", Sinabs's one scale per
-    /// core), the events counted per input and step, every step as the chip computes it; `mode`
-    /// is then "stepped" (every neuron every step) or "event-driven" (only neurons with state or
-    /// input), bit for bit the same. `spikes_per_layer` is then Xylo's hidden and output
-    /// neurons' spikes or each Speck core's, `input_events` those the chip took (at most 15 per
-    /// input and step on Xylo).
+    /// `chip="xylo"`, `chip="speck"` or `chip="loihi2"` runs the sample in that chip's
+    /// arithmetic instead (docs/chips.md): the network mapped into its number formats by
+    /// `quantisation` ("global" or "channel", Rockpool's quantisers on Xylo; Speck and Loihi 2
+    /// take "global", one scale per core or layer), the events counted per input and step, every
+    /// step as the chip computes it (on Loihi 2, then one step per layer without input, its
+    /// latency); `mode` is then "stepped" (every neuron every step) or "event-driven" (only
+    /// neurons with state or input), bit for bit the same. `spikes_per_layer` is then Xylo's
+    /// hidden and output neurons' spikes or each Speck core's or Loihi 2 layer's, `input_events`
+    /// those the chip took (at most 15 per input and step on Xylo).
     #[pyo3(signature = (events, mode="stepped", sensor_size=None, t_start_us=0, t_end_us=None, latency=false, chip=None, quantisation="global"))]
     #[allow(clippy::too_many_arguments)]
     fn run(

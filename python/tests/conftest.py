@@ -31,6 +31,24 @@ def cli():
     pytest.skip("no braille binary (cargo build, or set BRAILLE_BIN)")
 
 
+def python_with(module, python_var, require_var, hint):
+    """The Python that has `module` for a vendor check: $`python_var` (CI's environment of its
+    own), else this one. Skips when it lacks the module, or fails when $`require_var` is set (CI)."""
+    import subprocess
+    import sys
+
+    python = os.environ.get(python_var, sys.executable)
+    probe = subprocess.run(
+        [python, "-c", f"import importlib.util, sys; sys.exit(importlib.util.find_spec({module!r}) is None)"],
+        capture_output=True,
+    )
+    if probe.returncode != 0:
+        if os.environ.get(require_var):
+            raise RuntimeError(f"{module} is not installed for {python}")
+        pytest.skip(f"{module} is not installed ({hint}, or set {python_var})")
+    return python
+
+
 def spikes_to_events(spikes, dt_us, flat_width=None):
     """A golden fixture's input spikes `[T, C, H, W]` (or `[T, n]`) as events of EVENTS_DTYPE:
     step t at t * dt_us, pixel (x, y), polarity = channel; a flat input of n is a row of n/2 taxels

@@ -197,3 +197,35 @@ def test_python_runs_the_speck_model_in_specks_arithmetic_as_the_cli(tmp_path, c
             assert per_core[-1] == sum(s["out_counts"])
     with pytest.raises(braille.BrailleError, match="one threshold"):
         net.run(ev, chip="speck", quantisation="channel")
+
+
+def test_python_runs_a_model_in_loihi_2s_arithmetic_as_the_cli(tmp_path, cli):
+    """Network.run(chip="loihi2") on the events of raw1350 validation samples (rebuilt from the
+    CLI's trace) gives the CLI's membranes, prediction and spikes, the latency's drain steps
+    included."""
+    model = ROOT / "models" / "icub" / "nir" / "snn-raw1350.safetensors"
+    trace_path = tmp_path / "trace.json"
+    subprocess.run(
+        [cli, "eval", "--data", str(ROOT / "data" / "icub_braille" / "raw1350"), "--model", str(model),
+         "--split", "validation", "--val-seed", "2", "--chip", "loihi2", "--trace", str(trace_path), "--json"],
+        check=True, capture_output=True,
+    )
+    trace = json.loads(trace_path.read_text())
+    layers = len(trace["spec"]["layers"])
+    net = braille.Network.load(model)
+    dt = net.dt_us
+    taxels = net.n_inputs // 2
+    for s in trace["samples"][:8]:
+        rows = [(t * dt + 10, ch) for t, ch, n in s["input"] for _ in range(n)]
+        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev["t"] = [t for t, _ in rows]
+        ev["x"] = [ch % taxels for _, ch in rows]
+        ev["p"] = [ch // taxels for _, ch in rows]
+        for mode in ["stepped", "event-driven"]:
+            r = net.run(ev, mode=mode, chip="loihi2", t_start_us=0, t_end_us=(s["steps"] - layers) * dt)
+            np.testing.assert_array_equal(r.readout, np.array(s["v_out"]).max(axis=0))
+            assert r.prediction == s["predicted"]
+            per_layer = [sum(1 for _, k, _ in s["spikes"] if k == layer) for layer in range(layers)]
+            assert list(r.spikes_per_layer) == per_layer and per_layer[0] > 0
+    with pytest.raises(braille.BrailleError, match="one weight exponent"):
+        net.run(ev, chip="loihi2", quantisation="channel")

@@ -7,39 +7,25 @@ CI installs sinabs in an environment of its own (BRAILLE_SINABS_PYTHON) and sets
 BRAILLE_REQUIRE_SINABS=1, so there a missing Sinabs fails."""
 
 import json
-import os
 import subprocess
-import sys
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, python_with
 
 MODEL = ROOT / "models" / "nominal" / "chip" / "speck-chars.safetensors"
 CHECK = ROOT / "scripts" / "chips" / "sinabs_check.py"
 
 
 def _sinabs_python():
-    """The Python that has sinabs: $BRAILLE_SINABS_PYTHON (CI's own environment: sinabs pins an
-    older `nir` than the interop tests use), else this one."""
-    return os.environ.get("BRAILLE_SINABS_PYTHON", sys.executable)
-
-
-def _need_sinabs():
-    python = _sinabs_python()
-    probe = subprocess.run(
-        [python, "-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('sinabs') is None)"],
-        capture_output=True,
-    )
-    if probe.returncode != 0:
-        if os.environ.get("BRAILLE_REQUIRE_SINABS"):
-            raise RuntimeError(f"sinabs is not installed for {python}")
-        pytest.skip("sinabs is not installed (pip install sinabs, or set BRAILLE_SINABS_PYTHON)")
+    """The Python that has sinabs (CI's own environment: sinabs pins an older `nir` than the
+    interop tests use)."""
+    return python_with("sinabs", "BRAILLE_SINABS_PYTHON", "BRAILLE_REQUIRE_SINABS", "pip install sinabs")
 
 
 @pytest.fixture(scope="module")
 def speck_trace(tmp_path_factory, cli):
-    _need_sinabs()
+    _sinabs_python()
     trace = tmp_path_factory.mktemp("speck") / "trace.json"
     out = subprocess.run(
         [cli, "eval", "chars", "--arch", "snn", "--model", str(MODEL), "--realism", "nominal",

@@ -139,6 +139,10 @@ impl Stepper<'_> {
         while self.step <= last {
             self.run_step(out)?;
         }
+        // Loihi 2's latency: steps without input until the output has answered the last input
+        for _ in 0..self.chip.drain_steps() {
+            self.run_step(out)?;
+        }
         let s = ChipModel::work(&self.st);
         let o = &mut out.stats;
         o.input_events += s.input_events;

@@ -10,6 +10,7 @@ use crate::eval::tactile::{Scored, SplitChoice, SplitEval, encoding_of, load_spl
 use learn::data::SpikeSet;
 use rayon::prelude::*;
 use serde::Serialize;
+use snn::chip::loihi2::{Loihi2, Loihi2Spec};
 use snn::chip::speck::{Speck, SpeckSpec};
 use snn::chip::xylo::{Quantisation, Run, Xylo, XyloSpec};
 use snn::chip::{Chip, ChipModel, ChipWork, MappedModel};
@@ -161,12 +162,38 @@ pub struct SpeckTrace {
     pub samples: Vec<SpeckSampleTrace>,
 }
 
+/// One sample as Loihi 2 ran it, sparse, its drain steps included.
+#[derive(Debug, Clone, Serialize)]
+pub struct Loihi2SampleTrace {
+    pub label: usize,
+    pub predicted: usize,
+    /// Steps run: the sample's, then the drain steps without input.
+    pub steps: usize,
+    /// `[step, channel, events]` of every input channel with events.
+    pub input: Vec<[u32; 3]>,
+    /// `[step, layer, neuron]` of every spike.
+    pub spikes: Vec<[u32; 3]>,
+    /// `[step][output]` membranes after each step.
+    pub v_out: Vec<Vec<i32>>,
+}
+
+/// A model mapped to Loihi 2 and every sample as it ran.
+#[derive(Debug, Clone, Serialize)]
+pub struct Loihi2Trace {
+    pub model: String,
+    pub data: String,
+    pub split: &'static str,
+    pub spec: Loihi2Spec,
+    pub samples: Vec<Loihi2SampleTrace>,
+}
+
 /// Every sample as the chip ran it (`braille eval --chip ... --trace`).
 #[derive(Debug, Clone, Serialize)]
 #[serde(tag = "chip", rename_all = "lowercase")]
 pub enum ChipTrace {
     Xylo(Box<XyloTrace>),
     Speck(SpeckTrace),
+    Loihi2(Loihi2Trace),
 }
 
 impl ChipTrace {
@@ -209,6 +236,13 @@ impl ChipTrace {
                     })
                     .collect(),
                 samples: trace_speck(s, set, choice.run, progress)?,
+            }),
+            ChipModel::Loihi2(l) => ChipTrace::Loihi2(Loihi2Trace {
+                model: model_name,
+                data,
+                split,
+                spec: l.spec().clone(),
+                samples: trace_loihi2(l, set, choice.run, progress)?,
             }),
         })
     }
@@ -293,6 +327,29 @@ fn trace_speck(chip: &Speck, set: &SpikeSet, run: Run, progress: &dyn Progress) 
             }
         }
         s.out_counts = st.out_spike_counts.clone();
+        s.predicted = argmax(chip.readout(&st));
+        Ok(s)
+    })
+}
+
+/// Every sample of `set` through Loihi 2 (its drain steps included), every spike recorded.
+fn trace_loihi2(chip: &Loihi2, set: &SpikeSet, run: Run, progress: &dyn Progress) -> Result<Vec<Loihi2SampleTrace>> {
+    trace_each(set, "Loihi 2 trace", progress, |t, label| {
+        let mut st = chip.state();
+        let steps = t.n_steps() + chip.drain_steps();
+        let mut s =
+            Loihi2SampleTrace { label, predicted: 0, steps, input: Vec::new(), spikes: Vec::new(), v_out: Vec::new() };
+        for k in 0..steps {
+            let (channels, events) = if k < t.n_steps() { t.step(k) } else { (&[][..], &[][..]) };
+            for (&c, &n) in channels.iter().zip(events).filter(|(_, n)| **n > 0) {
+                s.input.push([k as u32, c, n as u32]);
+            }
+            chip.step(&mut st, channels, events, run)?;
+            for (layer, ls) in st.layers.iter().enumerate() {
+                s.spikes.extend(ls.fired.iter().map(|&j| [k as u32, layer as u32, j]));
+            }
+            s.v_out.push(st.layers.last().map(|l| l.v.clone()).unwrap_or_default());
+        }
         s.predicted = argmax(chip.readout(&st));
         Ok(s)
     })

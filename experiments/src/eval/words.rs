@@ -340,6 +340,10 @@ pub struct EvalWords {
     /// The simulated world's builds (none for recorded scans).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor_builds: Option<corpus::world::SensorBuilds>,
+    /// The chip whose arithmetic ran the classifier (and the segmentation network), and its
+    /// quantisation (none: the float engine).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chip: Option<(snn::chip::Chip, snn::chip::xylo::Quantisation)>,
     pub spell: Spell,
     /// Unconditional, over every printed word: word accuracy `1 - WER` (inserted words count),
     /// percent correct (printed words read right; blind to insertions, as a fraction), and the word
@@ -402,6 +406,7 @@ impl EvalWords {
             classifier: files.classifier.clone(),
             operating_point: readers.operating_point().clone(),
             sensor_builds,
+            chip: readers.classifier.chip(),
             spell,
             word_accuracy: m.word_accuracy,
             percent_correct: m.percent_correct,
@@ -422,13 +427,14 @@ impl std::fmt::Display for EvalWords {
         let (s, p) = (&self.score, &self.operating_point);
         writeln!(
             f,
-            "models: {} + {} (segmentation read above {}, characters from {} frames{}){}",
+            "models: {} + {} (segmentation read above {}, characters from {} frames{}){}{}",
             self.segmenter.display(),
             self.classifier.display(),
             p.present_threshold,
             p.min_frames,
             if p.calibration.is_none() { ", the paper's point" } else { ", calibrated" },
-            self.sensor_builds.map_or(String::new(), |b| format!("; {b:?} sensor builds"))
+            self.sensor_builds.map_or(String::new(), |b| format!("; {b:?} sensor builds")),
+            self.chip.map_or(String::new(), |(c, q)| format!("; in {c}'s arithmetic ({q:?} quantisation)"))
         )?;
         writeln!(
             f,

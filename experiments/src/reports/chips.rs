@@ -369,6 +369,7 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
             let target = match chip {
                 Chip::Xylo => Target::Xylo,
                 Chip::Speck => Target::Speck,
+                Chip::Loihi2 => Target::Loihi2,
             };
             if !c.targets.iter().any(|t| t.target == target && t.passes) {
                 continue;
@@ -407,9 +408,16 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                 run(path, Quantisation::Global)?;
             let channel = match chip {
                 Chip::Xylo => Some(run(path, Quantisation::Channel)?.accuracy),
-                Chip::Speck => None,
+                Chip::Speck | Chip::Loihi2 => None,
             };
-            let tuned = qat_models(path);
+            // the fine-tuned models made for this chip (their recipe names it)
+            let tuned: Vec<PathBuf> = qat_models(path)
+                .into_iter()
+                .filter(|m| {
+                    pipeline::models::load_snn(m)
+                        .is_ok_and(|t| t.provenance["recipe"]["chip"] == serde_json::json!(chip))
+                })
+                .collect();
             let qat = if tuned.is_empty() {
                 None
             } else {
@@ -524,7 +532,7 @@ pub fn markdown(r: &ChipReport) -> String {
         let _ = writeln!(s, "\n## In the chip's arithmetic\n");
         let _ = writeln!(
             s,
-            "Each model that passes a modelled chip's rules, mapped into that chip's number formats and run as the chip computes (`braille eval --chip`; the formats and their sources in docs/chips.md), on the same test as the float engine. Plain quantisation, no retraining: on Xylo the mapping (decays to bit shifts, the chip's order of operations), then Rockpool's global or per-channel 8-bit quantiser; on Speck Sinabs's discretisation (one scale per core for its 8-bit weights and 16-bit threshold) and Sinabs's model of the chip's neurons (several spikes per step). The engine's Xylo arithmetic agrees spike for spike with SynSense's XyloSim (`scripts/chips/xylosim_check.py`, python/tests/test_xylosim.py), its Speck arithmetic with SynSense's Sinabs (`scripts/chips/sinabs_check.py`, python/tests/test_sinabs.py).\n"
+            "Each model that passes a modelled chip's rules, mapped into that chip's number formats and run as the chip computes (`braille eval --chip`; the formats and their sources in docs/chips.md), on the same test as the float engine. Plain quantisation, no retraining: on Xylo the mapping (decays to bit shifts, the chip's order of operations), then Rockpool's global or per-channel 8-bit quantiser; on Speck Sinabs's discretisation (one scale per core for its 8-bit weights and 16-bit threshold) and Sinabs's model of the chip's neurons (several spikes per step); on Loihi 2 Lava's fixed-point LIF (8-bit weights with one exponent per synapse block, 24-bit state, 12-bit decays, thresholds in (2^9, 2^10] at the weights' full 8 bits), each layer one step later than the one before, the sample run on for that latency. The engine's Xylo arithmetic agrees spike for spike with SynSense's XyloSim (`scripts/chips/xylosim_check.py`, python/tests/test_xylosim.py), its Speck arithmetic with SynSense's Sinabs (`scripts/chips/sinabs_check.py`, python/tests/test_sinabs.py), its Loihi 2 arithmetic with Intel's Lava (`scripts/chips/lava_check.py`, python/tests/test_lava.py). SpiNNaker 2 is not modelled: its neurons are programs on ARM cores (py-spinnaker2's LIF computes in 32-bit floating point), so it has no fixed number format to model.\n"
         );
         let _ = writeln!(
             s,

@@ -14,6 +14,13 @@
 //! - [`Chip::Speck`]: SynSense Speck (DYNAP-CNN cores), as Sinabs 3.1.3 (PyPI `sinabs`,
 //!   `backend/dynapcnn/discretize.py`, `chips/dynapcnn.py`, `layers/iaf.py` with `MultiSpike`)
 //!   discretises and runs it. See [`speck`].
+//! - [`Chip::Loihi2`]: Intel Loihi 2's fixed-point LIF neurons and synapses, as Lava 0.10.0's
+//!   bit-accurate models compute them (PyPI `lava-nc`, `proc/lif/models.py` `PyLifModelBitAcc`,
+//!   `proc/dense/models.py` `PyDenseModelBitAcc`). See [`loihi2`].
+//!
+//! SpiNNaker 2 is not modelled: its neurons are programs on ARM cores, whose arithmetic is the
+//! program's (py-spinnaker2's LIF runs in 32-bit floating point), so there is no fixed number
+//! format to model.
 //!
 //! ```
 //! use snn::chip::xylo::{self, Quantisation, Run};
@@ -37,10 +44,33 @@
 //! assert!(st.stats.synops > 0);
 //! ```
 
+pub mod loihi2;
 pub mod speck;
 pub mod xylo;
 
 use serde::{Deserialize, Serialize};
+
+/// Checks one step's input as every chip takes it: as many event counts as channels, the channels
+/// ascending without repeats and below `n_in` (`step` names the step in the error).
+pub(crate) fn check_step_input(channels: &[u32], events: &[u16], n_in: usize, step: u64) -> crate::Result<()> {
+    if channels.len() != events.len() {
+        return Err(crate::Error::input(format!(
+            "{} channels and {} event counts at step {step}",
+            channels.len(),
+            events.len()
+        )));
+    }
+    let mut prev: Option<u32> = None;
+    for &c in channels {
+        if c as usize >= n_in || prev.is_some_and(|p| p >= c) {
+            return Err(crate::Error::input(format!(
+                "input channel {c} at step {step} (channels ascending, fewer than {n_in})"
+            )));
+        }
+        prev = Some(c);
+    }
+    Ok(())
+}
 
 /// A chip whose arithmetic the engine models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -51,15 +81,18 @@ pub enum Chip {
     Xylo,
     /// SynSense Speck (DYNAP-CNN cores).
     Speck,
+    /// Intel Loihi 2, as Lava's bit-accurate LIF and Dense models compute.
+    Loihi2,
 }
 
 impl Chip {
-    pub const ALL: [Chip; 2] = [Chip::Xylo, Chip::Speck];
+    pub const ALL: [Chip; 3] = [Chip::Xylo, Chip::Speck, Chip::Loihi2];
 
     pub fn name(self) -> &'static str {
         match self {
             Chip::Xylo => "Xylo",
             Chip::Speck => "Speck",
+            Chip::Loihi2 => "Loihi 2",
         }
     }
 
@@ -68,6 +101,7 @@ impl Chip {
         match self {
             Chip::Xylo => xylo::FORMAT,
             Chip::Speck => speck::FORMAT,
+            Chip::Loihi2 => loihi2::FORMAT,
         }
     }
 
@@ -78,6 +112,7 @@ impl Chip {
             Chip::Xylo => xylo::neurons(p),
             // Speck's IF neurons have no decay to round, and reset either way
             Chip::Speck => p,
+            Chip::Loihi2 => loihi2::neurons(p),
         }
     }
 }
@@ -93,6 +128,8 @@ impl std::fmt::Display for Chip {
 pub enum DecayArithmetic {
     /// `x -= x >> dash` (arithmetic shift), at least one unit towards zero; `dash` of `bits` bits.
     BitShift { bits: u8 },
+    /// `x * (2^bits - d) >> bits`, rounded towards zero; `d` of `bits` bits.
+    Multiply { bits: u8 },
     /// No decay: integrate-and-fire neurons.
     None,
 }
@@ -105,6 +142,8 @@ pub enum ChipReset {
     /// Per layer, the threshold subtracted per spike or the membrane set to zero after a spike
     /// (`return_to_zero`); several spikes per step allowed.
     SubtractOrZero,
+    /// The membrane set to zero after a spike; one spike per step.
+    Zero,
 }
 
 /// A chip's number formats: what a model must become to run there.
@@ -138,6 +177,7 @@ pub struct NumberFormat {
 pub enum ChipModel {
     Xylo(Box<xylo::Xylo>),
     Speck(speck::Speck),
+    Loihi2(loihi2::Loihi2),
 }
 
 /// One stream's state on a chip.
@@ -145,6 +185,7 @@ pub enum ChipModel {
 pub enum ChipState {
     Xylo(Box<xylo::XyloState>),
     Speck(Box<speck::SpeckState>),
+    Loihi2(Box<loihi2::Loihi2State>),
 }
 
 /// Work done by one stream on a chip.
@@ -157,7 +198,8 @@ pub struct ChipWork {
     /// Spikes of every neuron, output neurons included.
     pub spikes: u64,
     pub output_spikes: u64,
-    /// Spikes per layer of neurons: Xylo's hidden and output neurons; each Speck core's.
+    /// Spikes per layer of neurons: Xylo's hidden and output neurons; each Speck core's; each
+    /// Loihi 2 layer's.
     pub spikes_per_layer: Vec<u64>,
     /// Neurons updated (every neuron every step in a stepped run).
     pub neuron_updates: u64,
@@ -169,7 +211,8 @@ pub struct MappedModel {
     pub model: ChipModel,
     /// What the mapping changed, one sentence each.
     pub approximations: Vec<String>,
-    /// Bit shifts of the input, recurrent and output weights (Xylo; zero elsewhere).
+    /// Bit shifts of the input, recurrent and output weights (Xylo; zero elsewhere; Loihi 2's
+    /// exponents per layer are in its spec).
     pub weight_shifts: [u8; 3],
 }
 
@@ -218,6 +261,21 @@ impl ChipModel {
                     weight_shifts: [0; 3],
                 })
             }
+            Chip::Loihi2 => {
+                if quantisation == xylo::Quantisation::Channel {
+                    return Err(crate::Error::Chip {
+                        chip,
+                        layer: None,
+                        what: "a Loihi 2 synapse block has one weight exponent and a layer one threshold: one scale per layer (global quantisation), not per channel".into(),
+                    });
+                }
+                let m = loihi2::map(net, readout)?;
+                Ok(MappedModel {
+                    approximations: m.approximations.iter().map(ToString::to_string).collect(),
+                    model: ChipModel::Loihi2(m.spec.compile()?),
+                    weight_shifts: [0; 3],
+                })
+            }
         }
     }
 
@@ -225,6 +283,7 @@ impl ChipModel {
         match self {
             ChipModel::Xylo(_) => Chip::Xylo,
             ChipModel::Speck(_) => Chip::Speck,
+            ChipModel::Loihi2(_) => Chip::Loihi2,
         }
     }
 
@@ -232,6 +291,7 @@ impl ChipModel {
         match self {
             ChipModel::Xylo(x) => x.spec().n_in,
             ChipModel::Speck(s) => s.spec().n_in(),
+            ChipModel::Loihi2(s) => s.spec().n_in(),
         }
     }
 
@@ -239,6 +299,7 @@ impl ChipModel {
         match self {
             ChipModel::Xylo(x) => x.spec().n_out,
             ChipModel::Speck(s) => s.spec().n_out(),
+            ChipModel::Loihi2(s) => s.spec().n_out(),
         }
     }
 
@@ -247,6 +308,7 @@ impl ChipModel {
         match self {
             ChipModel::Xylo(x) => ChipState::Xylo(Box::new(x.state())),
             ChipModel::Speck(s) => ChipState::Speck(Box::new(s.state())),
+            ChipModel::Loihi2(s) => ChipState::Loihi2(Box::new(s.state())),
         }
     }
 
@@ -255,6 +317,7 @@ impl ChipModel {
         match (self, st) {
             (ChipModel::Xylo(x), ChipState::Xylo(s)) => x.step(s, channels, events, run),
             (ChipModel::Speck(x), ChipState::Speck(s)) => x.step(s, channels, events, run),
+            (ChipModel::Loihi2(x), ChipState::Loihi2(s)) => x.step(s, channels, events, run),
             _ => Err(crate::Error::input("a stream's state belongs to another chip")),
         }
     }
@@ -266,6 +329,21 @@ impl ChipModel {
                 s.out_spikes.iter().enumerate().filter(|(_, n)| **n > 0).map(|(j, &n)| (j, n as u32)).collect()
             }
             ChipState::Speck(s) => s.last_out_spikes().iter().map(|&(j, n)| (j as usize, n)).collect(),
+            ChipState::Loihi2(s) => {
+                s.layers.last().map_or(Vec::new(), |l| l.fired.iter().map(|&j| (j as usize, 1)).collect())
+            }
+        }
+    }
+
+    /// Chip units of the readout per unit of the float network's: spike counts are counts; a
+    /// membrane is in the output layer's scale (Loihi 2: `scale * 2^6`). Xylo's membranes are
+    /// given in its own units (1).
+    pub fn readout_scale(&self) -> f32 {
+        match self {
+            ChipModel::Loihi2(x) if x.spec().readout == crate::model_file::Readout::MaxMembrane => {
+                x.spec().layers.last().map_or(1.0, |l| l.scale * (1u32 << loihi2::STATE_SHIFT) as f32)
+            }
+            _ => 1.0,
         }
     }
 
@@ -274,6 +352,7 @@ impl ChipModel {
         match (self, st) {
             (ChipModel::Xylo(x), ChipState::Xylo(s)) => x.readout(s),
             (ChipModel::Speck(x), ChipState::Speck(s)) => x.readout(s),
+            (ChipModel::Loihi2(x), ChipState::Loihi2(s)) => x.readout(s),
             _ => Vec::new(),
         }
     }
@@ -297,10 +376,37 @@ impl ChipModel {
                 spikes_per_layer: s.stats.spikes_per_core.clone(),
                 neuron_updates: s.stats.neuron_updates,
             },
+            ChipState::Loihi2(s) => ChipWork {
+                input_events: s.stats.input_events,
+                synops: s.stats.synops,
+                spikes: s.stats.spikes,
+                output_spikes: s.stats.output_spikes,
+                spikes_per_layer: s.stats.spikes_per_layer.clone(),
+                neuron_updates: s.stats.neuron_updates,
+            },
         }
     }
 
-    /// A whole sample from rest: its readout and the work.
+    /// Steps without input a sample runs after its last one for the output to answer it: Loihi
+    /// 2's latency (one step per synapse block); none on Xylo and Speck, whose runs end with the
+    /// input as their simulators' do.
+    pub fn drain_steps(&self) -> usize {
+        match self {
+            ChipModel::Loihi2(x) => x.drain_steps(),
+            _ => 0,
+        }
+    }
+
+    /// Ends a sample: runs [`ChipModel::drain_steps`] steps without input. Call before
+    /// [`ChipModel::readout`].
+    pub fn finish(&self, st: &mut ChipState, run: xylo::Run) -> crate::Result<()> {
+        for _ in 0..self.drain_steps() {
+            self.step(st, &[], &[], run)?;
+        }
+        Ok(())
+    }
+
+    /// A whole sample from rest (then [`ChipModel::finish`]): its readout and the work.
     pub fn run_sample<'a>(
         &self,
         steps: impl IntoIterator<Item = (&'a [u32], &'a [u16])>,
@@ -310,6 +416,56 @@ impl ChipModel {
         for (channels, events) in steps {
             self.step(&mut st, channels, events, run)?;
         }
+        self.finish(&mut st, run)?;
         Ok((self.readout(&st), ChipModel::work(&st)))
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod test_nets {
+    use crate::network::{Layer, Network, Op, PoolKind};
+    use crate::neuron::NeuronParams;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// 2x8x8 -> conv 3x3 (4, padded) -> `p[0]` -> sum-pool 2 -> conv 3x3 (3, stride 2) -> `p[1]`
+    /// -> dense 5 -> `p[2]`, weights drawn from `seed` (then, with `bias`, a bias on the second
+    /// convolution).
+    pub(crate) fn conv_pool_dense(seed: u64, p: [NeuronParams; 3], bias: bool) -> Network {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut w = |n: usize, r: f32| (0..n).map(|_| rng.random_range(-r..r)).collect::<Vec<f32>>();
+        let (w1, w2, wd) = (w(4 * 2 * 9, 1.2), w(3 * 4 * 9, 0.9), w(5 * 12, 1.0));
+        let b2 = bias.then(|| w(3, 0.2));
+        let c1 = Op::Conv2d {
+            in_shape: [2, 8, 8],
+            out_channels: 4,
+            kernel: [3, 3],
+            stride: [1, 1],
+            padding: [1, 1],
+            weight: w1,
+            bias: None,
+        };
+        let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [4, 8, 8], kernel: [2, 2], stride: [2, 2] };
+        let c2 = Op::Conv2d {
+            in_shape: [4, 4, 4],
+            out_channels: 3,
+            kernel: [3, 3],
+            stride: [2, 2],
+            padding: [1, 1],
+            weight: w2,
+            bias: b2,
+        };
+        let d = Op::Dense { n_in: 3 * 2 * 2, n_out: 5, weight: wd, bias: None };
+        let layer = |op, p| Layer { op, neurons: Some(p), recurrent: None, recurrent_bias: None };
+        Network::new(
+            vec![2, 8, 8],
+            vec![
+                layer(c1, p[0]),
+                Layer { op: pool, neurons: None, recurrent: None, recurrent_bias: None },
+                layer(c2, p[1]),
+                layer(d, p[2]),
+            ],
+        )
+        .unwrap()
     }
 }

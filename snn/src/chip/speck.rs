@@ -79,20 +79,25 @@ pub struct SpeckCore {
     pub scale: f32,
 }
 
-impl SpeckCore {
-    /// The neurons' shape `[channels, height, width]`.
-    pub fn neuron_shape(&self) -> [usize; 3] {
-        let [c, h, w] = self.in_shape;
-        match self.op {
+impl CoreOp {
+    /// The shape `[channels, height, width]` of the neurons the op feeds, over an input of
+    /// `in_shape`.
+    pub fn neuron_shape(&self, in_shape: [usize; 3]) -> [usize; 3] {
+        let [_, h, w] = in_shape;
+        match *self {
             CoreOp::Conv { out_channels, kernel, stride, padding } => {
                 let o = |n: usize, d: usize| (n + 2 * padding[d]).saturating_sub(kernel[d]) / stride[d] + 1;
                 [out_channels, o(h, 0), o(w, 1)]
             }
-            CoreOp::Dense { n_out } => {
-                let _ = (c, h, w);
-                [n_out, 1, 1]
-            }
+            CoreOp::Dense { n_out } => [n_out, 1, 1],
         }
+    }
+}
+
+impl SpeckCore {
+    /// The neurons' shape `[channels, height, width]`.
+    pub fn neuron_shape(&self) -> [usize; 3] {
+        self.op.neuron_shape(self.in_shape)
     }
 
     /// The shape of what the core sends on (after pooling).
@@ -314,37 +319,44 @@ impl SpeckSpec {
     }
 }
 
-/// One core's synapses per pre-synaptic input: targets and 8-bit weights.
+/// A layer's synapses per pre-synaptic input: targets and integer weights (a convolution's
+/// shared weights written out per input; shared with [`super::loihi2`]).
 #[derive(Debug, Clone, PartialEq)]
-struct Fanout {
+pub(super) struct Fanout {
     start: Vec<u32>,
     post: Vec<u32>,
     weight: Vec<i32>,
 }
 
 impl Fanout {
-    fn of(&self, pre: usize) -> (&[u32], &[i32]) {
+    pub(super) fn of(&self, pre: usize) -> (&[u32], &[i32]) {
         let r = self.start[pre] as usize..self.start[pre + 1] as usize;
         (&self.post[r.clone()], &self.weight[r])
     }
 
     fn new(core: &SpeckCore) -> Fanout {
-        let [ic, ih, iw] = core.in_shape;
+        Fanout::build(core.in_shape, &core.op, |i| core.weights[i] as i32)
+    }
+
+    /// The synapses of `op` over an input of `in_shape`, `weight(i)` the `i`-th weight in the
+    /// op's layout (PyTorch's); zero weights are left out.
+    pub(super) fn build(in_shape: [usize; 3], op: &CoreOp, weight: impl Fn(usize) -> i32) -> Fanout {
+        let [ic, ih, iw] = in_shape;
         let n_in = ic * ih * iw;
         let mut per_pre: Vec<Vec<(u32, i32)>> = vec![Vec::new(); n_in];
-        match core.op {
+        match *op {
             CoreOp::Dense { n_out } => {
                 for o in 0..n_out {
                     for (i, pre) in per_pre.iter_mut().enumerate() {
-                        let w = core.weights[o * n_in + i];
+                        let w = weight(o * n_in + i);
                         if w != 0 {
-                            pre.push((o as u32, w as i32));
+                            pre.push((o as u32, w));
                         }
                     }
                 }
             }
             CoreOp::Conv { out_channels, kernel: [kh, kw], stride: [sy, sx], padding: [py, px] } => {
-                let [_, oh, ow] = core.neuron_shape();
+                let [_, oh, ow] = op.neuron_shape(in_shape);
                 for oc in 0..out_channels {
                     for oy in 0..oh {
                         for ox in 0..ow {
@@ -358,9 +370,9 @@ impl Fanout {
                                         let Some(x) = (ox * sx + kx).checked_sub(px).filter(|&x| x < iw) else {
                                             continue;
                                         };
-                                        let w = core.weights[((oc * ic + c) * kh + ky) * kw + kx];
+                                        let w = weight(((oc * ic + c) * kh + ky) * kw + kx);
                                         if w != 0 {
-                                            per_pre[(c * ih + y) * iw + x].push((post, w as i32));
+                                            per_pre[(c * ih + y) * iw + x].push((post, w));
                                         }
                                     }
                                 }
@@ -467,26 +479,10 @@ impl Speck {
     /// One step: `channels` (ascending, no repeats) and their event counts are this step's input.
     /// Afterwards each core's `spikes` holds its spikes of the step.
     pub fn step(&self, st: &mut SpeckState, channels: &[u32], events: &[u16], run: Run) -> Result<()> {
-        if channels.len() != events.len() {
-            return Err(Error::input(format!(
-                "{} channels and {} event counts at step {}",
-                channels.len(),
-                events.len(),
-                st.step
-            )));
-        }
-        let n_in = self.spec.n_in();
+        super::check_step_input(channels, events, self.spec.n_in(), st.step)?;
         let mut input = std::mem::take(&mut st.sent);
         input.clear();
-        let mut prev: Option<u32> = None;
         for (&c, &n) in channels.iter().zip(events) {
-            if c as usize >= n_in || prev.is_some_and(|p| p >= c) {
-                return Err(Error::input(format!(
-                    "input channel {c} at step {} (channels ascending, fewer than {n_in})",
-                    st.step
-                )));
-            }
-            prev = Some(c);
             if n > 0 {
                 input.push((c, n as u32));
                 st.stats.input_events += n as u64;
@@ -650,7 +646,6 @@ fn fire(v: &mut i32, threshold: i32, low: i32, return_to_zero: bool) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::network::Layer;
     use crate::neuron::NeuronParams;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -682,46 +677,10 @@ mod tests {
         assert_eq!(v, -1000);
     }
 
-    fn if_layer(op: Op, reset: Reset) -> Layer {
-        let mut p = NeuronParams::integrate_and_fire();
-        p.reset = reset;
-        Layer { op, neurons: Some(p), recurrent: None, recurrent_bias: None }
-    }
-
     /// 2x8x8 -> conv 3x3 (4, padded) -> IF -> sum-pool 2 -> conv 3x3 (3, stride 2) -> IF -> dense 5 IF.
     fn random_net(seed: u64, reset: Reset) -> Network {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut w = |n: usize, r: f32| (0..n).map(|_| rng.random_range(-r..r)).collect::<Vec<f32>>();
-        let c1 = Op::Conv2d {
-            in_shape: [2, 8, 8],
-            out_channels: 4,
-            kernel: [3, 3],
-            stride: [1, 1],
-            padding: [1, 1],
-            weight: w(4 * 2 * 9, 1.2),
-            bias: None,
-        };
-        let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [4, 8, 8], kernel: [2, 2], stride: [2, 2] };
-        let c2 = Op::Conv2d {
-            in_shape: [4, 4, 4],
-            out_channels: 3,
-            kernel: [3, 3],
-            stride: [2, 2],
-            padding: [1, 1],
-            weight: w(3 * 4 * 9, 0.9),
-            bias: None,
-        };
-        let d = Op::Dense { n_in: 3 * 2 * 2, n_out: 5, weight: w(5 * 12, 1.0), bias: None };
-        Network::new(
-            vec![2, 8, 8],
-            vec![
-                if_layer(c1, reset),
-                Layer { op: pool, neurons: None, recurrent: None, recurrent_bias: None },
-                if_layer(c2, reset),
-                if_layer(d, reset),
-            ],
-        )
-        .unwrap()
+        let p = NeuronParams::integrate_and_fire().with_reset(reset);
+        super::super::test_nets::conv_pool_dense(seed, [p; 3], false)
     }
 
     fn random_input(rng: &mut ChaCha8Rng, n_in: usize, steps: usize) -> Vec<(Vec<u32>, Vec<u16>)> {

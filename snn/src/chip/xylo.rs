@@ -695,25 +695,10 @@ impl Xylo {
     /// the states are the chip's after the step.
     pub fn step(&self, st: &mut XyloState, channels: &[u32], events: &[u16], run: Run) -> Result<()> {
         let (h, o) = (self.spec.n_hidden, self.spec.n_out);
-        let mut prev_channel: Option<usize> = None;
         // 1. input events
-        if channels.len() != events.len() {
-            return Err(Error::input(format!(
-                "{} channels and {} event counts at step {}",
-                channels.len(),
-                events.len(),
-                st.step
-            )));
-        }
+        super::check_step_input(channels, events, self.spec.n_in, st.step)?;
         for (&c, &n) in channels.iter().zip(events) {
             let c = c as usize;
-            if c >= self.spec.n_in || prev_channel.is_some_and(|p| p >= c) {
-                return Err(Error::input(format!(
-                    "input channel {c} at step {} (channels ascending, fewer than {})",
-                    st.step, self.spec.n_in
-                )));
-            }
-            prev_channel = Some(c);
             let n = n.min(MAX_INPUT_EVENTS as u16);
             if n == 0 {
                 continue;

@@ -30,6 +30,8 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
                     *r += 1.0 * w;
                 }
             }
+            // each previous spike reaches every neuron of the layer: synaptic operations too
+            stats.synops += s.prev.len() as u64 * n as u64;
         }
         if let Some(b) = rec_bias {
             for (r, b) in s.rec.iter_mut().zip(b) {
