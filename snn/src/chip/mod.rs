@@ -19,8 +19,8 @@
 //!   `proc/dense/models.py` `PyDenseModelBitAcc`). See [`loihi2`].
 //!
 //! SpiNNaker 2 is not modelled: its neurons are programs on ARM cores, whose arithmetic is the
-//! program's (py-spinnaker2's LIF runs in 32-bit floating point), so there is no fixed number
-//! format to model.
+//! program's, and its toolchain (py-spinnaker2) is neither on PyPI nor readable here, so no number
+//! format could be taken from the vendor's code.
 //!
 //! ```
 //! use snn::chip::xylo::{self, Quantisation, Run};
