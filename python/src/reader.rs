@@ -118,8 +118,11 @@ impl Reader {
     /// shipped models are [default: $BRAILLE_MODELS, else the repository's models/nominal/].
     /// `braille`: the code of the print, "grade1-letters" (the paper's letters) or "ueb-g1" /
     /// "ueb-g2" (the cell readers in `models_dir`'s ueb/ folder, words back-translated to print).
+    /// `chip`: "loihi2" (or another chip that holds both SNNs) runs the segmentation network and
+    /// the classifier in that chip's arithmetic, every window from rest (docs/chips.md), quantised
+    /// by `quantisation`; the same as `braille eval words --chip`.
     #[new]
-    #[pyo3(signature = (arch="snn", spell="lexicon", timing="estimated", speed_mm_s=None, segmenter=None, classifier=None, runner="sliding", models_dir=None, braille="grade1-letters"))]
+    #[pyo3(signature = (arch="snn", spell="lexicon", timing="estimated", speed_mm_s=None, segmenter=None, classifier=None, runner="sliding", models_dir=None, braille="grade1-letters", chip=None, quantisation="global"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -132,7 +135,11 @@ impl Reader {
         runner: &str,
         models_dir: Option<PathBuf>,
         braille: &str,
+        chip: Option<&str>,
+        quantisation: &str,
     ) -> PyResult<Reader> {
+        let chip: Option<snn::chip::Chip> = chip.map(|c| choice("chip", c)).transpose()?;
+        let quantisation: snn::chip::xylo::Quantisation = choice("quantisation", quantisation)?;
         let arch: Arch = choice("arch", arch)?;
         let braille: BrailleCode = choice("braille", braille)?;
         let spell: Spell = choice("spell", spell)?;
@@ -145,7 +152,19 @@ impl Reader {
         let classifier = classifier.unwrap_or(dc);
         let (models, speller) = py
             .detach(|| {
-                let models = ReaderModels::load(&segmenter, &classifier, runner)?;
+                let mut models = ReaderModels::load(&segmenter, &classifier, runner)?;
+                if let Some(c) = chip {
+                    let on_chip = |m: pipeline::classify::WindowModel, path: &PathBuf| {
+                        m.on_chip(c, quantisation).map_err(|e| pipeline::Error::Model {
+                            path: path.clone(),
+                            what: format!("in {c}'s arithmetic: {e}"),
+                        })
+                    };
+                    models = ReaderModels {
+                        segmenter: on_chip(models.segmenter, &segmenter)?,
+                        classifier: on_chip(models.classifier, &classifier)?,
+                    };
+                }
                 Ok::<_, pipeline::Error>((models, Speller::in_code(spell, braille)?))
             })
             .or_py()?;

@@ -49,6 +49,21 @@ def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
         stream.push(scan.events[:10])
 
 
+def test_the_exportable_reader_reads_in_loihi_2s_arithmetic(scan):
+    """Both SNNs (the reset-to-zero twins) on Loihi 2's arithmetic, as `eval words --chip loihi2`;
+    a ResNet runs on no chip, and Xylo cannot hold a window."""
+    twins = ROOT / "models" / "nominal" / "nir"
+    files = dict(segmenter=twins / "snn-segment.safetensors", classifier=twins / "snn-words.safetensors")
+    reader = braille.Reader(spell="none", chip="loihi2", **files)
+    assert [w.text for w in reader.read(scan.events)] == ["LEFT", "OPEN"]
+    with pytest.raises(braille.BrailleError, match="ResNet"):
+        braille.Reader(arch="resnet", chip="loihi2")
+    with pytest.raises(braille.BrailleError, match="snn-segment.safetensors.*Xylo"):
+        braille.Reader(chip="xylo", **files)
+    with pytest.raises(ValueError, match="chip"):
+        braille.Reader(chip="truenorth")
+
+
 def test_a_ueb_reader_reads_cells_back_to_print():
     # "The children" in contracted UEB, printed as its cells
     cells = braille.simulate(board="text:⠠⠮ ⠡⠝", row=0, speed_mm_s=SPEED, seed=7)
