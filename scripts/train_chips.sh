@@ -13,6 +13,11 @@
 #   Xylo's decays and reset, every forward pass in Xylo's arithmetic), 30 epochs (half the recipe's, not
 #   tuned), one per fine-tuning seed (the shuffling; the validation hold-out stays the float model's, seed 2);
 #   about 15 s each.
+# - icub/nir/qat/snn-raw1350-seed{1,2,3}: the raw1350 twin (models/icub/nir/, scripts/train_nir.sh) fine-tuned
+#   for Loihi 2 (quantisation-aware, `--chip loihi2` on the dense trainer: the weights on Lava's 8-bit grid at
+#   the mapper's scale and exponents, the integer threshold, 12-bit decays), 30 epochs (half the recipe's, as
+#   for Xylo, not tuned), one per fine-tuning seed (validation hold-out the twin's, seed 2); about 30 s each.
+#   `--loihi2-qat-only` runs only these.
 # Then the chip table and the cost of the faithful export: `braille chip-report`
 # (docs/results/chips.md). About 40 minutes on two cores (the SIMULATED model alone about 15).
 # --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
@@ -28,6 +33,19 @@ realism="${REALISM:-nominal}"
 sim="models/$realism/chip"
 hist="docs/results/$realism/chip"
 mkdir -p models/icub/chip docs/results/icub/chip "$sim" "$hist"
+mkdir -p models/icub/nir/qat
+if [[ "${1:-}" != "--simulated-only" && "${1:-}" != "--speck-qat-only" ]]; then
+  for seed in 1 2 3; do
+    $b train --trainer dense --data data/icub_braille/raw1350 --recipe raw1350 --reset zero --chip loihi2 \
+      --init models/icub/nir/snn-raw1350.safetensors --epochs 30 --seed "$seed" --val-seed 2 \
+      --out "models/icub/nir/qat/snn-raw1350-seed$seed.safetensors" \
+      --history "docs/results/icub/nir/qat_snn_raw1350_seed${seed}_history.json" --force --quiet
+  done
+fi
+if [[ "${1:-}" == "--loihi2-qat-only" ]]; then
+  [[ "${2:-}" == "--no-report" ]] || $b chip-report --realism "$realism" --out docs/results
+  exit 0
+fi
 if [[ "${1:-}" != "--simulated-only" && "${1:-}" != "--speck-qat-only" ]]; then
   $b train --trainer dense --data data/icub_braille/raw1350 --recipe xylo --out models/icub/chip/xylo-braille7.safetensors \
     --history docs/results/icub/chip/xylo_braille7_history.json --force --quiet

@@ -17,6 +17,13 @@
 //! spikes for `v' > 0` (`MultiSpike`; backward: the surrogate at the nearest threshold crossing),
 //! the reset per spike and the membrane's floor at the 16-bit minimum.
 //!
+//! With [`SnnTwin::chip`] set to Loihi 2, each layer's weights (and recurrent weights) are
+//! fake-quantised on the 8-bit grid [`snn::chip::loihi2::map`] puts them on (one scale per layer
+//! from its largest weight and threshold, one exponent per block) and the threshold is the
+//! integer one; the neurons are the chip's (12-bit decays, reset to zero, set by the recipe). The
+//! fixed-point state's rounding and the chip's latency are left out (the latency delays the
+//! output without changing it).
+//!
 //! A leaky-integrator output layer never fires; its readout is `max(0, max_t v[t])`, what the
 //! engine's [`snn::engine::EngineState::output_v_max`] keeps; its gradient passes the clamp at
 //! zero straight through (a straight-through estimator), so no class's readout can die.
@@ -146,8 +153,8 @@ pub struct SnnTwin {
     /// Backpropagate the readout's clamp at zero as it is (zero gradient below it) instead of
     /// straight through.
     pub clamped_readout_gradient: bool,
-    /// Quantisation-aware: the chip whose arithmetic the forward pass models (Speck only; Xylo's
-    /// runs on the sparse trainer).
+    /// Quantisation-aware: the chip whose arithmetic the forward pass models (Speck and Loihi 2;
+    /// Xylo's runs on the sparse trainer).
     pub chip: Option<snn::chip::Chip>,
 }
 
@@ -172,6 +179,22 @@ struct SpeckQuant {
     threshold: f32,
     /// The floor in float units.
     floor: f32,
+}
+
+/// One layer's quantisation for Loihi 2 ([`snn::chip::loihi2::map`]'s rule on its current
+/// weights): the grid steps of its feed-forward and recurrent weights in float units, and the
+/// threshold the integer `vth` stands for.
+#[derive(Debug, Clone, Copy)]
+struct Loihi2Quant {
+    /// Float units per step of the 8-bit mantissa (`2 * 2^exp / scale`).
+    step_ff: f32,
+    step_rec: f32,
+    v_th: f32,
+}
+
+/// The largest magnitude of `w` (detached).
+fn max_abs<const D: usize>(w: &Tensor<D>) -> f32 {
+    w.clone().detach().abs().max().into_scalar::<f32>()
 }
 
 /// One layer's weights for one forward pass (fake-quantised for a chip).
@@ -225,6 +248,34 @@ impl SnnTwin {
         let mut out_v: Vec<Tensor<2>> = Vec::new();
         let mut masks: Vec<Option<Tensor<2>>> = vec![None; n_layers];
         let speck = self.chip == Some(snn::chip::Chip::Speck);
+        // Loihi 2: each layer's weights on its 8-bit grid (one exponent per block), its threshold
+        // the integer one, once per pass
+        let lq: Vec<Option<Loihi2Quant>> = self
+            .spec
+            .layers
+            .iter()
+            .zip(&params.layers)
+            .map(|(l, p)| {
+                use ::snn::chip::loihi2;
+                let np = l.neurons?;
+                if self.chip != Some(snn::chip::Chip::Loihi2) {
+                    return None;
+                }
+                let max_ff = match (&p.dense, &p.conv) {
+                    (Some(w), _) => max_abs(&w.val()),
+                    (_, Some(w)) => max_abs(&w.val()),
+                    _ => return None,
+                };
+                let v_th = if np.v_th > 0.0 { np.v_th } else { 1.0 };
+                let scale = loihi2::input_scale(max_ff, v_th);
+                let step = |max: f32| 2.0 * 2f32.powi(loihi2::weight_exp_for(max as f64 * scale as f64) as i32) / scale;
+                Some(Loihi2Quant {
+                    step_ff: step(max_ff),
+                    step_rec: p.recurrent.as_ref().map_or(1.0, |r| step(max_abs(&r.val()))),
+                    v_th: (v_th * scale).round().clamp(1.0, loihi2::VTH_MAX as f32) / scale,
+                })
+            })
+            .collect();
         // Speck: each spiking layer's weights fake-quantised once per pass
         let quant: Vec<Option<SpeckQuant>> = self
             .spec
@@ -254,10 +305,12 @@ impl SnnTwin {
         let weights: Vec<LayerTensors> = params
             .layers
             .iter()
-            .zip(&quant)
-            .map(|(p, q)| {
-                let fq2 = |w: Tensor<2>| q.map_or(w.clone(), |q| fake_quantise(w, q.scale));
-                let fq4 = |w: Tensor<4>| q.map_or(w.clone(), |q| fake_quantise(w, q.scale));
+            .zip(quant.iter().zip(&lq))
+            .map(|(p, (q, l))| {
+                // the fake quantiser's scale: Speck's, or Loihi 2's grid step's inverse
+                let s = q.map(|q| q.scale).or(l.map(|l| 1.0 / l.step_ff));
+                let fq2 = |w: Tensor<2>| s.map_or(w.clone(), |s| fake_quantise(w, s));
+                let fq4 = |w: Tensor<4>| s.map_or(w.clone(), |s| fake_quantise(w, s));
                 LayerTensors {
                     dense: p.dense.as_ref().map(|w| fq2(w.val())),
                     conv: p.conv.as_ref().map(|w| fq4(w.val())),
@@ -276,7 +329,11 @@ impl SnnTwin {
                     continue;
                 };
                 if let (Some(r), Some(z)) = (&p.recurrent, &prev[k]) {
-                    u = u + z.clone().matmul(r.val());
+                    let r = match lq[k] {
+                        Some(l) => fake_quantise(r.val(), 1.0 / l.step_rec),
+                        None => r.val(),
+                    };
+                    u = u + z.clone().matmul(r);
                 }
                 let n = u.dims()[1];
                 let drive = match np.kind {
@@ -322,7 +379,8 @@ impl SnnTwin {
                         z
                     }
                     _ => {
-                        let z = spike(vn.clone() - np.v_th, self.surrogate);
+                        let v_th = lq[k].map_or(np.v_th, |l| l.v_th);
+                        let z = spike(vn.clone() - v_th, self.surrogate);
                         let zd = z.clone().detach();
                         v[k] = Some(reset(vn, zd, &np));
                         z

@@ -500,8 +500,8 @@ pub fn train(
         )));
     }
     match cfg.trainer {
-        _ if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Loihi2) => Err(snn::Error::input(
-            "quantisation-aware training is built for Xylo (sparse trainer) and Speck (dense trainer), not Loihi 2: `eval --chip loihi2` scores a model in its arithmetic",
+        Trainer::Sparse if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Loihi2) => Err(snn::Error::input(
+            "quantisation-aware training for Loihi 2 runs on the dense trainer (--trainer dense)",
         )),
         Trainer::Dense if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Xylo) => {
             Err(snn::Error::input("quantisation-aware training for Xylo runs on the sparse trainer (--trainer sparse)"))

@@ -415,3 +415,75 @@ fn speck_twin_reads_out_what_the_speck_chip_reads_out() {
         assert_eq!(agree, 6);
     }
 }
+
+/// With `chip` Loihi 2, the twin's forward pass is Lava's fixed-point LIF in float units (the
+/// weights on the chip's 8-bit grid, the integer threshold, 12-bit decays) up to the state's
+/// rounding: its max-membrane readout matches `snn::chip::loihi2`'s (taken back to float units)
+/// closely and picks the same class, sample by sample.
+#[test]
+fn loihi2_twin_reads_out_what_the_loihi2_chip_reads_out() {
+    let _rng = burn_rng();
+    let chip_neurons = |p: NeuronParams| Some(snn::chip::Chip::Loihi2.neurons(p));
+    let spec = NetworkSpec {
+        input_shape: vec![24],
+        layers: vec![
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 32 },
+                neurons: chip_neurons(NeuronParams::cuba_lif(0.9, 0.95)),
+                recurrent: true,
+                bias: false,
+                recurrent_bias: false,
+            },
+            LayerSpec {
+                op: OpSpec::Dense { n_out: 5 },
+                neurons: chip_neurons(NeuronParams::leaky_integrator(0.95)),
+                recurrent: false,
+                bias: false,
+                recurrent_bias: false,
+            },
+        ],
+    };
+    let weights = spec.init(5, 2.0).unwrap();
+    let net = spec.build(weights.clone()).unwrap();
+    let mapped = snn::chip::ChipModel::map(
+        &net,
+        snn::chip::Chip::Loihi2,
+        snn::chip::xylo::Quantisation::Global,
+        Readout::MaxMembrane,
+    )
+    .unwrap();
+    let chip = mapped.model;
+    let mut twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
+    twin.chip = Some(snn::chip::Chip::Loihi2);
+    let params = SnnParams::from_weights(&spec, &weights, &Device::flex()).unwrap();
+    let (steps, n) = (40, 24);
+    let (mut spiking, mut same_class, mut worst) = (0, 0, 0f32);
+    for sample in 0..8u64 {
+        let draws: Vec<Vec<f32>> = (0..2).map(|j| random_input(300 + 2 * sample + j, steps, n, 0.3)).collect();
+        let input: Vec<f32> = (0..steps * n).map(|i| draws.iter().map(|d| d[i]).sum()).collect();
+        let out = twin.forward(&params, &steps_of(&input, steps, n));
+        let twin_v: Vec<f32> = out.logits.to_data().convert::<f32>().try_into_vec::<f32>().unwrap();
+        let per_step: Vec<(Vec<u32>, Vec<u16>)> = (0..steps)
+            .map(|t| {
+                let row = &input[t * n..(t + 1) * n];
+                let ch: Vec<u32> = (0..n as u32).filter(|&i| row[i as usize] > 0.0).collect();
+                let ev = ch.iter().map(|&i| row[i as usize] as u16).collect();
+                (ch, ev)
+            })
+            .collect();
+        let (readout, work) = chip
+            .run_sample(per_step.iter().map(|(c, e)| (c.as_slice(), e.as_slice())), snn::chip::xylo::Run::EventDriven)
+            .unwrap();
+        let chip_v: Vec<f32> = readout.iter().map(|r| r / chip.readout_scale()).collect();
+        spiking += (work.spikes_per_layer[0] > 0) as usize;
+        let argmax = |v: &[f32]| (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        same_class += (argmax(&twin_v) == argmax(&chip_v)) as usize;
+        let range = chip_v.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-3);
+        for (a, b) in twin_v.iter().zip(&chip_v) {
+            worst = worst.max((a - b).abs() / range);
+        }
+    }
+    assert!(spiking >= 6, "the hidden layer spikes ({spiking} of 8 samples)");
+    assert_eq!(same_class, 8);
+    assert!(worst < 0.02, "largest readout difference {worst} of the readout's range");
+}

@@ -295,9 +295,10 @@ pub fn train_on(
                     "its network (layers, sizes or neurons) is not the recipe's: fine-tuning keeps the network",
                 ));
             }
-            let want =
-                serde_json::to_value(&data.encoding).map_err(|source| Error::Json { path: out_name(), source })?;
-            if m.preprocess != want || m.classes != data.classes || m.config.dt_us != r.dt_us {
+            // read as an encoding, so that a model written before a field existed (its default)
+            // still matches
+            let theirs: Option<TactileEncoding> = serde_json::from_value(m.preprocess.clone()).ok();
+            if theirs.as_ref() != Some(&data.encoding) || m.classes != data.classes || m.config.dt_us != r.dt_us {
                 return Err(bad("its input (encoding, classes or step) is not this data's by the recipe"));
             }
             Some(m.network.weights())

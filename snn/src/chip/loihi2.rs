@@ -201,16 +201,22 @@ pub fn neurons(p: NeuronParams) -> NeuronParams {
     q
 }
 
+/// The smallest weight exponent whose 8 bits hold `max_scaled` (the largest weight magnitude in
+/// chip input units): `2 * 127 * 2^e >= max_scaled`, within the exponents taken.
+pub fn weight_exp_for(max_scaled: f64) -> i8 {
+    let mut e = MIN_WEIGHT_EXP;
+    while e < MAX_WEIGHT_EXP && 254.0 * 2f64.powi(e as i32) < max_scaled {
+        e += 1;
+    }
+    e
+}
+
 /// A block's weights at `scale` (chip input units per float unit) with the smallest exponent
 /// that holds the largest of them in 8 bits: Lava's values (even, `2 * m` for an 8-bit `m`), the
 /// exponent, and how many saturated.
 fn quantise_block(w: &[f32], scale: f32) -> (Vec<i16>, i8, usize) {
     let max = w.iter().fold(0f32, |m, x| m.max(x.abs())) as f64 * scale as f64;
-    // 2 * 127 * 2^e >= max
-    let mut e = MIN_WEIGHT_EXP;
-    while e < MAX_WEIGHT_EXP && 254.0 * 2f64.powi(e as i32) < max {
-        e += 1;
-    }
+    let e = weight_exp_for(max);
     let unit = 2.0 * 2f64.powi(e as i32);
     let mut saturated = 0;
     let q = w
@@ -230,7 +236,13 @@ fn quantise_block(w: &[f32], scale: f32) -> (Vec<i16>, i8, usize) {
 /// `vth` at most `2^THRESHOLD_BITS` (coarser exponents where the threshold is small beside the
 /// weights), so the threshold lands in `(2^9, 2^10]` unless the exponents run out.
 fn layer_scale(w: &[f32], v_th: f32) -> f32 {
-    let max = w.iter().fold(0f32, |m, x| m.max(x.abs())) as f64;
+    input_scale(w.iter().fold(0f32, |m, x| m.max(x.abs())), v_th)
+}
+
+/// [`map`]'s input scale for a layer whose largest weight magnitude is `max_abs` and whose
+/// threshold is `v_th` (a leaky integrator's nominal one): chip input units per float unit.
+pub fn input_scale(max_abs: f32, v_th: f32) -> f32 {
+    let max = max_abs as f64;
     if max == 0.0 {
         return (1u32 << THRESHOLD_BITS) as f32 / v_th;
     }
