@@ -197,6 +197,20 @@ fn max_abs<const D: usize>(w: &Tensor<D>) -> f32 {
     w.clone().detach().abs().max().into_scalar::<f32>()
 }
 
+/// The largest and smallest of a layer's dense or convolution weights (detached); `None` for a
+/// layer without them.
+fn weight_range(p: &LayerParams) -> Option<(f32, f32)> {
+    fn range<const D: usize>(w: Tensor<D>) -> (f32, f32) {
+        let w = w.detach();
+        (w.clone().max().into_scalar::<f32>(), w.min().into_scalar::<f32>())
+    }
+    match (&p.dense, &p.conv) {
+        (Some(w), _) => Some(range(w.val())),
+        (_, Some(w)) => Some(range(w.val())),
+        _ => None,
+    }
+}
+
 /// One layer's weights for one forward pass (fake-quantised for a chip).
 struct LayerTensors {
     dense: Option<Tensor<2>>,
@@ -261,11 +275,8 @@ impl SnnTwin {
                 if self.chip != Some(snn::chip::Chip::Loihi2) {
                     return None;
                 }
-                let max_ff = match (&p.dense, &p.conv) {
-                    (Some(w), _) => max_abs(&w.val()),
-                    (_, Some(w)) => max_abs(&w.val()),
-                    _ => return None,
-                };
+                let (hi, lo) = weight_range(p)?;
+                let max_ff = hi.abs().max(lo.abs());
                 let v_th = if np.v_th > 0.0 { np.v_th } else { 1.0 };
                 let scale = loihi2::input_scale(max_ff, v_th);
                 let step = |max: f32| 2.0 * 2f32.powi(loihi2::weight_exp_for(max as f64 * scale as f64) as i32) / scale;
@@ -287,15 +298,7 @@ impl SnnTwin {
                 if !speck {
                     return None;
                 }
-                let (hi, lo) = match (&p.dense, &p.conv) {
-                    (Some(w), _) => {
-                        (w.val().detach().max().into_scalar::<f32>(), w.val().detach().min().into_scalar::<f32>())
-                    }
-                    (_, Some(w)) => {
-                        (w.val().detach().max().into_scalar::<f32>(), w.val().detach().min().into_scalar::<f32>())
-                    }
-                    _ => return None,
-                };
+                let (hi, lo) = weight_range(p)?;
                 let scale = snn::chip::speck::discretization_scale([hi, lo], 8);
                 let low = snn::chip::speck::THRESHOLD_LOW as f32;
                 let scale = scale.min(snn::chip::speck::discretization_scale([low / scale, np.v_th], 16));

@@ -352,6 +352,26 @@ fn weight_averaging_and_weight_decay() {
     }
 }
 
+/// Event counts per input and step (0 to `draws`): the sum of `draws` random spike trains of
+/// density `p`, seeded `seed`, `seed + 1`, ...; `[step][input]`, flat.
+fn event_counts(seed: u64, draws: u64, steps: usize, n: usize, p: f64) -> Vec<f32> {
+    let d: Vec<Vec<f32>> = (0..draws).map(|j| random_input(seed + j, steps, n, p)).collect();
+    (0..steps * n).map(|i| d.iter().map(|x| x[i]).sum()).collect()
+}
+
+/// `input` (`[step][input]` counts) as a chip takes it: per step, the inputs with events
+/// (ascending) and their counts.
+fn per_step_counts(input: &[f32], steps: usize, n: usize) -> Vec<(Vec<u32>, Vec<u16>)> {
+    (0..steps)
+        .map(|t| {
+            let row = &input[t * n..(t + 1) * n];
+            let ch: Vec<u32> = (0..n as u32).filter(|&i| row[i as usize] > 0.0).collect();
+            let ev = ch.iter().map(|&i| row[i as usize] as u16).collect();
+            (ch, ev)
+        })
+        .collect()
+}
+
 /// With `chip` Speck, the twin's forward pass is the chip's arithmetic (in float units): its
 /// spike-count readout equals `snn::chip::speck`'s on the same integer input, sample by sample.
 #[test]
@@ -389,18 +409,10 @@ fn speck_twin_reads_out_what_the_speck_chip_reads_out() {
         let (mut spiking, mut agree) = (0, 0);
         for sample in 0..6u64 {
             // event counts per input and step (0 to 3)
-            let draws: Vec<Vec<f32>> = (0..3).map(|j| random_input(100 + 3 * sample + j, steps, n, 0.15)).collect();
-            let input: Vec<f32> = (0..steps * n).map(|i| draws.iter().map(|d| d[i]).sum()).collect();
+            let input = event_counts(100 + 3 * sample, 3, steps, n, 0.15);
             let out = twin.forward(&params, &steps_of(&input, steps, n));
             let counts: Vec<f32> = out.logits.to_data().convert::<f32>().try_into_vec::<f32>().unwrap();
-            let per_step: Vec<(Vec<u32>, Vec<u16>)> = (0..steps)
-                .map(|t| {
-                    let row = &input[t * n..(t + 1) * n];
-                    let ch: Vec<u32> = (0..n as u32).filter(|&i| row[i as usize] > 0.0).collect();
-                    let ev = ch.iter().map(|&i| row[i as usize] as u16).collect();
-                    (ch, ev)
-                })
-                .collect();
+            let per_step = per_step_counts(&input, steps, n);
             let (readout, work) = chip
                 .run_sample(
                     per_step.iter().map(|(c, e)| (c.as_slice(), e.as_slice())),
@@ -459,18 +471,10 @@ fn loihi2_twin_reads_out_what_the_loihi2_chip_reads_out() {
     let (steps, n) = (40, 24);
     let (mut spiking, mut same_class, mut worst) = (0, 0, 0f32);
     for sample in 0..8u64 {
-        let draws: Vec<Vec<f32>> = (0..2).map(|j| random_input(300 + 2 * sample + j, steps, n, 0.3)).collect();
-        let input: Vec<f32> = (0..steps * n).map(|i| draws.iter().map(|d| d[i]).sum()).collect();
+        let input = event_counts(300 + 2 * sample, 2, steps, n, 0.3);
         let out = twin.forward(&params, &steps_of(&input, steps, n));
         let twin_v: Vec<f32> = out.logits.to_data().convert::<f32>().try_into_vec::<f32>().unwrap();
-        let per_step: Vec<(Vec<u32>, Vec<u16>)> = (0..steps)
-            .map(|t| {
-                let row = &input[t * n..(t + 1) * n];
-                let ch: Vec<u32> = (0..n as u32).filter(|&i| row[i as usize] > 0.0).collect();
-                let ev = ch.iter().map(|&i| row[i as usize] as u16).collect();
-                (ch, ev)
-            })
-            .collect();
+        let per_step = per_step_counts(&input, steps, n);
         let (readout, work) = chip
             .run_sample(per_step.iter().map(|(c, e)| (c.as_slice(), e.as_slice())), snn::chip::xylo::Run::EventDriven)
             .unwrap();
