@@ -432,30 +432,36 @@ pub(crate) mod test_nets {
     /// -> dense 5 -> `p[2]`, weights drawn from `seed` (then, with `bias`, a bias on the second
     /// convolution).
     pub(crate) fn conv_pool_dense(seed: u64, p: [NeuronParams; 3], bias: bool) -> Network {
+        conv_pool_dense_with(seed, p, bias, [4, 3])
+    }
+
+    /// [`conv_pool_dense`] with `channels` in its two convolutions.
+    pub(crate) fn conv_pool_dense_with(seed: u64, p: [NeuronParams; 3], bias: bool, channels: [usize; 2]) -> Network {
+        let [a, b] = channels;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut w = |n: usize, r: f32| (0..n).map(|_| rng.random_range(-r..r)).collect::<Vec<f32>>();
-        let (w1, w2, wd) = (w(4 * 2 * 9, 1.2), w(3 * 4 * 9, 0.9), w(5 * 12, 1.0));
-        let b2 = bias.then(|| w(3, 0.2));
+        let (w1, w2, wd) = (w(a * 2 * 9, 1.2), w(b * a * 9, 0.9), w(5 * b * 4, 1.0));
+        let b2 = bias.then(|| w(b, 0.2));
         let c1 = Op::Conv2d {
             in_shape: [2, 8, 8],
-            out_channels: 4,
+            out_channels: a,
             kernel: [3, 3],
             stride: [1, 1],
             padding: [1, 1],
             weight: w1,
             bias: None,
         };
-        let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [4, 8, 8], kernel: [2, 2], stride: [2, 2] };
+        let pool = Op::Pool { kind: PoolKind::Sum, in_shape: [a, 8, 8], kernel: [2, 2], stride: [2, 2] };
         let c2 = Op::Conv2d {
-            in_shape: [4, 4, 4],
-            out_channels: 3,
+            in_shape: [a, 4, 4],
+            out_channels: b,
             kernel: [3, 3],
             stride: [2, 2],
             padding: [1, 1],
             weight: w2,
             bias: b2,
         };
-        let d = Op::Dense { n_in: 3 * 2 * 2, n_out: 5, weight: wd, bias: None };
+        let d = Op::Dense { n_in: b * 2 * 2, n_out: 5, weight: wd, bias: None };
         let layer = |op, p| Layer { op, neurons: Some(p), recurrent: None, recurrent_bias: None };
         Network::new(
             vec![2, 8, 8],

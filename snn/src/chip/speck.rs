@@ -22,8 +22,14 @@
 //! bias applied at a clock of its own; biases are refused).
 //!
 //! The event-driven run ([`Run::EventDriven`]) updates only neurons that received input in the
-//! step; a neuron without input keeps a membrane below its threshold (what a step leaves) and stays
-//! silent, so it is the stepped run bit for bit (tested).
+//! step (a convolution's position whole, all its channels); a neuron without input keeps a
+//! membrane below its threshold (what a step leaves) and stays silent, so it is the stepped run
+//! bit for bit (tested).
+//!
+//! The run keeps a convolution's membranes channel-last (a position's channels side by side) and
+//! its weights `[in][ky][kx][out]`, so that an event adds one contiguous run of weights to one
+//! contiguous run of membranes per position it reaches, as the float engine does; every index the
+//! state shows (spikes, fired neurons, [`Speck::v_mem`]) is in PyTorch's order.
 //!
 //! [`map`] quantises a trained network as Sinabs's `discretize_conv_spike_` does, one scale per
 //! core for its weights and thresholds.
@@ -334,10 +340,6 @@ impl Fanout {
         (&self.post[r.clone()], &self.weight[r])
     }
 
-    fn new(core: &SpeckCore) -> Fanout {
-        Fanout::build(core.in_shape, &core.op, |i| core.weights[i] as i32)
-    }
-
     /// The synapses of `op` over an input of `in_shape`, `weight(i)` the `i`-th weight in the
     /// op's layout (PyTorch's); zero weights are left out.
     pub(super) fn build(in_shape: [usize; 3], op: &CoreOp, weight: impl Fn(usize) -> i32) -> Fanout {
@@ -394,26 +396,191 @@ impl Fanout {
     }
 }
 
+/// A core's synapses as a run walks them. A convolution's membranes are kept channel-last
+/// (`[y][x][channel]`, a position's channels side by side), so that an input reaches each
+/// position its kernel covers as one contiguous run of weights added to one contiguous run of
+/// membranes (vector adds); a dense core's membranes are its outputs, reached as one run. The
+/// spikes, the pooling and every index the state shows stay in PyTorch's order.
+#[derive(Debug, Clone, PartialEq)]
+struct CoreRun {
+    /// Neurons reached together: a position's channels, or a dense core's outputs.
+    group: usize,
+    /// Per input (PyTorch's order): its pixel (the list of positions it reaches), the offset of
+    /// its channel's weights and its synaptic operations per event (non-zero weights).
+    inputs: Vec<InputFan>,
+    /// The reached groups of pixel `p`: `targets[offsets[p]..offsets[p + 1]]`, each the first
+    /// neuron of the group and the offset of its weights from the channel's.
+    offsets: Vec<u32>,
+    targets: Vec<(u32, u32)>,
+    /// Weights `[in channel][ky][kx][out channel]` (a convolution), `[in][out]` (dense).
+    wt: Vec<i32>,
+    /// Per neuron (the run's order): its index in PyTorch's order `[channel][y][x]`.
+    canonical: Vec<u32>,
+    /// Per neuron (the run's order): the index of the pooled output it adds to (PyTorch's order of
+    /// the next core's input), or `u32::MAX` beyond the last whole window.
+    pool_to: Vec<u32>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct InputFan {
+    pixel: u32,
+    weights: u32,
+    synops: u32,
+}
+
+impl CoreRun {
+    fn new(core: &SpeckCore) -> CoreRun {
+        let [ic, ih, iw] = core.in_shape;
+        let n_in = ic * ih * iw;
+        let [c, h, w] = core.neuron_shape();
+        let mut run = match core.op {
+            CoreOp::Dense { n_out } => {
+                let mut wt = vec![0; n_in * n_out];
+                for o in 0..n_out {
+                    for i in 0..n_in {
+                        wt[i * n_out + o] = core.weights[o * n_in + i] as i32;
+                    }
+                }
+                let inputs = (0..n_in)
+                    .map(|i| InputFan {
+                        pixel: 0,
+                        weights: (i * n_out) as u32,
+                        synops: wt[i * n_out..(i + 1) * n_out].iter().filter(|&&w| w != 0).count() as u32,
+                    })
+                    .collect();
+                CoreRun {
+                    group: n_out,
+                    inputs,
+                    offsets: vec![0, 1],
+                    targets: vec![(0, 0)],
+                    wt,
+                    canonical: (0..n_out as u32).collect(),
+                    pool_to: Vec::new(),
+                }
+            }
+            CoreOp::Conv { out_channels: oc, kernel: [kh, kw], stride, padding } => {
+                let mut wt = vec![0; oc * ic * kh * kw];
+                for o in 0..oc {
+                    for ci in 0..ic {
+                        for k in 0..kh * kw {
+                            wt[(ci * kh * kw + k) * oc + o] = core.weights[(o * ic + ci) * kh * kw + k] as i32;
+                        }
+                    }
+                }
+                let (mut offsets, mut targets) = (vec![0u32], Vec::new());
+                for y in 0..ih {
+                    for x in 0..iw {
+                        crate::engine::conv_positions(y, x, [kh, kw], stride, padding, [h, w], |ky, kx, pos| {
+                            targets.push(((pos * oc) as u32, ((ky * kw + kx) * oc) as u32));
+                        });
+                        offsets.push(targets.len() as u32);
+                    }
+                }
+                let plane = ih * iw;
+                let inputs = (0..n_in)
+                    .map(|i| {
+                        let (ci, p) = (i / plane, i % plane);
+                        let base = ci * kh * kw * oc;
+                        let reach = &targets[offsets[p] as usize..offsets[p + 1] as usize];
+                        let synops = reach
+                            .iter()
+                            .map(|&(_, o)| wt[base + o as usize..][..oc].iter().filter(|&&w| w != 0).count())
+                            .sum::<usize>();
+                        InputFan { pixel: p as u32, weights: base as u32, synops: synops as u32 }
+                    })
+                    .collect();
+                let canonical = (0..h * w).flat_map(|pos| (0..oc).map(move |ch| (ch * h * w + pos) as u32)).collect();
+                CoreRun { group: oc, inputs, offsets, targets, wt, canonical, pool_to: Vec::new() }
+            }
+        };
+        let p = core.pool;
+        let (oh, ow) = (h / p, w / p);
+        run.pool_to = run
+            .canonical
+            .iter()
+            .map(|&j| {
+                let j = j as usize;
+                let (ch, y, x) = (j / (h * w), (j / w) % h, j % w);
+                // beyond the last whole window, as SumPool2d floors
+                if y / p >= oh || x / p >= ow { u32::MAX } else { ((ch * oh + y / p) * ow + x / p) as u32 }
+            })
+            .collect();
+        debug_assert_eq!(run.canonical.len(), c * h * w);
+        run
+    }
+
+    /// Adds `n` events of input `pre` to the membranes; with `Some(touched)`, each group reached
+    /// for the first time this step (`touched.1` per group) is listed (by its first neuron).
+    #[inline]
+    fn fan_in(&self, v: &mut [i32], pre: usize, n: i32, touched: Option<(&mut Vec<u32>, &mut [bool])>) {
+        let f = self.inputs[pre];
+        let reach = &self.targets[self.offsets[f.pixel as usize] as usize..self.offsets[f.pixel as usize + 1] as usize];
+        let wt = &self.wt[f.weights as usize..];
+        match self.group {
+            8 => add_groups::<8>(v, wt, reach, n),
+            16 => add_groups::<16>(v, wt, reach, n),
+            g => {
+                for &(nb, wo) in reach {
+                    let (nb, wo) = (nb as usize, wo as usize);
+                    for (a, &w) in v[nb..nb + g].iter_mut().zip(&wt[wo..wo + g]) {
+                        *a += n * w;
+                    }
+                }
+            }
+        }
+        if let Some((list, is_touched)) = touched {
+            for &(nb, _) in reach {
+                let flag = &mut is_touched[nb as usize];
+                if !*flag {
+                    *flag = true;
+                    list.push(nb);
+                }
+            }
+        }
+    }
+}
+
+/// Adds `n` times the `N` weights at each target's offset to the `N` membranes it names, whole
+/// vector registers at a time.
+#[inline(always)]
+fn add_groups<const N: usize>(v: &mut [i32], wt: &[i32], reach: &[(u32, u32)], n: i32) {
+    for &(nb, wo) in reach {
+        let (nb, wo) = (nb as usize, wo as usize);
+        let a: &mut [i32; N] = (&mut v[nb..nb + N]).try_into().expect("N channels");
+        let w: &[i32; N] = (&wt[wo..wo + N]).try_into().expect("N weights");
+        if n == 1 {
+            for k in 0..N {
+                a[k] += w[k];
+            }
+        } else {
+            for k in 0..N {
+                a[k] += n * w[k];
+            }
+        }
+    }
+}
+
 /// A [`SpeckSpec`] ready to run, shared by every stream ([`SpeckState`] is each stream's own).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Speck {
     spec: SpeckSpec,
-    fanout: Vec<Fanout>,
+    runs: Vec<CoreRun>,
 }
 
 /// One core's state in one stream.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CoreState {
-    /// Membranes, `[channel][y][x]`; after a step each is below the threshold and at least
+    /// Membranes in the run's order (a convolution's channel-last; [`Speck::v_mem`] gives them
+    /// in PyTorch's order); after a step each is below the threshold and at least
     /// `threshold_low` (16 bits); during a step the input is summed in 32 bits.
-    pub v_mem: Vec<i32>,
-    /// This step's spikes per neuron.
+    v_mem: Vec<i32>,
+    /// This step's spikes per neuron (PyTorch's order, `[channel][y][x]`).
     pub spikes: Vec<u32>,
-    /// Neurons that received input this step, and the flags behind the list.
+    /// Groups (by first neuron) that received input this step, and the flags behind the list
+    /// (at each group's first neuron).
     touched: Vec<u32>,
     is_touched: Vec<bool>,
-    /// Neurons that spiked this step (ascending in a stepped run, in the order of their first
-    /// input in an event-driven one).
+    /// Neurons that spiked this step (PyTorch's order; listed in the run's order).
     fired: Vec<u32>,
 }
 
@@ -442,15 +609,17 @@ pub struct SpeckStats {
     /// The same per core.
     pub spikes_per_core: Vec<u64>,
     pub output_spikes: u64,
-    /// Neurons updated (every neuron every step in a stepped run).
+    /// Neurons updated: every neuron every step in a stepped run; in an event-driven run every
+    /// neuron of each group that received input (all channels of a convolution's position, all
+    /// outputs of a dense core).
     pub neuron_updates: u64,
 }
 
 impl Speck {
     pub fn new(spec: SpeckSpec) -> Result<Speck> {
         spec.validate()?;
-        let fanout = spec.cores.iter().map(Fanout::new).collect();
-        Ok(Speck { spec, fanout })
+        let runs = spec.cores.iter().map(CoreRun::new).collect();
+        Ok(Speck { spec, runs })
     }
 
     pub fn spec(&self) -> &SpeckSpec {
@@ -460,11 +629,10 @@ impl Speck {
     /// A stream at rest.
     pub fn state(&self) -> SpeckState {
         let cores = self
-            .spec
-            .cores
+            .runs
             .iter()
-            .map(|c| {
-                let n: usize = c.neuron_shape().iter().product();
+            .map(|r| {
+                let n = r.canonical.len();
                 CoreState { v_mem: vec![0; n], spikes: vec![0; n], is_touched: vec![false; n], ..CoreState::default() }
             })
             .collect();
@@ -474,6 +642,15 @@ impl Speck {
             stats: SpeckStats { spikes_per_core: vec![0; self.spec.cores.len()], ..SpeckStats::default() },
             ..SpeckState::default()
         }
+    }
+
+    /// Core `k`'s membranes in PyTorch's order (`[channel][y][x]`).
+    pub fn v_mem(&self, st: &SpeckState, k: usize) -> Vec<i32> {
+        let mut v = vec![0; self.runs[k].canonical.len()];
+        for (&j, &x) in self.runs[k].canonical.iter().zip(&st.cores[k].v_mem) {
+            v[j as usize] = x;
+        }
+        v
     }
 
     /// One step: `channels` (ascending, no repeats) and their event counts are this step's input.
@@ -490,93 +667,89 @@ impl Speck {
         }
         let last = self.spec.cores.len() - 1;
         let mut pooled = std::mem::take(&mut st.pooled);
-        for (k, core) in self.spec.cores.iter().enumerate() {
+        for (k, (core, r)) in self.spec.cores.iter().zip(&self.runs).enumerate() {
             let cs = &mut st.cores[k];
             // 1. the input, summed in 32 bits (integer sums: the order of events does not matter)
+            let mut synops = 0u64;
             for &(pre, n) in &input {
-                let (posts, weights) = self.fanout[k].of(pre as usize);
-                let n = n as i32;
                 match run {
-                    Run::Stepped => {
-                        for (&post, &w) in posts.iter().zip(weights) {
-                            cs.v_mem[post as usize] += n * w;
-                        }
-                    }
+                    Run::Stepped => r.fan_in(&mut cs.v_mem, pre as usize, n as i32, None),
                     Run::EventDriven => {
-                        for (&post, &w) in posts.iter().zip(weights) {
-                            let p = post as usize;
-                            cs.v_mem[p] += n * w;
-                            if !cs.is_touched[p] {
-                                cs.is_touched[p] = true;
-                                cs.touched.push(post);
-                            }
-                        }
+                        r.fan_in(&mut cs.v_mem, pre as usize, n as i32, Some((&mut cs.touched, &mut cs.is_touched)))
                     }
                 }
-                st.stats.synops += n as u64 * posts.len() as u64;
+                synops += n as u64 * r.inputs[pre as usize].synops as u64;
             }
+            st.stats.synops += synops;
             // 2. the neurons
             for &j in &cs.fired {
                 cs.spikes[j as usize] = 0;
             }
             cs.fired.clear();
             let (th, low, zero) = (core.threshold as i32, core.threshold_low as i32, core.return_to_zero);
+            let mut fired_spikes = 0u64;
+            input.clear();
+            let n_next = core.out_shape().iter().product();
+            if pooled.len() < n_next {
+                pooled.resize(n_next, 0);
+            }
+            let mut emit = |j: usize, n: u32, cs_spikes: &mut [u32], fired: &mut Vec<u32>| {
+                let c = r.canonical[j];
+                cs_spikes[c as usize] = n;
+                fired.push(c);
+                fired_spikes += n as u64;
+                let t = r.pool_to[j];
+                if t != u32::MAX {
+                    // `pooled` is all zeros between uses: each window's count is taken back out
+                    if pooled[t as usize] == 0 {
+                        input.push((t, 0));
+                    }
+                    pooled[t as usize] += n;
+                }
+            };
+            let CoreState { v_mem, spikes, touched, is_touched, fired } = cs;
             match run {
                 Run::Stepped => {
-                    for j in 0..cs.v_mem.len() {
-                        let n = fire(&mut cs.v_mem[j], th, low, zero);
-                        if n > 0 {
-                            cs.spikes[j] = n;
-                            cs.fired.push(j as u32);
+                    const CHUNK: usize = 16;
+                    for (c, chunk) in v_mem.chunks_mut(CHUNK).enumerate() {
+                        // most neurons neither fire nor reach the floor: one test per chunk
+                        if !chunk.iter().fold(false, |a, &x| a | (x >= th) | (x < low)) {
+                            continue;
+                        }
+                        for (i, v) in chunk.iter_mut().enumerate() {
+                            let n = fire(v, th, low, zero);
+                            if n > 0 {
+                                emit(c * CHUNK + i, n, spikes, fired);
+                            }
                         }
                     }
-                    st.stats.neuron_updates += cs.v_mem.len() as u64;
+                    st.stats.neuron_updates += v_mem.len() as u64;
                 }
                 Run::EventDriven => {
-                    for &j in &cs.touched {
-                        let j = j as usize;
-                        cs.is_touched[j] = false;
-                        let n = fire(&mut cs.v_mem[j], th, low, zero);
-                        if n > 0 {
-                            cs.spikes[j] = n;
-                            cs.fired.push(j as u32);
+                    let g = r.group;
+                    for &nb in touched.iter() {
+                        let nb = nb as usize;
+                        is_touched[nb] = false;
+                        let group = &mut v_mem[nb..nb + g];
+                        if !group.iter().fold(false, |a, &x| a | (x >= th) | (x < low)) {
+                            continue;
+                        }
+                        for (i, v) in group.iter_mut().enumerate() {
+                            let n = fire(v, th, low, zero);
+                            if n > 0 {
+                                emit(nb + i, n, spikes, fired);
+                            }
                         }
                     }
-                    st.stats.neuron_updates += cs.touched.len() as u64;
+                    st.stats.neuron_updates += (touched.len() * g) as u64;
                 }
             }
-            cs.touched.clear();
-            let fired_spikes: u64 = cs.fired.iter().map(|&j| cs.spikes[j as usize] as u64).sum();
+            touched.clear();
             st.stats.spikes += fired_spikes;
             st.stats.spikes_per_core[k] += fired_spikes;
-            // 3. pooled spikes, the next core's input (integer sums need no order; the output's
-            //    ascending)
-            input.clear();
-            let [c, h, w] = core.neuron_shape();
-            let p = core.pool;
-            let (oh, ow) = (h / p, w / p);
-            if p == 1 {
-                input.extend(cs.fired.iter().map(|&j| (j, cs.spikes[j as usize])));
-            } else {
-                // `pooled` is all zeros between uses: each window's count is taken back out
-                if pooled.len() < c * oh * ow {
-                    pooled.resize(c * oh * ow, 0);
-                }
-                for &j in &cs.fired {
-                    let j = j as usize;
-                    let (ch, y, x) = (j / (h * w), (j / w) % h, j % w);
-                    if y / p >= oh || x / p >= ow {
-                        continue; // beyond the last whole window, as SumPool2d floors
-                    }
-                    let t = (ch * oh + y / p) * ow + x / p;
-                    if pooled[t] == 0 {
-                        input.push((t as u32, 0));
-                    }
-                    pooled[t] += cs.spikes[j];
-                }
-                for (t, n) in input.iter_mut() {
-                    *n = std::mem::take(&mut pooled[*t as usize]);
-                }
+            // 3. the pooled spikes are the next core's input (integer sums need no order)
+            for (t, n) in input.iter_mut() {
+                *n = std::mem::take(&mut pooled[*t as usize]);
             }
             if k == last {
                 input.sort_unstable();
@@ -613,7 +786,7 @@ impl Speck {
 }
 
 impl CoreState {
-    /// The neurons that spiked in the last step (their counts in `spikes`).
+    /// The neurons that spiked in the last step (PyTorch's order; their counts in `spikes`).
     pub fn fired(&self) -> &[u32] {
         &self.fired
     }
@@ -629,18 +802,18 @@ impl SpeckState {
 /// Sinabs's IAF step after the input: `MultiSpike`, the reset, the floor. Returns the spikes.
 #[inline]
 fn fire(v: &mut i32, threshold: i32, low: i32, return_to_zero: bool) -> u32 {
-    let n = if *v > 0 { *v / threshold } else { 0 };
-    if n > 0 {
-        if return_to_zero {
-            *v = 0;
-        } else {
-            *v -= n * threshold;
+    // `v / threshold` is positive exactly when `v >= threshold > 0`; a neuron that fires is left
+    // at or above zero, above the floor
+    if *v >= threshold {
+        let n = *v / threshold;
+        *v = if return_to_zero { 0 } else { *v - n * threshold };
+        n as u32
+    } else {
+        if *v < low {
+            *v = low;
         }
+        0
     }
-    if *v < low {
-        *v = low;
-    }
-    n as u32
 }
 
 #[cfg(test)]
@@ -679,8 +852,13 @@ mod tests {
 
     /// 2x8x8 -> conv 3x3 (4, padded) -> IF -> sum-pool 2 -> conv 3x3 (3, stride 2) -> IF -> dense 5 IF.
     fn random_net(seed: u64, reset: Reset) -> Network {
+        random_net_with(seed, reset, [4, 3])
+    }
+
+    /// The same with `channels` in the convolutions (8 and 16 take the run's vector paths).
+    fn random_net_with(seed: u64, reset: Reset, channels: [usize; 2]) -> Network {
         let p = NeuronParams::integrate_and_fire().with_reset(reset);
-        super::super::test_nets::conv_pool_dense(seed, [p; 3], false)
+        super::super::test_nets::conv_pool_dense_with(seed, [p; 3], false, channels)
     }
 
     fn random_input(rng: &mut ChaCha8Rng, n_in: usize, steps: usize) -> Vec<(Vec<u32>, Vec<u16>)> {
@@ -697,8 +875,13 @@ mod tests {
     #[test]
     fn event_driven_is_stepped_bit_for_bit() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        for (seed, reset) in [(1, Reset::Zero), (2, Reset::Subtract), (3, Reset::Zero)] {
-            let net = random_net(seed, reset);
+        for (seed, reset, channels) in [
+            (1, Reset::Zero, [4, 3]),
+            (2, Reset::Subtract, [4, 3]),
+            (3, Reset::Zero, [8, 16]),
+            (4, Reset::Subtract, [16, 8]),
+        ] {
+            let net = random_net_with(seed, reset, channels);
             let chip = map(&net).unwrap().spec.compile().unwrap();
             let steps = random_input(&mut rng, 128, 40);
             let mut a = chip.state();
@@ -709,6 +892,7 @@ mod tests {
                 chip.step(&mut b, c, e, Run::EventDriven).unwrap();
                 for (x, y) in a.cores.iter().zip(&b.cores) {
                     assert_eq!(x.v_mem, y.v_mem);
+                    assert_eq!(x.fired.len(), y.fired.len());
                     assert_eq!(x.spikes, y.spikes);
                 }
                 spikes = a.stats.spikes;
@@ -721,16 +905,22 @@ mod tests {
     }
 
     /// The chip's run against a direct dense computation of Sinabs's model on the integer
-    /// weights: convolution by its definition, `MultiSpike`, reset, floor, sum pooling.
+    /// weights: convolution by its definition, `MultiSpike`, reset, floor, sum pooling; and its
+    /// synaptic operations, one per event and non-zero weight reached (every seventh weight is set
+    /// to zero).
     #[test]
     fn equals_sinabs_model_computed_densely() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        for reset in [Reset::Zero, Reset::Subtract] {
-            let net = random_net(9, reset);
-            let spec = map(&net).unwrap().spec;
+        for (reset, channels) in [(Reset::Zero, [4, 3]), (Reset::Subtract, [4, 3]), (Reset::Subtract, [8, 16])] {
+            let net = random_net_with(9, reset, channels);
+            let mut spec = map(&net).unwrap().spec;
+            for core in &mut spec.cores {
+                core.weights.iter_mut().step_by(7).for_each(|w| *w = 0);
+            }
             let chip = spec.clone().compile().unwrap();
             let steps = random_input(&mut rng, 128, 30);
             let mut st = chip.state();
+            let mut synops = 0;
             let mut v: Vec<Vec<i64>> = spec.cores.iter().map(|c| vec![0; c.neuron_shape().iter().product()]).collect();
             for (ch, ev) in &steps {
                 chip.step(&mut st, ch, ev, Run::EventDriven).unwrap();
@@ -744,9 +934,13 @@ mod tests {
                     let mut s = vec![0i64; oc * oh * ow];
                     for o in 0..oc * oh * ow {
                         let sum: i64 = match core.op {
-                            CoreOp::Dense { .. } => {
-                                (0..x.len()).map(|i| x[i] * core.weights[o * x.len() + i] as i64).sum()
-                            }
+                            CoreOp::Dense { .. } => (0..x.len())
+                                .map(|i| {
+                                    let w = core.weights[o * x.len() + i] as i64;
+                                    synops += if w != 0 { x[i] } else { 0 };
+                                    x[i] * w
+                                })
+                                .sum(),
                             CoreOp::Conv { kernel, stride, padding, .. } => {
                                 let (c_out, oy, ox) = (o / (oh * ow), (o / ow) % oh, o % ow);
                                 let mut acc = 0;
@@ -760,7 +954,9 @@ mod tests {
                                             }
                                             let w = core.weights[((c_out * ic + c) * kernel[0] + ky) * kernel[1] + kx]
                                                 as i64;
-                                            acc += w * x[(c * ih + y as usize) * iw + xx as usize];
+                                            let xi = x[(c * ih + y as usize) * iw + xx as usize];
+                                            synops += if w != 0 { xi } else { 0 };
+                                            acc += w * xi;
                                         }
                                     }
                                 }
@@ -777,7 +973,7 @@ mod tests {
                         s[o] = n;
                     }
                     assert_eq!(
-                        st.cores[k].v_mem.iter().map(|&a| a as i64).collect::<Vec<_>>(),
+                        chip.v_mem(&st, k).iter().map(|&a| a as i64).collect::<Vec<_>>(),
                         v[k],
                         "core {k}, {reset:?}"
                     );
@@ -793,6 +989,7 @@ mod tests {
                     }
                     x = y;
                 }
+                assert_eq!(st.stats.synops, synops as u64, "{reset:?} {channels:?}");
             }
             assert!(st.stats.spikes > 0);
         }
