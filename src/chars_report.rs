@@ -30,7 +30,8 @@ pub struct Args {
     depths: Vec<f64>,
     /// The sensor builds that scan RAB: `test` (builds no model was trained on, the headline) or
     /// `training` (the builds the training scans came from, on RAB, which no training scan shows:
-    /// the paper's protocol, which tested with the sensor it trained on).
+    /// the paper's protocol, which tested with the sensor it trained on) or `validation` (builds
+    /// held out of training and test).
     #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
     sensor_builds: crate::common::SensorBuilds,
     #[command(flatten)]

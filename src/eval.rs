@@ -204,8 +204,9 @@ pub struct CharsArgs {
     model: Option<PathBuf>,
     #[arg(long, default_value = "RAB", value_parser = corpus::boards::parse_board)]
     board: BoardKind,
-    /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
-    /// validation board, for choices).
+    /// The sensor builds that scan the board: `test` (reported figures), `training` (with a
+    /// validation board, for choices) or `validation` (builds held out of training and test, with
+    /// a validation board: choices that must hold on a new sensor).
     #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
     sensor_builds: crate::common::SensorBuilds,
     #[arg(long, default_value_t = 8.0)]
@@ -323,8 +324,9 @@ pub struct WordsArgs {
     /// punctuation).
     #[arg(long, value_enum, default_value = "grade1-letters")]
     braille: pipeline::code::BrailleCode,
-    /// The sensor builds that scan the board: `test` (reported figures) or `training` (with a
-    /// validation board, for choices).
+    /// The sensor builds that scan the board: `test` (reported figures), `training` (with a
+    /// validation board, for choices) or `validation` (builds held out of training and test, with
+    /// a validation board: choices that must hold on a new sensor).
     #[arg(long, value_enum, default_value_t = crate::common::SensorBuilds::Test)]
     sensor_builds: crate::common::SensorBuilds,
     /// The scans' mean speed, mm/s.

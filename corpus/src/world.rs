@@ -18,6 +18,9 @@ pub fn sensor(resolution: encoders::Resolution, seed: u64) -> Result<Sensor> {
 /// tested on sensors it never saw, as a model moved to a new Evetac would be.
 pub const TRAIN_SENSORS: [u64; 4] = [1, 2, 3, 4];
 pub const TEST_SENSORS: [u64; 2] = [101, 102];
+/// Sensor builds neither trained nor tested on: with a validation board, a choice that must hold
+/// on a new sensor (as the test builds ask) is made without the test builds.
+pub const VALIDATION_SENSORS: [u64; 2] = [51, 52];
 
 /// The simulated world a protocol's scans come from: a realism preset (the print of the boards,
 /// the gel, the camera, the kinematics) and the builds of the sensor, trial `t` being scanned by
@@ -51,6 +54,9 @@ pub enum SensorBuilds {
     /// The training builds: with a validation board (VAL, VAL-WORDS), for choices made on
     /// validation data.
     Training,
+    /// Builds held out of training and test (51 and 52, [`VALIDATION_SENSORS`]): with a validation board,
+    /// for choices that must hold on a sensor never trained on.
+    Validation,
 }
 
 impl World {
@@ -59,6 +65,7 @@ impl World {
         match builds {
             SensorBuilds::Test => World::test(realism),
             SensorBuilds::Training => World::train(realism),
+            SensorBuilds::Validation => World::validation(realism),
         }
     }
 
@@ -73,6 +80,15 @@ impl World {
         match realism {
             Realism::Clean => World::clean(),
             _ => World { realism, sensors: TRAIN_SENSORS.to_vec(), mount_compliance_um_per_n: None },
+        }
+    }
+
+    /// Validation scans on builds never trained or tested on ([`VALIDATION_SENSORS`]; `clean` has
+    /// one).
+    pub fn validation(realism: Realism) -> World {
+        match realism {
+            Realism::Clean => World::clean(),
+            _ => World { realism, sensors: VALIDATION_SENSORS.to_vec(), mount_compliance_um_per_n: None },
         }
     }
 
@@ -175,9 +191,14 @@ mod tests {
         ] {
             assert_ne!(base, other);
         }
-        // Training and test builds never meet.
+        // Training, validation and test builds never meet.
         let (train, test) = (World::train(Realism::Nominal), World::test(Realism::Nominal));
+        let val = World::of(Realism::Nominal, SensorBuilds::Validation);
         assert!((0..8).all(|t| !test.sensors.contains(&train.sensor_seed(t))));
+        assert!(
+            (0..8).all(|t| !test.sensors.contains(&val.sensor_seed(t)) && !train.sensors.contains(&val.sensor_seed(t)))
+        );
+        assert_ne!(base, val.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5));
         assert_eq!(World::train(Realism::Clean), World::test(Realism::Clean));
     }
 }

@@ -1,0 +1,102 @@
+//! What Speck's arithmetic costs a character model on sensor builds never trained or tested on, one
+//! build at a time (SIMULATED, `nominal`): the VAL board (validation text, never a test board)
+//! scanned by each of builds 51-60 (training uses 1-4, the test 101 and 102), the float model
+//! against the same windows in Speck's arithmetic, plainly quantised and after each
+//! quantisation-aware fine-tuning. Of all printed characters (a scan the labeler miscounts costs
+//! its characters). Nothing is chosen on it; it says how much the chip's cost varies from one
+//! sensor build to the next.
+//!
+//! `cargo run --release -p experiments --example speck_builds -- [TRIALS] [FIRST_BUILD LAST_BUILD]`
+//! (defaults 10, 51 60; about 10 minutes on two cores)
+
+use corpus::windows::{CharSetSpec, Task, build, snn_set};
+use corpus::world::{VALIDATION_SEED, World};
+use experiments::eval::chars::CharModel;
+use experiments::eval::chip::{ChipChoice, chip_accuracy, map_model};
+use experiments::eval::tactile::snn_accuracy;
+use pipeline::models::Model;
+use sim::BoardKind;
+use snn::chip::Chip;
+use snn::chip::xylo::{Quantisation, Run};
+use snn::engine::Mode;
+use std::path::{Path, PathBuf};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<u64> = std::env::args().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let (trials, builds) = match args[..] {
+        [] => (10, 51..=60),
+        [t] => (t, 51..=60),
+        [t, a, b] => (t, a..=b),
+        _ => return Err("usage: speck_builds [TRIALS] [FIRST_BUILD LAST_BUILD]".into()),
+    };
+    if builds.clone().any(|b| corpus::world::TRAIN_SENSORS.contains(&b) || corpus::world::TEST_SENSORS.contains(&b)) {
+        return Err("the builds must be neither training nor test builds".into());
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let float_path = root.join("models/nominal/chip/speck-chars.safetensors");
+    let qat: Vec<PathBuf> =
+        (1..=3).map(|s| root.join(format!("models/nominal/chip/qat/speck-chars-seed{s}.safetensors"))).collect();
+    let float = CharModel::load(&float_path)?;
+    let Model::Snn(model) = &float.model else { return Err("the Speck model is an SNN".into()) };
+    let choice = ChipChoice { chip: Chip::Speck, quantisation: Quantisation::Global, run: Run::Stepped };
+    let plain = map_model(model, &float_path, choice)?.model;
+    let mut tuned = Vec::new();
+    for p in &qat {
+        let m = pipeline::models::load_snn(p)?;
+        if m.preprocess != model.preprocess || m.config.dt_us != model.config.dt_us {
+            return Err(format!("{}: not the float model's input", p.display()).into());
+        }
+        tuned.push(map_model(&m, p, choice)?.model);
+    }
+    println!(
+        "SIMULATED, `nominal`, VAL board at 8 mm/s and 1.5 mm, {trials} scans per row and build, validation seed; \
+         of all printed characters\n"
+    );
+    println!(
+        "| build | printed | float | Speck, plain | Speck, fine-tuned (seeds 1-3) | plain - float | fine-tuned (mean) - float |"
+    );
+    println!("| --- | --- | --- | --- | --- | --- | --- |");
+    let (mut gaps_plain, mut gaps_tuned) = (Vec::new(), Vec::new());
+    for b in builds {
+        let spec = CharSetSpec {
+            boards: vec![BoardKind::Val],
+            speed_mm_s: 8.0,
+            depth_mm: 1.5,
+            trials,
+            seed: VALIDATION_SEED,
+            task: Task::Chars,
+            jitter_ms: 0.0,
+            world: World { sensors: vec![b], ..World::validation(sim::Realism::Nominal) },
+            blank_cells: false,
+            sweep: None,
+        };
+        let (raw, w) = build(&spec, &float.input, &())?;
+        let set = snn_set(&float.input, &raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, Task::Chars);
+        let of_all = |correct: usize| 100.0 * correct as f64 / w.printed.max(1) as f64;
+        let f = of_all(snn_accuracy(&model.network, &model.config, &set, Mode::Stepped)?.correct);
+        let p = of_all(chip_accuracy(&plain, &set, Run::Stepped)?.0.correct);
+        let t: Vec<f64> = tuned
+            .iter()
+            .map(|c| Ok(of_all(chip_accuracy(c, &set, Run::Stepped)?.0.correct)))
+            .collect::<Result<_, experiments::Error>>()?;
+        let tm = t.iter().sum::<f64>() / t.len() as f64;
+        gaps_plain.push(p - f);
+        gaps_tuned.push(tm - f);
+        println!(
+            "| {b} | {} | {f:.2}% | {p:.2}% | {} | {:+.2} | {:+.2} |",
+            w.printed,
+            t.iter().map(|x| format!("{x:.2}%")).collect::<Vec<_>>().join(", "),
+            p - f,
+            tm - f
+        );
+    }
+    let stats = |g: &[f64]| {
+        let m = g.iter().sum::<f64>() / g.len() as f64;
+        let sd = (g.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (g.len().max(2) - 1) as f64).sqrt();
+        let (lo, hi) = g.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        format!("mean {m:+.2}, sd {sd:.2}, range {lo:+.2} to {hi:+.2}")
+    };
+    println!("\nplain - float over the builds: {}", stats(&gaps_plain));
+    println!("fine-tuned (mean of 3) - float over the builds: {}", stats(&gaps_tuned));
+    Ok(())
+}
