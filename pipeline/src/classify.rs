@@ -1,5 +1,5 @@
-//! The networks that read the reader's windows: the ResNet (batch of one, on burn's CPU
-//! backend) and the SNN (stepped, one step per frame, either sharing its first layer's work
+//! The networks that read the reader's windows: the ResNet (batch of one, on our inference path,
+//! `learn::resnet::folded`; each bin of a stream cropped once) and the SNN (stepped, one step per frame, either sharing its first layer's work
 //! between overlapping windows or on the event-driven engine), with their work counted. Both
 //! architectures get identical windows of identical streams.
 
@@ -40,6 +40,62 @@ struct BinCache {
     mass: f64,
     moment: f64,
     currents: Vec<(i64, Vec<f32>)>,
+}
+
+/// A stream's bins cropped and pooled once each, for the runners that take a window's dense crop
+/// (the ResNet, a chip): the crop of a frame's window is then its bins' cells written into their
+/// planes, [`CharInput::crop_window`]'s numbers (each cell's counts summed in the same order),
+/// without cropping every bin again at each of the frames whose window holds it.
+#[derive(Default)]
+struct CropCache {
+    /// Consecutive bins by end time: each its crop's non-zero cells (index within one frame's
+    /// planes, count).
+    bins: std::collections::VecDeque<(i64, Vec<(u32, f32)>)>,
+    scratch: Vec<f32>,
+}
+
+impl CropCache {
+    /// The window's crop, as [`CharInput::crop_window`] gives it.
+    fn window(&mut self, input: &CharInput, w: &Window) -> Result<Vec<f32>> {
+        input.check_window(w)?;
+        let [planes, h, wd] = input.shape();
+        let frame = 2 * h * wd;
+        let ends: Vec<i64> = w.bin_ends_us().collect();
+        let first = ends.first().copied().unwrap_or(w.t_end_us);
+        while self.bins.front().is_some_and(|b| b.0 < first) {
+            self.bins.pop_front();
+        }
+        self.scratch.resize(frame, 0.0);
+        // the cached bins are the window's older ones unless the stream started again; then
+        // every bin is cropped anew
+        if self.bins.len() > ends.len() || self.bins.iter().zip(&ends).any(|(b, &t)| b.0 != t) {
+            self.bins.clear();
+        }
+        for (cells, &t) in w.bins().zip(&ends).skip(self.bins.len()) {
+            let mut kept: Vec<(u32, f32)> = Vec::new();
+            for c in cells {
+                if let Some(j) = input.crop_cell(c.input, w.height, w.width) {
+                    // counts are positive: a cell is new to the bin while its sum is zero
+                    if self.scratch[j] == 0.0 {
+                        kept.push((j as u32, 0.0));
+                    }
+                    self.scratch[j] += c.count;
+                }
+            }
+            for (j, v) in kept.iter_mut() {
+                *v = std::mem::take(&mut self.scratch[*j as usize]);
+            }
+            self.bins.push_back((t, kept));
+        }
+        let mut out = vec![0f32; planes * h * wd];
+        for (b, (_, cells)) in self.bins.iter().enumerate() {
+            let plane = &mut out[b * frame..(b + 1) * frame];
+            for &(j, v) in cells {
+                plane[j as usize] = v;
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// What a loaded model runs: shared by every stream (nothing here changes while reading).
@@ -88,7 +144,7 @@ pub struct WindowState {
 
 #[allow(clippy::large_enum_variant)] // one per stream and model
 enum StateKind {
-    None,
+    Crops(CropCache),
     Engine(EngineState),
     Sliding { bins: std::collections::VecDeque<BinCache>, scratch: Vec<f32>, run: RunScratch },
 }
@@ -389,7 +445,7 @@ impl WindowClassifier for WindowModel {
 
     fn new_state(&self) -> WindowState {
         let kind = match &self.runner {
-            Runner::Resnet { .. } | Runner::Chip { .. } => StateKind::None,
+            Runner::Resnet { .. } | Runner::Chip { .. } => StateKind::Crops(CropCache::default()),
             Runner::Engine { engine, .. } => StateKind::Engine(engine.state(0)),
             Runner::Sliding { .. } => {
                 StateKind::Sliding { bins: Default::default(), scratch: Vec::new(), run: RunScratch::default() }
@@ -401,8 +457,8 @@ impl WindowClassifier for WindowModel {
     fn classify(&self, st: &mut WindowState, w: &Window) -> Result<Vec<f32>> {
         let t = Instant::now();
         let p = match (&self.runner, &mut st.kind) {
-            (Runner::Resnet { model, input }, _) => {
-                let x = input.prepared(input.crop_window(w)?);
+            (Runner::Resnet { model, input }, StateKind::Crops(crops)) => {
+                let x = input.prepared(crops.window(input, w)?);
                 softmax(&model.logits(&x)?)
             }
             (Runner::Engine { model, input, engine }, StateKind::Engine(state)) => {
@@ -420,14 +476,16 @@ impl WindowClassifier for WindowModel {
                 }
             }
             (Runner::Sliding { .. }, _) => self.sliding(st, w)?,
-            (Runner::Chip { model, input, chip, readout_scale, .. }, _) => {
-                let image = input.crop_window(w)?;
+            (Runner::Chip { model, input, chip, readout_scale, .. }, StateKind::Crops(crops)) => {
+                let image = crops.window(input, w)?;
                 let train = input.spikes(&image, model.config.dt_us);
                 let (readout, work) = chip.run_sample((0..train.n_steps()).map(|k| train.step(k)), Run::EventDriven)?;
                 st.stats.synops += work.synops;
                 softmax(&readout.iter().map(|r| r / readout_scale).collect::<Vec<_>>())
             }
-            (Runner::Engine { .. }, _) => return Err(Error::Mismatch { what: "a window state of another model" }),
+            (Runner::Engine { .. } | Runner::Resnet { .. } | Runner::Chip { .. }, _) => {
+                return Err(Error::Mismatch { what: "a window state of another model" });
+            }
         };
         let ns = t.elapsed().as_nanos() as u64;
         st.stats.calls += 1;
@@ -544,6 +602,43 @@ mod tests {
         let (engine, engine_stats) = run(SnnRunner::Engine);
         assert_eq!(sliding, engine);
         assert_eq!(stats.segmenter_calls, engine_stats.segmenter_calls);
+    }
+
+    /// A classifier that checks each window's cached crop against `crop_window`'s.
+    struct SameCrops(CharInput);
+
+    impl WindowClassifier for SameCrops {
+        type State = (CropCache, usize);
+        fn new_state(&self) -> Self::State {
+            (CropCache::default(), 0)
+        }
+        fn classify(&self, st: &mut Self::State, w: &Window) -> Result<Vec<f32>> {
+            let cached = st.0.window(&self.0, w)?;
+            assert_eq!(cached, self.0.crop_window(w)?, "window {} at {} us", st.1, w.t_end_us);
+            st.1 += 1;
+            Ok(vec![0.1, 0.9])
+        }
+    }
+
+    #[test]
+    fn the_cached_crops_are_crop_windows_while_the_speed_changes() {
+        // the ResNet segmentation network's input on a stream whose speed jumps between 8 and 40
+        // mm/s (the reader retunes its bins within a window)
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/clean");
+        let m = WindowModel::load(&models.join("resnet-tiny-segment.safetensors"), SnnRunner::Sliding).unwrap();
+        let mut ev = Vec::new();
+        for (k, speed) in [8.0, 24.0, 40.0, 16.0].into_iter().enumerate() {
+            let part = crate::speed::tests::moving(speed, true, 0.05, 0.5, k as u64);
+            ev.extend(part.into_iter().map(|e| encoders::Event { t_us: e.t_us + k as i64 * 500_000, ..e }));
+        }
+        let check = SameCrops(m.input().clone());
+        let cfg = crate::reader::ReaderConfig {
+            labeler: m.input().labeler.clone(),
+            ..crate::reader::ReaderConfig::new(crate::reader::Timing::ESTIMATED)
+        };
+        let speller = crate::reader::Speller::new(crate::reader::Spell::None);
+        let r = crate::reader::read_all(&ev, cfg, encoders::Resolution::DVXPLORER, &check, &m, &speller).unwrap();
+        assert!(r.stats.speed_changes >= 3 && r.stats.segmenter_calls > 100, "{:?}", r.stats);
     }
 
     #[test]

@@ -70,7 +70,22 @@ impl CharInput {
     /// The crop of a streaming window (the reader's sparse bins on the labeler's pooled grid), as
     /// [`crop`](Self::crop) gives it for a labelled window.
     pub fn crop_window(&self, w: &crate::reader::Window) -> Result<Vec<f32>> {
+        self.check_window(w)?;
         let [planes, h, wd] = self.shape();
+        let mut out = vec![0f32; planes * h * wd];
+        for (b, bin) in w.bins().enumerate() {
+            for c in bin {
+                if let Some(j) = self.crop_cell(c.input, w.height, w.width) {
+                    out[b * 2 * h * wd + j] += c.count;
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// An error unless `w` has the crop's bins and holds its rows and columns.
+    pub fn check_window(&self, w: &crate::reader::Window) -> Result<()> {
+        let [planes, ..] = self.shape();
         if w.n_bins() * 2 != planes || self.rows.end > w.height || self.cols.end > w.width {
             return Err(Error::WindowShape {
                 bins: w.n_bins(),
@@ -81,15 +96,7 @@ impl CharInput {
                 frames: self.labeler.frames,
             });
         }
-        let mut out = vec![0f32; planes * h * wd];
-        for (b, bin) in w.bins().enumerate() {
-            for c in bin {
-                if let Some(j) = self.crop_cell(c.input, w.height, w.width) {
-                    out[b * 2 * h * wd + j] += c.count;
-                }
-            }
-        }
-        Ok(out)
+        Ok(())
     }
 
     /// Where a reader's cell (input `polarity * cells + row * width + col` of a `height` x `width`
