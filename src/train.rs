@@ -251,6 +251,11 @@ pub struct Args {
     /// Seed of the validation hold-out alone (default: --seed).
     #[arg(long)]
     val_seed: Option<u64>,
+    /// Simulated windows: choose checkpoints on the validation board (VAL) scanned by these sensor
+    /// builds instead of on the hold-out of the training windows: `validation` (builds 51 and 52,
+    /// neither trained nor tested on) or `training` [default: the hold-out].
+    #[arg(long, value_enum)]
+    val_builds: Option<crate::common::SensorBuilds>,
     /// Model file to write.
     #[arg(long, required_unless_present = "print_recipe")]
     out: Option<PathBuf>,
@@ -312,6 +317,9 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     }
     if a.val_seed.is_some() {
         r.val_seed = a.val_seed;
+    }
+    if a.val_builds.is_some() {
+        r.val_builds = a.val_builds;
     }
     Ok(r)
 }

@@ -533,6 +533,37 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("SIMULATED training windows") && err.contains("1 rows of random words"), "{err}");
     assert!(err.contains("2560 inputs"), "{err}");
+    // checkpoints chosen on sensor builds held out of training and test; never on the test builds
+    let held = dir.path().join("held-out.safetensors");
+    let held_out = [
+        "train",
+        "--arch",
+        "snn",
+        "--trials",
+        "1",
+        "--epochs",
+        "1",
+        "--hidden",
+        "16",
+        "--neuron",
+        "lif",
+        "--quiet",
+        "--val-builds",
+        "validation",
+        "--out",
+        held.to_str().unwrap(),
+    ];
+    let o = braille(&held_out);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("checkpoints chosen on VAL scanned by the validation sensor builds [51, 52]"), "{err}");
+    let mut on_test = held_out.to_vec();
+    on_test[13] = "test";
+    let never = dir.path().join("never.safetensors");
+    on_test[15] = never.to_str().unwrap();
+    let o = braille(&on_test);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("the test builds never choose anything") && !never.exists(), "{err}");
     let o = braille(&["eval", "chars", "--arch", "snn", "--model", m, "--trials", "1", "--json"]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");

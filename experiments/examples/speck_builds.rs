@@ -6,8 +6,9 @@
 //! its characters). Nothing is chosen on it; it says how much the chip's cost varies from one
 //! sensor build to the next.
 //!
-//! `cargo run --release -p experiments --example speck_builds -- [TRIALS] [FIRST_BUILD LAST_BUILD]`
-//! (defaults 10, 51 60; about 10 minutes on two cores)
+//! `cargo run --release -p experiments --example speck_builds -- [TRIALS] [FIRST_BUILD LAST_BUILD]
+//! [QAT_DIR]` (defaults 10, 51 60 and the shipped `models/nominal/chip/qat`, whose
+//! `speck-chars-seed{1,2,3}.safetensors` are the fine-tuned models; under two minutes on two cores)
 
 use corpus::windows::{CharSetSpec, Task, build, snn_set};
 use corpus::world::{VALIDATION_SEED, World};
@@ -22,20 +23,24 @@ use snn::engine::Mode;
 use std::path::{Path, PathBuf};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<u64> = std::env::args().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let qat_dir = match args.len() {
+        2 | 4 => PathBuf::from(args.pop().expect("an argument")),
+        _ => root.join("models/nominal/chip/qat"),
+    };
+    let args: Vec<u64> = args.iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
     let (trials, builds) = match args[..] {
         [] => (10, 51..=60),
         [t] => (t, 51..=60),
         [t, a, b] => (t, a..=b),
-        _ => return Err("usage: speck_builds [TRIALS] [FIRST_BUILD LAST_BUILD]".into()),
+        _ => return Err("usage: speck_builds [TRIALS] [FIRST_BUILD LAST_BUILD] [QAT_DIR]".into()),
     };
     if builds.clone().any(|b| corpus::world::TRAIN_SENSORS.contains(&b) || corpus::world::TEST_SENSORS.contains(&b)) {
         return Err("the builds must be neither training nor test builds".into());
     }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let float_path = root.join("models/nominal/chip/speck-chars.safetensors");
-    let qat: Vec<PathBuf> =
-        (1..=3).map(|s| root.join(format!("models/nominal/chip/qat/speck-chars-seed{s}.safetensors"))).collect();
+    let qat: Vec<PathBuf> = (1..=3).map(|s| qat_dir.join(format!("speck-chars-seed{s}.safetensors"))).collect();
     let float = CharModel::load(&float_path)?;
     let Model::Snn(model) = &float.model else { return Err("the Speck model is an SNN".into()) };
     let choice = ChipChoice { chip: Chip::Speck, quantisation: Quantisation::Global, run: Run::Stepped };
@@ -50,7 +55,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "SIMULATED, `nominal`, VAL board at 8 mm/s and 1.5 mm, {trials} scans per row and build, validation seed; \
-         of all printed characters\n"
+         of all printed characters; fine-tuned models: {}\n",
+        qat_dir.strip_prefix(&root).unwrap_or(&qat_dir).display()
     );
     println!(
         "| build | printed | float | Speck, plain | Speck, fine-tuned (seeds 1-3) | plain - float | fine-tuned (mean) - float |"

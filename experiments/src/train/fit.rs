@@ -350,6 +350,23 @@ pub fn train_windows(
     progress: &dyn Progress,
 ) -> Result<TrainedSnn> {
     let pool = crate::train::resnet::check_pool(r.pool)?;
+    match (r.val_builds, recordings) {
+        (Some(builds), Some(_)) => {
+            return Err(Error::Setting {
+                name: "val_builds",
+                value: format!("{builds:?}").to_lowercase(),
+                expected: "none with a recordings folder (its `val` scans choose the checkpoints)",
+            });
+        }
+        (Some(corpus::world::SensorBuilds::Test), None) => {
+            return Err(Error::Setting {
+                name: "val_builds",
+                value: "test".into(),
+                expected: "training or validation: the test builds never choose anything",
+            });
+        }
+        _ => {}
+    }
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
         rows: LITE_ROWS,
@@ -379,7 +396,17 @@ pub fn train_windows(
         ),
     };
     let (scans, skipped_scans) = (tw.scans, tw.skipped_scans);
-    let (train, val) = corpus::windows::snn_sets(&input, tw, r.dt_us, r.task);
+    let (train, mut val) = corpus::windows::snn_sets(&input, tw, r.dt_us, r.task);
+    let mut data = data;
+    if let Some(builds) = r.val_builds {
+        val = validation_board_set(r, &input, builds, progress)?;
+        data = format!(
+            "{data}; checkpoints chosen on VAL scanned by the {} sensor builds {:?} ({} windows)",
+            format!("{builds:?}").to_lowercase(),
+            corpus::world::World::of(r.realism, builds).sensors,
+            val.len()
+        );
+    }
     let summary = DataSummary {
         data: data.clone(),
         classes: train.classes.len(),
@@ -459,6 +486,31 @@ pub fn train_windows(
         operating_point: None,
     };
     Ok(fit.into_trained(model, summary, Some(scored.accuracy), scored.n))
+}
+
+/// The windows of the validation board (VAL, the validation seed) at the training scans'
+/// conditions (their sweep, or 8 mm/s and 1.5 mm), `trials` scans a row, scanned by `builds`.
+fn validation_board_set(
+    r: &SnnRecipe,
+    input: &CharInput,
+    builds: corpus::world::SensorBuilds,
+    progress: &dyn Progress,
+) -> Result<SpikeSet> {
+    let scans = r.training_scans();
+    let spec = corpus::windows::CharSetSpec {
+        boards: vec![sim::BoardKind::Val],
+        speed_mm_s: 8.0,
+        depth_mm: 1.5,
+        trials: r.trials,
+        seed: corpus::world::VALIDATION_SEED,
+        task: r.task,
+        jitter_ms: r.jitter_ms,
+        world: corpus::world::World::of(r.realism, builds),
+        blank_cells: r.blank_cells,
+        sweep: scans.sweep.clone(),
+    };
+    let (raw, _) = corpus::windows::build(&spec, input, progress)?;
+    Ok(corpus::windows::snn_set(input, &raw, &(0..raw.len()).collect::<Vec<_>>(), r.dt_us, r.task))
 }
 
 /// A finished fit: the chosen weights as an engine network.

@@ -187,6 +187,13 @@ pub struct SnnRecipe {
     pub seed: u64,
     /// The validation hold-out's own seed (None: `seed`).
     pub val_seed: Option<u64>,
+    /// Simulated windows: checkpoints chosen on the validation board (VAL, the validation seed,
+    /// `trials` scans a row at the training scans' conditions) scanned by these sensor builds, in
+    /// place of the hold-out of the training windows (which still do not train). `validation`: builds
+    /// neither trained nor tested on, for a model that must hold on a new sensor. None: the
+    /// hold-out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_builds: Option<corpus::world::SensorBuilds>,
 }
 
 impl Default for SnnRecipe {
@@ -247,6 +254,7 @@ impl Default for SnnRecipe {
             patience: 0,
             seed: 1,
             val_seed: None,
+            val_builds: None,
         }
     }
 }
