@@ -54,8 +54,8 @@ pub enum SensorBuilds {
     /// The training builds: with a validation board (VAL, VAL-WORDS), for choices made on
     /// validation data.
     Training,
-    /// Builds held out of training and test (51 and 52, [`VALIDATION_SENSORS`]): with a validation board,
-    /// for choices that must hold on a sensor never trained on.
+    /// Builds held out of training and test (51 and 52): with a validation board, for choices
+    /// that must hold on a sensor never trained on.
     Validation,
 }
 

@@ -1,7 +1,8 @@
 //! The networks that read the reader's windows: the ResNet (batch of one, on our inference path,
-//! `learn::resnet::folded`; each bin of a stream cropped once) and the SNN (stepped, one step per frame, either sharing its first layer's work
-//! between overlapping windows or on the event-driven engine), with their work counted. Both
-//! architectures get identical windows of identical streams.
+//! `learn::resnet::folded`; each bin of a stream cropped once) and the SNN (stepped, one step per
+//! frame, either sharing its first layer's work between overlapping windows or on the
+//! event-driven engine), with their work counted. Both architectures get identical windows of
+//! identical streams.
 
 use crate::error::{Error, Result};
 use crate::input::CharInput;
