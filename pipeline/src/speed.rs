@@ -188,7 +188,7 @@ pub struct SpeedEstimator {
     max_shift_px: f64,
     cols: usize,
     hist: Vec<u32>,
-    /// The image bins one candidate filled (to clear them).
+    /// Each sampled event's image bin under one candidate (to count and clear them).
     filled: Vec<u32>,
     /// The events of one update: x, time before the update and the row's offset in the image.
     sample: Vec<(f32, f32, u32)>,
@@ -330,24 +330,25 @@ impl SpeedEstimator {
 
     /// Sharpness of the sampled events moved to the update's time at `v` pixels per microsecond
     /// (signed: negative for an image moving towards decreasing x): the sum of squared counts of
-    /// the image, kept as the sum of `2h + 1` over the increments.
+    /// the image.
     fn sharpness(&mut self, v: f64) -> f64 {
         let (v, off, inv_bx, last) =
             (v as f32, self.max_shift_px as f32, 1.0 / self.cfg.bin_x_px as f32, self.cols - 1);
         let (hist, filled) = (&mut self.hist, &mut self.filled);
+        // where each event's pixel content is at the update's time (a loop without dependencies,
+        // which vectorises), then the counts, then the sum of their squares: the same integer
+        // as adding `2 h + 1` at each event, without a chain through the sum
         filled.clear();
-        let mut s = 0u64;
-        for &(x, dt, row) in &self.sample {
-            // where the event's pixel content is at the update's time
-            let c = (((x + v * dt + off) * inv_bx) as usize).min(last);
-            let i = row as usize + c;
-            let h = hist[i];
-            s += 2 * h as u64 + 1;
-            hist[i] = h + 1;
-            filled.push(i as u32);
-        }
+        filled.extend(
+            self.sample.iter().map(|&(x, dt, row)| row + (((x + v * dt + off) * inv_bx) as usize).min(last) as u32),
+        );
         for &i in filled.iter() {
-            hist[i as usize] = 0;
+            hist[i as usize] += 1;
+        }
+        let mut s = 0u64;
+        for &i in filled.iter() {
+            let h = std::mem::take(&mut hist[i as usize]) as u64;
+            s += h * h;
         }
         s as f64
     }
