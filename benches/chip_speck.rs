@@ -6,15 +6,16 @@
 //! arithmetic the neurons send several spikes per step (`braille eval chars --chip speck` gives
 //! the SynOps of both).
 
+#[path = "common/chips.rs"]
+mod chips;
+
 use corpus::windows::{CharSetSpec, Task, build, snn_set};
 use corpus::world::{TEST_SEED, World};
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group, criterion_main};
 use experiments::eval::chars::CharModel;
 use pipeline::models::Model;
 use sim::BoardKind;
-use snn::chip::xylo::Run;
-use snn::engine::{Engine, Mode};
-use std::hint::black_box;
+use snn::chip::Chip;
 use std::path::Path;
 
 fn chip(c: &mut Criterion) {
@@ -36,30 +37,7 @@ fn chip(c: &mut Criterion) {
     };
     let (raw, _) = build(&spec, &m.input, &()).unwrap();
     let set = snn_set(&m.input, &raw, &(0..raw.len()).collect::<Vec<_>>(), model.config.dt_us, Task::Chars);
-    let engine = Engine::new(&model.network, model.config.dt_us, Mode::Stepped).unwrap();
-    let chip = snn::chip::speck::map(&model.network).unwrap().spec.compile().unwrap();
-    let mut group = c.benchmark_group("chip_speck");
-    group.sample_size(10);
-    group.throughput(Throughput::Elements(set.trains.len() as u64));
-    let mut st = engine.state(0);
-    group.bench_function("float_engine_stepped", |b| {
-        b.iter(|| {
-            for t in &set.trains {
-                engine.run_train(&mut st, t).unwrap();
-                black_box(st.output_counts(26));
-            }
-        })
-    });
-    for (name, run) in [("speck_stepped", Run::Stepped), ("speck_event_driven", Run::EventDriven)] {
-        group.bench_function(name, |b| {
-            b.iter(|| {
-                for t in &set.trains {
-                    black_box(chip.run_sample((0..t.n_steps()).map(|k| t.step(k)), run).unwrap());
-                }
-            })
-        });
-    }
-    group.finish();
+    chips::against_float(c, "chip_speck", "speck", 10, model, &set, Chip::Speck);
 }
 
 criterion_group!(benches, chip);

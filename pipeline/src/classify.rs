@@ -32,11 +32,14 @@ pub enum SnnRunner {
     Engine,
 }
 
+/// A cell of a cropped bin: polarity, row, column (of the crop) and its events.
+type CroppedCell = (usize, usize, usize, f32);
+
 /// Per bin of the stream: its events cropped and pooled to the model's grid, `(polarity, row,
 /// col, count)`, and the layer-0 currents already made from them (per vertical shift).
 struct BinCache {
     t_end_us: i64,
-    cells: Vec<(usize, usize, usize, f32)>,
+    cells: Vec<CroppedCell>,
     /// Events and their sum of rows (for the vertical centring).
     mass: f64,
     moment: f64,
@@ -49,9 +52,8 @@ struct BinCache {
 /// without cropping every bin again at each of the frames whose window holds it.
 #[derive(Default)]
 struct CropCache {
-    /// Consecutive bins by end time: each its crop's non-zero cells (index within one frame's
-    /// planes, count).
-    bins: std::collections::VecDeque<(i64, Vec<(u32, f32)>)>,
+    /// Consecutive bins by end time: each its crop's non-zero cells, as [`crop_bin`] gives them.
+    bins: std::collections::VecDeque<(i64, Vec<CroppedCell>)>,
     scratch: Vec<f32>,
 }
 
@@ -60,43 +62,34 @@ impl CropCache {
     fn window(&mut self, input: &CharInput, w: &Window) -> Result<Vec<f32>> {
         input.check_window(w)?;
         let [planes, h, wd] = input.shape();
-        let frame = 2 * h * wd;
         let ends: Vec<i64> = w.bin_ends_us().collect();
-        let first = ends.first().copied().unwrap_or(w.t_end_us);
-        while self.bins.front().is_some_and(|b| b.0 < first) {
-            self.bins.pop_front();
-        }
-        self.scratch.resize(frame, 0.0);
-        // the cached bins are the window's older ones unless the stream started again; then
-        // every bin is cropped anew
-        if self.bins.len() > ends.len() || self.bins.iter().zip(&ends).any(|(b, &t)| b.0 != t) {
-            self.bins.clear();
-        }
-        for (cells, &t) in w.bins().zip(&ends).skip(self.bins.len()) {
-            let mut kept: Vec<(u32, f32)> = Vec::new();
-            for c in cells {
-                if let Some(j) = input.crop_cell(c.input, w.height, w.width) {
-                    // counts are positive: a cell is new to the bin while its sum is zero
-                    if self.scratch[j] == 0.0 {
-                        kept.push((j as u32, 0.0));
-                    }
-                    self.scratch[j] += c.count;
-                }
-            }
-            for (j, v) in kept.iter_mut() {
-                *v = std::mem::take(&mut self.scratch[*j as usize]);
-            }
-            self.bins.push_back((t, kept));
+        let kept = keep_window_bins(&mut self.bins, &ends, |b| b.0);
+        for (cells, &t) in w.bins().zip(&ends).skip(kept) {
+            self.bins.push_back((t, crop_bin(input, cells, w.height, w.width, &mut self.scratch)));
         }
         let mut out = vec![0f32; planes * h * wd];
-        for (b, (_, cells)) in self.bins.iter().enumerate() {
-            let plane = &mut out[b * frame..(b + 1) * frame];
-            for &(j, v) in cells {
-                plane[j as usize] = v;
+        for (plane, (_, cells)) in out.chunks_exact_mut(2 * h * wd).zip(&self.bins) {
+            for &(pol, r, col, v) in cells {
+                plane[(pol * h + r) * wd + col] = v;
             }
         }
         Ok(out)
     }
+}
+
+/// Keeps the cached bins (consecutive, known by their end times) that are the window's oldest
+/// ones, whose ends are `ends`, and returns how many: the window's later bins are to be cropped
+/// and pushed. A cache that is not the window's start (a stream started again) is emptied.
+fn keep_window_bins<T>(bins: &mut std::collections::VecDeque<T>, ends: &[i64], end_of: impl Fn(&T) -> i64) -> usize {
+    if let Some(&first) = ends.first() {
+        while bins.front().is_some_and(|b| end_of(b) < first) {
+            bins.pop_front();
+        }
+    }
+    if bins.len() > ends.len() || bins.iter().zip(ends).any(|(b, &t)| end_of(b) != t) {
+        bins.clear();
+    }
+    bins.len()
 }
 
 /// What a loaded model runs: shared by every stream (nothing here changes while reading).
@@ -351,7 +344,7 @@ fn crop_bin(
     height: usize,
     width: usize,
     scratch: &mut Vec<f32>,
-) -> Vec<(usize, usize, usize, f32)> {
+) -> Vec<CroppedCell> {
     let [_, h, w] = input.shape();
     scratch.resize(2 * h * w, 0.0);
     let mut touched: Vec<usize> = Vec::new();
@@ -382,28 +375,15 @@ impl WindowModel {
             return Err(Error::Mismatch { what: "a window state of another model" });
         };
         let [_, h, wd] = input.shape();
-        let n = w.n_bins();
         // the window's bins, cropped once each (the cache holds consecutive bins, known by their
         // end times: a reader following its speed estimate changes the bins' length)
         let ends: Vec<i64> = w.bin_ends_us().collect();
-        let first = ends.first().copied().unwrap_or(w.t_end_us);
-        while bins.front().is_some_and(|b| b.t_end_us < first) {
-            bins.pop_front();
-        }
-        if bins.front().is_some_and(|b| b.t_end_us != first) {
-            bins.clear();
-        }
-        for (cells, &t) in w.bins().zip(&ends) {
-            if bins.back().is_none_or(|b| b.t_end_us < t) {
-                let cells = crop_bin(input, cells, w.height, w.width, scratch);
-                let (mass, moment) = cells
-                    .iter()
-                    .fold((0f64, 0f64), |(m, r), &(_, row, _, c)| (m + c as f64, r + c as f64 * row as f64));
-                bins.push_back(BinCache { t_end_us: t, cells, mass, moment, currents: Vec::new() });
-            }
-        }
-        if bins.len() != n {
-            return Err(Error::Mismatch { what: "the window's bins are not consecutive" });
+        let kept = keep_window_bins(bins, &ends, |b| b.t_end_us);
+        for (cells, &t) in w.bins().zip(&ends).skip(kept) {
+            let cells = crop_bin(input, cells, w.height, w.width, scratch);
+            let (mass, moment) =
+                cells.iter().fold((0f64, 0f64), |(m, r), &(_, row, _, c)| (m + c as f64, r + c as f64 * row as f64));
+            bins.push_back(BinCache { t_end_us: t, cells, mass, moment, currents: Vec::new() });
         }
         // the vertical centring of the whole window, as `CharInput::spikes` does it
         let shift = if input.preprocess.normalises() {

@@ -27,7 +27,7 @@
 //! pooling between layers folds into the next block's synapses (each spike reaches its window's
 //! weights: the same weights, nothing summed), as a pooled input would on the chip.
 
-use super::speck::{CoreOp, Fanout};
+use super::speck::CoreOp;
 use super::xylo::Run;
 use super::{Chip, ChipReset, DecayArithmetic, NumberFormat};
 use crate::error::{Error, Result};
@@ -802,6 +802,77 @@ impl Loihi2 {
             self.step(&mut st, &[], &[], run)?;
         }
         Ok((self.readout(&st), st.stats))
+    }
+}
+
+/// A layer's synapses per pre-synaptic input: targets and integer weights (a convolution's
+/// shared weights written out per input).
+#[derive(Debug, Clone, PartialEq)]
+struct Fanout {
+    start: Vec<u32>,
+    post: Vec<u32>,
+    weight: Vec<i32>,
+}
+
+impl Fanout {
+    fn of(&self, pre: usize) -> (&[u32], &[i32]) {
+        let r = self.start[pre] as usize..self.start[pre + 1] as usize;
+        (&self.post[r.clone()], &self.weight[r])
+    }
+
+    /// The synapses of `op` over an input of `in_shape`, `weight(i)` the `i`-th weight in the
+    /// op's layout (PyTorch's); zero weights are left out.
+    fn build(in_shape: [usize; 3], op: &CoreOp, weight: impl Fn(usize) -> i32) -> Fanout {
+        let [ic, ih, iw] = in_shape;
+        let n_in = ic * ih * iw;
+        let mut per_pre: Vec<Vec<(u32, i32)>> = vec![Vec::new(); n_in];
+        match *op {
+            CoreOp::Dense { n_out } => {
+                for o in 0..n_out {
+                    for (i, pre) in per_pre.iter_mut().enumerate() {
+                        let w = weight(o * n_in + i);
+                        if w != 0 {
+                            pre.push((o as u32, w));
+                        }
+                    }
+                }
+            }
+            CoreOp::Conv { out_channels, kernel: [kh, kw], stride: [sy, sx], padding: [py, px] } => {
+                let [_, oh, ow] = op.neuron_shape(in_shape);
+                for oc in 0..out_channels {
+                    for oy in 0..oh {
+                        for ox in 0..ow {
+                            let post = ((oc * oh + oy) * ow + ox) as u32;
+                            for c in 0..ic {
+                                for ky in 0..kh {
+                                    let Some(y) = (oy * sy + ky).checked_sub(py).filter(|&y| y < ih) else {
+                                        continue;
+                                    };
+                                    for kx in 0..kw {
+                                        let Some(x) = (ox * sx + kx).checked_sub(px).filter(|&x| x < iw) else {
+                                            continue;
+                                        };
+                                        let w = weight(((oc * ic + c) * kh + ky) * kw + kx);
+                                        if w != 0 {
+                                            per_pre[(c * ih + y) * iw + x].push((post, w));
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut f = Fanout { start: vec![0], post: Vec::new(), weight: Vec::new() };
+        for pre in per_pre {
+            for (p, w) in pre {
+                f.post.push(p);
+                f.weight.push(w);
+            }
+            f.start.push(f.post.len() as u32);
+        }
+        f
     }
 }
 
