@@ -103,7 +103,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
                     offsets.push(targets.len() as u32);
                 }
             }
-            let map = ConvTargets { plane: h * w, channel_stride: kh * kw * oc, offsets, targets };
+            let map = ConvTargets::new(ic * h * w, h * w, kh * kw * oc, offsets, targets);
             Fan::Conv { in_hw: [h, w], out_c: oc, out_hw, kernel: *kernel, stride: *stride, padding: *padding, wt, map }
         }
         Op::Pool { kind, in_shape, kernel, stride } => {

@@ -21,7 +21,7 @@ impl BitSet {
         self.any = true;
     }
     /// Calls `f` on every member in ascending order and empties the set.
-    #[inline]
+    #[inline(always)]
     pub(super) fn drain(&mut self, mut f: impl FnMut(usize)) {
         if !self.any {
             return;
@@ -47,6 +47,8 @@ pub(super) struct Buckets {
     pub(super) len: Vec<u32>,
     pub(super) pos: Vec<u32>,
     pub(super) val: Vec<f32>,
+    /// Scratch: the positions that fired this step, with their channels as bits.
+    pub(super) fired_at: Vec<(u32, u32)>,
 }
 
 impl Buckets {
@@ -56,6 +58,7 @@ impl Buckets {
             len: vec![0; channels],
             pos: vec![0; channels * plane],
             val: vec![0.0; if values { channels * plane } else { 0 }],
+            fired_at: Vec::new(),
         }
     }
     /// A spike at `pos` of channel `ch`; each position comes at most once per channel and step.
@@ -65,16 +68,38 @@ impl Buckets {
         self.pos[k] = pos;
         self.len[ch] += 1;
     }
-    /// Spikes at `pos` of the channels whose bits are set in `fired` (the first `N`), without a
-    /// branch per spike: every channel's next slot gets `pos`, and only the fired ones advance.
-    /// A position comes at most once per step, so a channel's next slot is always inside its
-    /// plane: it is full only after the last position.
+    /// The spikes of positions that fired, `(position, channels as bits)` in ascending order of
+    /// position, channel by channel, without a branch per spike: every position's next slot gets
+    /// the position and only the channels that fired advance. Each position comes at most once,
+    /// so a channel's next slot is always inside its plane: it is full only after the last one.
+    /// Four channels a pass, so that their counts advance side by side.
     #[inline(always)]
-    pub(super) fn push_mask<const N: usize>(&mut self, fired: u32, pos: u32) {
-        let len: &mut [u32; N] = (&mut self.len[..N]).try_into().expect("N channels");
-        for (ch, n) in len.iter_mut().enumerate() {
-            self.pos[ch * self.plane + *n as usize] = pos;
-            *n += (fired >> ch) & 1;
+    pub(super) fn push_masks<const N: usize>(&mut self, fired_at: &[(u32, u32)]) {
+        let plane = self.plane;
+        let mut ch = 0;
+        while ch + 4 <= N {
+            let start: [usize; 4] = std::array::from_fn(|j| (ch + j) * plane + self.len[ch + j] as usize);
+            let mut n = [0usize; 4];
+            for &(pos, fired) in fired_at {
+                for j in 0..4 {
+                    self.pos[start[j] + n[j]] = pos;
+                    n[j] += ((fired >> (ch + j)) & 1) as usize;
+                }
+            }
+            for (j, n) in n.iter().enumerate() {
+                self.len[ch + j] += *n as u32;
+            }
+            ch += 4;
+        }
+        for ch in ch..N {
+            let start = ch * plane + self.len[ch] as usize;
+            let slots = &mut self.pos[start..(ch + 1) * plane];
+            let mut n = 0;
+            for &(pos, fired) in fired_at {
+                slots[n] = pos;
+                n += ((fired >> ch) & 1) as usize;
+            }
+            self.len[ch] += n as u32;
         }
     }
     #[inline(always)]
@@ -104,18 +129,42 @@ impl Buckets {
 #[derive(Debug, Clone)]
 pub(super) struct ConvTargets {
     pub(super) plane: usize,
+    /// `ceil(2^32 / plane)`, when `i / plane == (i * plane_recip) >> 32` for every input `i` (a
+    /// division per input event costs more than the rest of finding its list).
+    plane_recip: Option<u64>,
     pub(super) channel_stride: usize,
     pub(super) offsets: Vec<u32>,
     pub(super) targets: Vec<(u32, u32)>,
 }
 
 impl ConvTargets {
+    pub(super) fn new(
+        n_inputs: usize,
+        plane: usize,
+        channel_stride: usize,
+        offsets: Vec<u32>,
+        targets: Vec<(u32, u32)>,
+    ) -> Self {
+        Self { plane, plane_recip: plane_recip(n_inputs, plane), channel_stride, offsets, targets }
+    }
+
     /// Input `i`'s targets and the offset of its channel's weights.
     #[inline(always)]
     pub(super) fn of(&self, i: usize) -> (&[(u32, u32)], usize) {
-        let (c, p) = (i / self.plane, i % self.plane);
+        let c = match self.plane_recip {
+            Some(m) => ((i as u64 * m) >> 32) as usize,
+            None => i / self.plane,
+        };
+        let p = i - c * self.plane;
         (&self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize], c * self.channel_stride)
     }
+}
+
+/// `m = ceil(2^32 / d)` gives `i / d == (i * m) >> 32` for every `i < n` when `n * d <= 2^32`:
+/// `i * m / 2^32 = i / d + i * e / 2^32` with `0 <= e < 1`, and `i * e / 2^32 < 1 / d` never
+/// carries the fraction of `i / d` (at most `(d - 1) / d`) past the next integer.
+fn plane_recip(n: usize, d: usize) -> Option<u64> {
+    (d > 0 && (n as u64).checked_mul(d as u64)? <= 1 << 32).then(|| (1u64 << 32).div_ceil(d as u64))
 }
 
 /// Calls `f(out, w)` for every target of input `i` (async mode, canonical output indices).
@@ -189,7 +238,7 @@ pub(super) fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 
 
 /// Stepped: [`fan_in`] of spikes (value 1) at the inputs `spikes`, in order; returns synops.
 /// Adding a weight itself is the same number as adding `1 * w`.
-#[inline]
+#[inline(always)]
 pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) -> u64 {
     if spikes.is_empty() {
         return 0;
@@ -212,8 +261,19 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
     }
 }
 
+/// [`fan_in_spikes`] into a convolution of `N` channels.
 #[inline(never)]
 pub(super) fn conv_spikes<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, spikes: &[u32]) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::avx2() {
+        // SAFETY: this CPU has AVX2 (just checked).
+        return unsafe { avx2::conv_spikes::<N>(s, wt, map, spikes) };
+    }
+    conv_spikes_with::<N>(s, wt, map, spikes)
+}
+
+#[inline(always)]
+fn conv_spikes_with<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, spikes: &[u32]) -> u64 {
     let mut n = 0;
     for &i in spikes {
         let (list, wc) = map.of(i as usize);
@@ -233,13 +293,67 @@ pub(super) fn conv_inputs<const N: usize>(
     set: &mut BitSet,
     values: &mut [f32],
 ) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::avx2() {
+        // SAFETY: this CPU has AVX2 (just checked).
+        return unsafe { avx2::conv_inputs::<N>(s, wt, map, set, values) };
+    }
+    conv_inputs_with::<N>(s, wt, map, set, values)
+}
+
+#[inline(always)]
+fn conv_inputs_with<const N: usize>(
+    s: &mut LayerState,
+    wt: &[f32],
+    map: &ConvTargets,
+    set: &mut BitSet,
+    values: &mut [f32],
+) -> u64 {
+    // `set.drain` by hand: a closure would be compiled apart, without the caller's features.
     let mut n = 0;
-    set.drain(|i| {
-        let (list, wc) = map.of(i);
-        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
-        n += list.len();
-    });
+    if !set.any {
+        return 0;
+    }
+    for (w, word) in set.words.iter_mut().enumerate() {
+        let mut bits = std::mem::take(word);
+        while bits != 0 {
+            let i = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (list, wc) = map.of(i);
+            conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
+            n += list.len();
+        }
+    }
+    set.any = false;
     (n * N) as u64
+}
+
+/// The convolution fan-ins compiled for AVX2 (the same operations in wider registers: the
+/// numbers are the same, as no add or multiply is fused or reordered).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{BitSet, ConvTargets, LayerState};
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn conv_spikes<const N: usize>(
+        s: &mut LayerState,
+        wt: &[f32],
+        map: &ConvTargets,
+        spikes: &[u32],
+    ) -> u64 {
+        super::conv_spikes_with::<N>(s, wt, map, spikes)
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn conv_inputs<const N: usize>(
+        s: &mut LayerState,
+        wt: &[f32],
+        map: &ConvTargets,
+        set: &mut BitSet,
+        values: &mut [f32],
+    ) -> u64 {
+        super::conv_inputs_with::<N>(s, wt, map, set, values)
+    }
 }
 
 /// A convolution's fan-in with `N` output channels known at compile time, so that the adds
@@ -267,5 +381,24 @@ pub(super) fn conv_fan_in<const N: usize>(
             }
         }
         touched.insert(pos);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plane_recip;
+
+    /// The multiply-and-shift gives the division's quotient for every input it is used for.
+    #[test]
+    fn plane_reciprocal_divides_exactly() {
+        for d in (1..300).chain([1200, 4800, 65_535, 65_536]) {
+            let n = (1usize << 32) / d;
+            let m = plane_recip(n, d).expect("in range");
+            let step = (n / 50_000).max(1);
+            for i in (0..n).step_by(step).chain(n.saturating_sub(2 * d)..n) {
+                assert_eq!(((i as u64 * m) >> 32) as usize, i / d, "i {i}, d {d}");
+            }
+        }
+        assert_eq!(plane_recip(1 << 20, 1 << 13), None);
     }
 }

@@ -14,7 +14,7 @@ use crate::neuron::{NeuronKind, NeuronParams};
 /// Updating a neuron with zero input is exactly what the dense pass does to it, so the set
 /// evaluated may be a superset of the neurons touched: whole positions of a convolution, every
 /// neuron of a dense layer that received anything.
-#[inline]
+#[inline(always)]
 pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stats: &mut Stats) {
     let n = c.n_out;
     // A recurrent bias makes the recurrent input present at every step after the first.
@@ -247,7 +247,13 @@ pub(super) fn above<const N: usize>(x: &[f32; N], th: f32) -> u32 {
 }
 
 /// [`update_position`] for the positions in `order` of a LIF or IF convolution without bias and
-/// with `N` channels: the neuron parameters stay in registers across positions.
+/// with `N` channels: the neuron parameters stay in registers across positions, and so do the
+/// channels' spike counts (`out`'s lengths, copied in and back once).
+///
+/// A position's spikes are stored without a branch per spike (which mispredicts often: a
+/// position's spikes vary): every channel's next slot gets the position and only the channels
+/// that fired advance. A position comes at most once per step, so a channel's next slot is always
+/// inside its plane: it is full only after the last position.
 #[inline(never)]
 pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
     p: &NeuronParams,
@@ -258,8 +264,44 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
     out: &mut Buckets,
     stats: &mut Stats,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::avx2() {
+        // SAFETY: this CPU has AVX2 (just checked).
+        return unsafe { lif_positions_avx2::<N, LEAK>(p, s, order, t, base, out, stats) };
+    }
+    lif_positions_with::<N, LEAK>(p, s, order, t, base, out, stats)
+}
+
+/// [`lif_positions`] compiled for AVX2 (the same operations: nothing is fused or reordered).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lif_positions_avx2<const N: usize, const LEAK: bool>(
+    p: &NeuronParams,
+    s: &mut LayerState,
+    order: &[u32],
+    t: i64,
+    base: i64,
+    out: &mut Buckets,
+    stats: &mut Stats,
+) {
+    lif_positions_with::<N, LEAK>(p, s, order, t, base, out, stats)
+}
+
+#[inline(always)]
+fn lif_positions_with<const N: usize, const LEAK: bool>(
+    p: &NeuronParams,
+    s: &mut LayerState,
+    order: &[u32],
+    t: i64,
+    base: i64,
+    out: &mut Buckets,
+    stats: &mut Stats,
+) {
     let LayerState { v, acc, last, carry, .. } = s;
     let mut steps = 0u64;
+    let mut fired_at = std::mem::take(&mut out.fired_at);
+    fired_at.resize(out.plane, (0, 0));
+    let mut n_fired = 0;
     for &pos in order {
         let k = pos as usize * N;
         let v: &mut [f32; N] = (&mut v[k..k + N]).try_into().expect("N channels");
@@ -274,16 +316,21 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
         };
         *l = t;
         steps += (behind.max(0) + 1) as u64;
-        if lif_lanes::<N, LEAK>(p, v, acc, behind, pos, out) {
+        let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
+        fired_at[n_fired] = (pos, fired);
+        n_fired += (fired != 0) as usize;
+        if carried {
             carry.insert(pos as usize);
         }
     }
+    out.push_masks::<N>(&fired_at[..n_fired]);
+    out.fired_at = fired_at;
     stats.neuron_updates += steps * N as u64;
 }
 
 /// [`lif_position`] with `N <= 32` channels known at compile time: the loops unroll into whole
-/// vector registers, the spike and carry masks come from vector compares, and the spikes are
-/// stored without a branch per spike (which mispredicts often: a position's spikes vary).
+/// vector registers and the spike and carry masks come from vector compares. Returns the lanes
+/// that fired (bits) and whether any lane must be looked at next step.
 ///
 /// `LEAK = false` is for a resting level of exactly +0: the terms `+ leak + 0.0` are left out,
 /// which changes nothing but the sign of a membrane at zero (`-0.0` against `+0.0`, equal in
@@ -294,19 +341,12 @@ pub(super) fn lif_lanes<const N: usize, const LEAK: bool>(
     v: &mut [f32; N],
     acc: &mut [f32; N],
     behind: i64,
-    pos: u32,
-    out: &mut Buckets,
-) -> bool {
+) -> (u32, bool) {
     #[cfg(target_arch = "x86_64")]
-    let (fired, carry) = if N.is_multiple_of(4) && N <= 16 {
-        sse::lif_lanes::<N, LEAK>(p, v, acc, behind)
-    } else {
-        lif_masks::<N, LEAK>(p, v, acc, behind)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let (fired, carry) = lif_masks::<N, LEAK>(p, v, acc, behind);
-    out.push_mask::<N>(fired, pos);
-    carry
+    if N.is_multiple_of(4) && N <= 16 {
+        return sse::lif_lanes::<N, LEAK>(p, v, acc, behind);
+    }
+    lif_masks::<N, LEAK>(p, v, acc, behind)
 }
 
 /// The update of [`lif_lanes`] in portable code: returns the lanes that fired (bits) and

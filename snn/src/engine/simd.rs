@@ -1,13 +1,23 @@
 //! The LIF lanes of a convolution position in SSE registers, four channels each (SSE is part of
 //! the x86-64 baseline); tested bit for bit against the portable update.
 
+/// Whether this CPU has AVX2 (detected at run time; std caches the answer).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(in crate::engine) fn avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(in crate::engine) mod sse {
     use crate::neuron::NeuronParams;
     use std::arch::x86_64::{
-        __m128, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_cmpgt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_mul_ps,
-        _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps,
+        __m128, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpgt_ps, _mm_loadu_ps, _mm_movemask_ps,
+        _mm_mul_ps, _mm_or_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps,
     };
+
+    /// Missed steps caught up without a branch (see [`lif_lanes`]).
+    const SURE: usize = 3;
 
     #[inline(always)]
     fn load(x: &[f32], q: usize) -> __m128 {
@@ -53,7 +63,27 @@ pub(in crate::engine) mod sse {
             for (q, r) in x.iter_mut().enumerate().take(N / 4) {
                 *r = load(v, q);
             }
-            for _ in 0..behind.max(0) {
+            // The steps missed, the first `SURE` of them without a branch (how many varies from
+            // position to position, so a loop's exit mispredicts often): a step not missed
+            // multiplies by 1 (without a resting level) or keeps the lanes as they are.
+            let behind = behind.max(0);
+            let one = _mm_set1_ps(1.0);
+            for j in 0..SURE {
+                let missed = (j as i64) < behind;
+                let keep = _mm_castsi128_ps(_mm_set1_epi32(-(missed as i32)));
+                if LEAK {
+                    for r in x.iter_mut().take(N / 4) {
+                        let stepped = leak_step::<true>(beta, leak, *r, zero);
+                        *r = _mm_or_ps(_mm_and_ps(keep, stepped), _mm_andnot_ps(keep, *r));
+                    }
+                } else {
+                    let m = _mm_or_ps(_mm_and_ps(keep, beta), _mm_andnot_ps(keep, one));
+                    for r in x.iter_mut().take(N / 4) {
+                        *r = _mm_mul_ps(m, *r);
+                    }
+                }
+            }
+            for _ in SURE as i64..behind {
                 for r in x.iter_mut().take(N / 4) {
                     *r = if LEAK { leak_step::<true>(beta, leak, *r, zero) } else { _mm_mul_ps(beta, *r) };
                 }
