@@ -269,7 +269,7 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
         // SAFETY: this CPU has AVX2 (just checked).
         return unsafe { lif_positions_avx2::<N, LEAK>(p, s, order, t, base, out, stats) };
     }
-    lif_positions_with::<N, LEAK>(p, s, order, t, base, out, stats)
+    lif_positions_with::<N, LEAK, false>(p, s, order, t, base, out, stats)
 }
 
 /// [`lif_positions`] compiled for AVX2 (the same operations: nothing is fused or reordered).
@@ -284,11 +284,12 @@ fn lif_positions_avx2<const N: usize, const LEAK: bool>(
     out: &mut Buckets,
     stats: &mut Stats,
 ) {
-    lif_positions_with::<N, LEAK>(p, s, order, t, base, out, stats)
+    lif_positions_with::<N, LEAK, true>(p, s, order, t, base, out, stats)
 }
 
+/// `AVX`: the lanes in AVX registers (the caller is compiled for AVX2).
 #[inline(always)]
-fn lif_positions_with<const N: usize, const LEAK: bool>(
+fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     p: &NeuronParams,
     s: &mut LayerState,
     order: &[u32],
@@ -316,6 +317,14 @@ fn lif_positions_with<const N: usize, const LEAK: bool>(
         };
         *l = t;
         steps += (behind.max(0) + 1) as u64;
+        #[cfg(target_arch = "x86_64")]
+        let (fired, carried) = if AVX && (N == 8 || N == 16) {
+            // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
+            unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind) }
+        } else {
+            lif_lanes::<N, LEAK>(p, v, acc, behind)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
         let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
         fired_at[n_fired] = (pos, fired);
         n_fired += (fired != 0) as usize;

@@ -1,5 +1,6 @@
 //! The LIF lanes of a convolution position in SSE registers, four channels each (SSE is part of
-//! the x86-64 baseline); tested bit for bit against the portable update.
+//! the x86-64 baseline), or in AVX registers, eight each, where the CPU has AVX2; both tested bit
+//! for bit against the portable update.
 
 /// Whether this CPU has AVX2 (detected at run time; std caches the answer).
 #[cfg(target_arch = "x86_64")]
@@ -7,6 +8,10 @@
 pub(in crate::engine) fn avx2() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
 }
+
+/// Missed steps caught up without a branch (see [`sse::lif_lanes`]).
+#[cfg(target_arch = "x86_64")]
+const SURE: usize = 3;
 
 #[cfg(target_arch = "x86_64")]
 pub(in crate::engine) mod sse {
@@ -16,8 +21,7 @@ pub(in crate::engine) mod sse {
         _mm_mul_ps, _mm_or_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps,
     };
 
-    /// Missed steps caught up without a branch (see [`lif_lanes`]).
-    const SURE: usize = 3;
+    use super::SURE;
 
     #[inline(always)]
     fn load(x: &[f32], q: usize) -> __m128 {
@@ -107,6 +111,108 @@ pub(in crate::engine) mod sse {
     }
 }
 
+/// [`sse::lif_lanes`] eight lanes a register, for CPUs with AVX2 (the same operations, none fused).
+#[cfg(target_arch = "x86_64")]
+pub(in crate::engine) mod avx {
+    use crate::neuron::NeuronParams;
+    use std::arch::x86_64::{
+        __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_blendv_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_loadu_ps,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+        _mm256_sub_ps,
+    };
+
+    #[inline(always)]
+    fn load(x: &[f32], q: usize) -> __m256 {
+        let x: &[f32; 8] = x[8 * q..8 * q + 8].try_into().expect("eight lanes");
+        // SAFETY: `x` is eight readable f32s; unaligned loads are allowed; AVX is present
+        // wherever this module is called (its callers are compiled for AVX2).
+        unsafe { _mm256_loadu_ps(x.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn store(x: &mut [f32], q: usize, r: __m256) {
+        let x: &mut [f32; 8] = (&mut x[8 * q..8 * q + 8]).try_into().expect("eight lanes");
+        // SAFETY: `x` is eight writable f32s; unaligned stores are allowed; AVX as in `load`.
+        unsafe { _mm256_storeu_ps(x.as_mut_ptr(), r) }
+    }
+
+    /// The update of `lif_masks` for `N` = 8 or 16 lanes; returns the lanes that fired (bits) and
+    /// whether any lane must be looked at next step.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(in crate::engine) unsafe fn lif_lanes<const N: usize, const LEAK: bool>(
+        p: &NeuronParams,
+        v: &mut [f32; N],
+        acc: &mut [f32; N],
+        behind: i64,
+    ) -> (u32, bool) {
+        const { assert!(N == 8 || N == 16, "eight or sixteen lanes") };
+        let beta = _mm256_set1_ps(p.beta);
+        let leak = _mm256_set1_ps(p.leak_term());
+        let th = _mm256_set1_ps(p.threshold());
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        let subtract = p.reset == crate::neuron::Reset::Subtract;
+        let after_zero = _mm256_set1_ps(p.v_reset);
+        let step = |x: __m256, u: __m256| {
+            if LEAK {
+                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(beta, x), leak), u)
+            } else {
+                _mm256_add_ps(_mm256_mul_ps(beta, x), u)
+            }
+        };
+        let mut x = [zero; 2];
+        for (q, r) in x.iter_mut().enumerate().take(N / 8) {
+            *r = load(v, q);
+        }
+        // The missed steps, the first `SURE` without a branch, as in `sse::lif_lanes`.
+        let behind = behind.max(0);
+        for j in 0..super::SURE {
+            let keep = _mm256_castsi256_ps(_mm256_set1_epi32(-(((j as i64) < behind) as i32)));
+            if LEAK {
+                for r in x.iter_mut().take(N / 8) {
+                    *r = _mm256_blendv_ps(*r, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(beta, *r), leak), zero), keep);
+                }
+            } else {
+                let m = _mm256_blendv_ps(one, beta, keep);
+                for r in x.iter_mut().take(N / 8) {
+                    *r = _mm256_mul_ps(m, *r);
+                }
+            }
+        }
+        for _ in super::SURE as i64..behind {
+            for r in x.iter_mut().take(N / 8) {
+                *r = if LEAK {
+                    _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(beta, *r), leak), zero)
+                } else {
+                    _mm256_mul_ps(beta, *r)
+                };
+            }
+        }
+        let (mut fired, mut carry) = (0u32, 0i32);
+        for (q, &xq) in x.iter().enumerate().take(N / 8) {
+            let u = load(acc, q);
+            store(acc, q, zero);
+            let vn = step(xq, u);
+            let m = _mm256_cmp_ps::<_CMP_GT_OQ>(vn, th);
+            let after = if subtract { _mm256_sub_ps(vn, th) } else { after_zero };
+            let nv = _mm256_blendv_ps(vn, after, m);
+            store(v, q, nv);
+            fired |= (_mm256_movemask_ps(m) as u32) << (8 * q);
+            let next = if LEAK {
+                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(beta, nv), leak), zero)
+            } else {
+                _mm256_mul_ps(beta, nv)
+            };
+            carry |= _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(next, th));
+        }
+        (fired, carry != 0)
+    }
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::super::kernels::lif_masks;
@@ -128,6 +234,14 @@ mod tests {
             assert_eq!(portable, simd, "spikes and carry; v {v:?}, input {acc:?}, behind {behind}");
             assert_eq!(v1.map(f32::to_bits), v2.map(f32::to_bits), "membranes");
             assert_eq!(a1.map(f32::to_bits), a2.map(f32::to_bits), "accumulators emptied");
+            if super::avx2() {
+                let (mut v3, mut a3) = (v, acc);
+                // SAFETY: this CPU has AVX2 (just checked).
+                let wide = unsafe { super::avx::lif_lanes::<N, LEAK>(p, &mut v3, &mut a3, behind) };
+                assert_eq!(portable, wide, "AVX: spikes and carry; v {v:?}, input {acc:?}, behind {behind}");
+                assert_eq!(v1.map(f32::to_bits), v3.map(f32::to_bits), "AVX: membranes");
+                assert_eq!(a1.map(f32::to_bits), a3.map(f32::to_bits), "AVX: accumulators emptied");
+            }
         }
     }
 
