@@ -298,6 +298,10 @@ fn run_samples(engine: &Engine, st: &mut snn::engine::EngineState, samples: &[Ve
 /// `repeats` rounds, each timing 1, 2, .. `streams` streams in turn (so that the machine's drift
 /// hits every row alike), after one untimed round; per row the median round's wall time (the
 /// slowest stream's: a barrier starts them together).
+///
+/// The threads live through every round, as a server's workers would: a thread spawned per
+/// round starts on its parent's core and waits for the scheduler to move it, which in a round
+/// of a few milliseconds is part of the time.
 fn stream_scaling(
     engine: &Engine,
     samples: &[Vec<(i64, u32)>],
@@ -305,33 +309,52 @@ fn stream_scaling(
     streams: usize,
 ) -> Result<Vec<StreamsRow>> {
     let k_max = streams.max(1);
-    let mut states: Vec<_> = (0..k_max).map(|_| engine.state(0)).collect();
-    let mut walls = vec![Vec::new(); k_max];
-    for round in 0..repeats.max(1) + 1 {
-        for k in 1..=k_max {
-            let barrier = std::sync::Barrier::new(k);
-            let results: Vec<Result<f64>> = std::thread::scope(|scope| {
-                let handles: Vec<_> = states[..k]
-                    .iter_mut()
-                    .map(|st| {
-                        let barrier = &barrier;
-                        scope.spawn(move || -> Result<f64> {
-                            barrier.wait();
+    // every round's rows in turn: how many streams run at once
+    let plan: Vec<usize> = (0..repeats.max(1) + 1).flat_map(|_| 1..=k_max).collect();
+    let start = std::sync::Barrier::new(k_max + 1);
+    let done = std::sync::Barrier::new(k_max + 1);
+    // per thread, its time in each entry of the plan it ran
+    let times: Vec<Result<Vec<Option<f64>>>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..k_max)
+            .map(|j| {
+                let (start, done, plan) = (&start, &done, &plan);
+                scope.spawn(move || -> Result<Vec<Option<f64>>> {
+                    let mut st = engine.state(0);
+                    let mut times = Vec::with_capacity(plan.len());
+                    let mut failed = None;
+                    for &k in plan {
+                        start.wait();
+                        let t = if j < k && failed.is_none() {
                             let t0 = Instant::now();
-                            run_samples(engine, st, samples)?;
-                            Ok(t0.elapsed().as_secs_f64())
-                        })
-                    })
-                    .collect();
-                handles.into_iter().map(|h| h.join().expect("a bench stream panicked")).collect()
-            });
-            let mut wall = 0f64;
-            for r in results {
-                wall = wall.max(r?);
-            }
-            if round > 0 {
-                walls[k - 1].push(wall);
-            }
+                            match run_samples(engine, &mut st, samples) {
+                                Ok(()) => Some(t0.elapsed().as_secs_f64()),
+                                Err(e) => {
+                                    failed = Some(e);
+                                    None
+                                }
+                            }
+                        } else {
+                            None
+                        };
+                        times.push(t);
+                        done.wait();
+                    }
+                    failed.map_or(Ok(times), Err)
+                })
+            })
+            .collect();
+        for _ in &plan {
+            start.wait();
+            done.wait();
+        }
+        handles.into_iter().map(|h| h.join().expect("a bench stream panicked")).collect()
+    });
+    let times = times.into_iter().collect::<Result<Vec<_>>>()?;
+    let mut walls = vec![Vec::new(); k_max];
+    for (e, &k) in plan.iter().enumerate() {
+        // the first round is untimed
+        if e >= k_max {
+            walls[k - 1].push(times[..k].iter().filter_map(|t| t[e]).fold(0f64, f64::max));
         }
     }
     let mut rows: Vec<StreamsRow> = Vec::new();
