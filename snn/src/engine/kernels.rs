@@ -247,13 +247,11 @@ pub(super) fn above<const N: usize>(x: &[f32; N], th: f32) -> u32 {
 }
 
 /// [`update_position`] for the positions in `order` of a LIF or IF convolution without bias and
-/// with `N` channels: the neuron parameters stay in registers across positions, and so do the
-/// channels' spike counts (`out`'s lengths, copied in and back once).
-///
-/// A position's spikes are stored without a branch per spike (which mispredicts often: a
-/// position's spikes vary): every channel's next slot gets the position and only the channels
-/// that fired advance. A position comes at most once per step, so a channel's next slot is always
-/// inside its plane: it is full only after the last position.
+/// with `N` channels: the neuron parameters stay in registers across positions. The positions
+/// that fired are kept as (position, channels as bits), without a branch (which mispredicts
+/// often: whether a position fires varies), and bucketed by channel after the loop
+/// ([`Buckets::push_masks`]). On CPUs with AVX2 the whole loop is compiled for it and a
+/// position's lanes are updated eight to a register.
 #[inline(never)]
 pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
     p: &NeuronParams,
