@@ -47,7 +47,8 @@ pub(super) struct Buckets {
     pub(super) len: Vec<u32>,
     pub(super) pos: Vec<u32>,
     pub(super) val: Vec<f32>,
-    /// Scratch: the positions that fired this step, with their channels as bits.
+    /// Scratch: the positions that fired this step, with their channels as bits (one slot a
+    /// position).
     pub(super) fired_at: Vec<(u32, u32)>,
 }
 
@@ -58,7 +59,7 @@ impl Buckets {
             len: vec![0; channels],
             pos: vec![0; channels * plane],
             val: vec![0.0; if values { channels * plane } else { 0 }],
-            fired_at: Vec::new(),
+            fired_at: vec![(0, 0); plane],
         }
     }
     /// A spike at `pos` of channel `ch`; each position comes at most once per channel and step.
@@ -72,12 +73,12 @@ impl Buckets {
     /// position, channel by channel, without a branch per spike: every position's next slot gets
     /// the position and only the channels that fired advance. Each position comes at most once,
     /// so a channel's next slot is always inside its plane: it is full only after the last one.
-    /// Four channels a pass, so that their counts advance side by side.
+    /// Four channels a pass (`N` a multiple of 4), so that their counts advance side by side.
     #[inline(always)]
     pub(super) fn push_masks<const N: usize>(&mut self, fired_at: &[(u32, u32)]) {
+        const { assert!(N.is_multiple_of(4), "channels in fours") };
         let plane = self.plane;
-        let mut ch = 0;
-        while ch + 4 <= N {
+        for ch in (0..N).step_by(4) {
             let start: [usize; 4] = std::array::from_fn(|j| (ch + j) * plane + self.len[ch + j] as usize);
             let mut n = [0usize; 4];
             for &(pos, fired) in fired_at {
@@ -89,17 +90,6 @@ impl Buckets {
             for (j, n) in n.iter().enumerate() {
                 self.len[ch + j] += *n as u32;
             }
-            ch += 4;
-        }
-        for ch in ch..N {
-            let start = ch * plane + self.len[ch] as usize;
-            let slots = &mut self.pos[start..(ch + 1) * plane];
-            let mut n = 0;
-            for &(pos, fired) in fired_at {
-                slots[n] = pos;
-                n += ((fired >> ch) & 1) as usize;
-            }
-            self.len[ch] += n as u32;
         }
     }
     #[inline(always)]

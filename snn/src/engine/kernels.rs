@@ -299,7 +299,6 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     let LayerState { v, acc, last, carry, .. } = s;
     let mut steps = 0u64;
     let mut fired_at = std::mem::take(&mut out.fired_at);
-    fired_at.resize(out.plane, (0, 0));
     let mut n_fired = 0;
     for &pos in order {
         let k = pos as usize * N;
