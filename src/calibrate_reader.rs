@@ -1,6 +1,8 @@
 //! `braille calibrate-reader`: a segmentation network's operating point (threshold, shortest
 //! segment) chosen on the validation words, written as Markdown and JSON, and with `--write`
-//! into the network's model file, where every reader of it reads it.
+//! into the network's model file, where every reader of it reads it. With `--braille ueb-g1|ueb-g2`
+//! the cell readers' network (models/REALISM/ueb/, shared by both architectures) on the validation
+//! sentences, one point for both.
 
 use crate::common::Bar;
 use anyhow::{Context, Result};
@@ -25,12 +27,21 @@ pub struct Args {
     /// The character classifier read with it [default: the architecture's].
     #[arg(long)]
     classifier: Option<PathBuf>,
-    /// Scans per row of the validation words and speed.
-    #[arg(long, default_value_t = 12)]
-    trials: u64,
-    /// Speeds, mm/s.
-    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64")]
-    speeds: Vec<f64>,
+    /// The Braille code the readers read: the paper's letters (the validation words), or
+    /// `ueb-g1`/`ueb-g2`: the cell readers of models/REALISM/ueb/, whose segmentation network
+    /// both architectures share, calibrated together on VAL-UEB (the validation sentences, 1.0
+    /// mm): one point, chosen by the rule on the mean of both readers' scores; `--arch`,
+    /// `--segmenter`, `--classifier` and `--recordings` do not apply, and the grid is written as
+    /// `operating_point_CODE.md` and `.json` in `--out`/ueb/.
+    #[arg(long, value_enum, default_value = "grade1-letters")]
+    braille: pipeline::code::BrailleCode,
+    /// Scans per row of the validation words and speed [default: 12 for the words, 3 for the
+    /// sentences].
+    #[arg(long)]
+    trials: Option<u64>,
+    /// Speeds, mm/s [default: 8,16,32,64 for the words, 8,16,32 for the sentences].
+    #[arg(long, value_delimiter = ',')]
+    speeds: Option<Vec<f64>>,
     /// Thresholds of the segmentation network's "character" probability.
     #[arg(long, value_delimiter = ',', default_value = "0.3,0.4,0.5,0.6,0.7,0.8,0.85,0.9,0.95")]
     thresholds: Vec<f32>,
@@ -57,6 +68,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.braille != pipeline::code::BrailleCode::Grade1Letters {
+        return run_cells(args);
+    }
     let dir = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
     let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } = pipeline::shipped::reader_in(&dir, args.arch);
     let s_path = args.segmenter.clone().unwrap_or(s);
@@ -65,12 +79,13 @@ pub fn run(args: Args) -> Result<()> {
         return record(&s_path, &experiments::eval::calibrate::chosen_in(json)?);
     }
     let models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
+    let base = CalibrationSpec::validation(args.realism.realism);
     let spec = CalibrationSpec {
-        trials: args.trials,
-        speeds_mm_s: args.speeds.clone(),
+        trials: args.trials.unwrap_or(base.trials),
+        speeds_mm_s: args.speeds.clone().unwrap_or_else(|| base.speeds_mm_s.clone()),
         thresholds: args.thresholds.clone(),
         min_frames: args.min_frames.clone(),
-        ..CalibrationSpec::validation(args.realism.realism)
+        ..base
     };
     let name =
         |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -104,6 +119,78 @@ pub fn run(args: Args) -> Result<()> {
     );
     if args.write {
         record(&s_path, &r.chosen)?;
+    }
+    Ok(())
+}
+
+/// `--braille ueb-g1|ueb-g2`: the shared segmentation network of the cell readers, calibrated on
+/// the validation sentences with both architectures' classifiers.
+fn run_cells(args: Args) -> Result<()> {
+    if args.recordings.is_some() || args.segmenter.is_some() || args.classifier.is_some() {
+        anyhow::bail!(
+            "--braille {}: the cell readers' shared network is calibrated on the simulated validation sentences with both architectures' classifiers of the models folder; --recordings, --segmenter and --classifier do not apply",
+            args.braille
+        );
+    }
+    let dir = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
+    let archs = [Arch::Snn, Arch::Resnet];
+    let files: Vec<pipeline::shipped::ReaderFiles> =
+        archs.iter().map(|&a| pipeline::shipped::reader_for(&dir, a, args.braille)).collect();
+    let s_path = files[0].segmenter.clone();
+    if files.iter().any(|f| f.segmenter != s_path) {
+        anyhow::bail!("the cell readers of {} do not share one segmentation network", dir.display());
+    }
+    if let Some(json) = &args.apply {
+        return record(&s_path, &experiments::eval::calibrate::chosen_in(json)?);
+    }
+    let name =
+        |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let readers: Vec<ReaderModels> = files
+        .iter()
+        .map(|f| ReaderModels::load(&f.segmenter, &f.classifier, SnnRunner::Sliding))
+        .collect::<pipeline::Result<_>>()?;
+    let names: Vec<String> = files.iter().map(|f| name(&f.classifier)).collect();
+    let pairs: Vec<(&ReaderModels, &str)> = readers.iter().zip(&names).map(|(r, n)| (r, n.as_str())).collect();
+    let base = CalibrationSpec::validation_in(args.realism.realism, args.braille)?;
+    let spec = CalibrationSpec {
+        trials: args.trials.unwrap_or(base.trials),
+        speeds_mm_s: args.speeds.clone().unwrap_or_else(|| base.speeds_mm_s.clone()),
+        thresholds: args.thresholds.clone(),
+        min_frames: args.min_frames.clone(),
+        ..base
+    };
+    let (joint, each) = experiments::eval::calibrate::calibrate_shared(&pairs, &name(&s_path), &spec, &Bar::default())?;
+    let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir().join("ueb"));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let stem = out.join(format!("operating_point_{}", args.braille));
+    let mut md = markdown(&joint);
+    for (arch, c) in archs.iter().zip(&each) {
+        md += &format!("\n## {arch} alone ({})\n\n", c.classifier);
+        md += markdown(c).split_once("\n\n").map_or("", |(_, body)| body);
+    }
+    std::fs::write(stem.with_extension("md"), &md).with_context(|| format!("writing {}.md", stem.display()))?;
+    #[derive(serde::Serialize)]
+    struct Written<'a> {
+        #[serde(flatten)]
+        joint: &'a experiments::eval::calibrate::Calibration,
+        each: &'a [experiments::eval::calibrate::Calibration],
+    }
+    std::fs::write(
+        stem.with_extension("json"),
+        serde_json::to_string_pretty(&Written { joint: &joint, each: &each })? + "\n",
+    )
+    .with_context(|| format!("writing {}.json", stem.display()))?;
+    println!(
+        "chosen for {} (both architectures): threshold {}, {} frames (mean word accuracy {:.3} without spelling, {:.3} with the lexicon, over both); {}.md",
+        s_path.display(),
+        joint.chosen.present_threshold,
+        joint.chosen.min_frames,
+        joint.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_none),
+        joint.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
+        stem.display()
+    );
+    if args.write {
+        record(&s_path, &joint.chosen)?;
     }
     Ok(())
 }

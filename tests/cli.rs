@@ -813,7 +813,7 @@ fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
 }
 
 #[test]
-fn the_ueb_words_report_reads_with_one_timing_and_needs_its_models() {
+fn the_ueb_report_and_calibration_refuse_what_does_not_apply_and_name_missing_models() {
     // the UEB report reads with one timing: more is a clear error before any scan is read
     let o = braille(&["words-report", "--braille", "ueb-g2", "--timings", "estimated,paper"]);
     assert!(!o.status.success() && text(&o).1.contains("one --timings"), "{}", text(&o).1);
@@ -823,6 +823,14 @@ fn the_ueb_words_report_reads_with_one_timing_and_needs_its_models() {
     let o = braille(&["words-report", "--braille", "ueb-g2", "--models", d, "--out", d, "--cell-trials", "1"]);
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("snn-cells"), "{err}");
+    // the cell readers' shared network is calibrated with both classifiers on the simulated
+    // validation sentences: a recordings folder does not apply, and a missing network is named
+    let o = braille(&["calibrate-reader", "--braille", "ueb-g2", "--recordings", d]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("do not apply"), "{err}");
+    let o = braille(&["calibrate-reader", "--braille", "ueb-g2", "--models", d, "--out", d]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("snn-segment.safetensors"), "{err}");
 }
 
 /// `braille ... | head` closes the pipe early: the process ends quietly (as other command-line

@@ -28,3 +28,10 @@ if [[ "$only" == all || "$only" == resnet ]]; then
     --jitter-ms 40 --train-speeds 8,16,32,48 --train-depths 1.5,1.0,0.6 --epochs 8 --lr 1e-3 --seed 1 "${r[@]}" \
     --out "$models/resnet-lite-cells.safetensors" --history "$out/resnet_lite_cells_history.json"
 fi
+# The shared segmentation network's operating point, chosen on VAL-UEB with both classifiers
+# (docs/braille.md; since 2026-11-28; 13 minutes) and recorded in its model file, where both
+# readers read it.
+if [[ "$only" == all ]]; then
+  $b calibrate-reader --braille ueb-g2 --realism "$realism" --models "models/$realism" --out "$out" \
+    --thresholds 0.4,0.5,0.6,0.7,0.8 --min-frames 4,6,8,10,12 --write
+fi

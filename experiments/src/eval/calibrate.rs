@@ -6,7 +6,11 @@
 //! Every point of the grid reads the same scans with the real streaming reader, speed estimated
 //! from the events. The networks' outputs do not depend on the point (the reader's frames come
 //! from the events and its speed estimate alone), so each scan's outputs are computed once and
-//! looked up by window for the other points ([`Memo`]): the grid costs about one reading.
+//! looked up by window for the other points ([`Memo`]). The rest of a reading (its frames, the
+//! speed estimate, the filter, the spelling) runs at every point: sampled on 2026-11-28, the
+//! speed estimate and the reader's loop took over 80% of a grid's time, so a grid of N points
+//! costs far more than one reading (VAL-UEB's 378 scans, 25 points, two readers: 13 minutes on
+//! two cores).
 //!
 //! The rule, fixed before any run: the highest mean word accuracy (1 - WER, so an inserted word
 //! counts against a point) without spelling over the speeds (every printed word counts; the
@@ -17,9 +21,10 @@
 use crate::Progress;
 use crate::Result;
 use crate::eval::scoring::WordMetrics;
-use corpus::boards::validation_words_board;
+use corpus::boards::{HeldOut, validation_words_board};
 use corpus::world::{VALIDATION_SEED, World};
 use pipeline::classify::{ReaderModels, WindowModel, WindowState};
+use pipeline::code::BrailleCode;
 use pipeline::reader::{
     CalibrationGrid, OperatingPoint, PointCalibration, ReaderConfig, Spell, Speller, Timing, Window, WindowClassifier,
     f32_as_printed, read_all,
@@ -43,6 +48,13 @@ pub struct CalibrationSpec {
     pub depth_mm: f64,
     pub thresholds: Vec<f32>,
     pub min_frames: Vec<usize>,
+    /// The Braille code the board is printed in; beyond the paper's letters the reader reads
+    /// cells, and its words are the cells back-translated through the code.
+    pub code: BrailleCode,
+    /// The board's rows as printed (a code's print board; empty for the letters, whose scans'
+    /// text is the print): the words each row is scored against.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub print_rows: Vec<String>,
 }
 
 impl CalibrationSpec {
@@ -59,7 +71,29 @@ impl CalibrationSpec {
             depth_mm: 1.5,
             thresholds: vec![0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95],
             min_frames: vec![2, 3, 4, 5, 6, 8, 10, 12],
+            code: BrailleCode::Grade1Letters,
+            print_rows: Vec::new(),
         }
+    }
+
+    /// A code's validation sentences (`VAL-UEB`, printed in `code`) at `realism` with the
+    /// training sensor builds and the validation seed, 3 scans per row at 8, 16 and 32 mm/s, 1.0
+    /// mm (the conditions of the UEB tables), and the letters' grid. The letters' spec for
+    /// [`BrailleCode::Grade1Letters`].
+    pub fn validation_in(realism: Realism, code: BrailleCode) -> Result<CalibrationSpec> {
+        if code == BrailleCode::Grade1Letters {
+            return Ok(CalibrationSpec::validation(realism));
+        }
+        let board = corpus::boards::sentence_board(HeldOut::Validation, code)?;
+        Ok(CalibrationSpec {
+            board: board.kind,
+            trials: 3,
+            speeds_mm_s: vec![8.0, 16.0, 32.0],
+            depth_mm: 1.0,
+            code,
+            print_rows: board.print_rows,
+            ..CalibrationSpec::validation(realism)
+        })
     }
 }
 
@@ -139,11 +173,32 @@ pub fn calibrate(
     spec: &CalibrationSpec,
     progress: &dyn Progress,
 ) -> Result<Calibration> {
-    if spec.thresholds.is_empty() || spec.min_frames.is_empty() || spec.speeds_mm_s.is_empty() || spec.trials == 0 {
+    let (_, mut each) = calibrate_shared(&[(models, classifier)], segmenter, spec, progress)?;
+    Ok(each.remove(0))
+}
+
+/// Sweeps the grid of `spec` for a segmentation network that several classifiers read with
+/// (`pairs`: each reader and its classifier's name; the UEB readers of both architectures share
+/// one): every scan is simulated once and read by every pair, and one point serves them all, so
+/// [`RULE`] is applied to each point's scores averaged over the pairs. Returns that joint
+/// calibration (its classifiers' names joined by ` + `) and each pair's own.
+pub fn calibrate_shared(
+    pairs: &[(&ReaderModels, &str)],
+    segmenter: &str,
+    spec: &CalibrationSpec,
+    progress: &dyn Progress,
+) -> Result<(Calibration, Vec<Calibration>)> {
+    if pairs.is_empty()
+        || spec.thresholds.is_empty()
+        || spec.min_frames.is_empty()
+        || spec.speeds_mm_s.is_empty()
+        || spec.trials == 0
+    {
         return Err(crate::Error::Setting {
             name: "calibration grid",
             value: format!(
-                "{} thresholds, {} frame counts, {} speeds, {} scans",
+                "{} readers, {} thresholds, {} frame counts, {} speeds, {} scans",
+                pairs.len(),
                 spec.thresholds.len(),
                 spec.min_frames.len(),
                 spec.speeds_mm_s.len(),
@@ -155,6 +210,13 @@ pub fn calibrate(
     let grid = grid_of(&spec.thresholds, &spec.min_frames)?;
     let setup = spec.world.setup();
     let board = spec.world.board(&setup, &spec.board)?;
+    if !spec.print_rows.is_empty() && spec.print_rows.len() != board.rows.len() {
+        return Err(crate::Error::Setting {
+            name: "print_rows",
+            value: format!("{} rows of print", spec.print_rows.len()),
+            expected: "one per row of the board's cells",
+        });
+    }
     let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let jobs: Vec<(usize, usize, u64)> = (0..spec.speeds_mm_s.len())
         .flat_map(|s| (0..board.rows.len()).flat_map(move |r| (0..spec.trials).map(move |t| (s, r, t))))
@@ -165,14 +227,27 @@ pub fn calibrate(
         let seed = spec.world.scan_seed(spec.seed, &spec.board, row, trial, speed, spec.depth_mm);
         let sensor = &sensors[(trial % sensors.len() as u64) as usize];
         let scan = sim::simulate(&board, sensor, &setup.scan(speed, spec.depth_mm, row, seed))?;
-        let truth = scan.truth.row_text.split_whitespace().map(str::to_string).collect();
+        // a code's print is scored against the print, not against its cells
+        let printed = spec.print_rows.get(row).unwrap_or(&scan.truth.row_text);
+        let truth = printed.split_whitespace().map(str::to_string).collect();
         Ok(Scan { speed: s, events: scan.events, resolution: sensor.camera.resolution, truth })
     };
-    let reads =
-        read_grid(models, &grid, jobs.len(), &load, "reading validation scans at every operating point", progress)?;
+    let readers: Vec<&ReaderModels> = pairs.iter().map(|p| p.0).collect();
+    let reads = read_grid(
+        &readers,
+        &grid,
+        jobs.len(),
+        &load,
+        spec.code,
+        "reading validation scans at every operating point",
+        progress,
+    )?;
     let scans = format!(
-        "SIMULATED validation words ({}), {} world, sensor builds {:?}, seed {}, {} scans per row at {:?} mm/s, {} mm, speed estimated",
-        spec.board.name(),
+        "SIMULATED validation {}, {} world, sensor builds {:?}, seed {}, {} scans per row at {:?} mm/s, {} mm, speed estimated",
+        match spec.code {
+            BrailleCode::Grade1Letters => format!("words ({})", spec.board.name()),
+            code => format!("sentences ({}), printed in {code}", corpus::boards::board_name(&spec.board)),
+        },
         spec.world.realism,
         spec.world.sensors,
         spec.seed,
@@ -180,17 +255,27 @@ pub fn calibrate(
         spec.speeds_mm_s,
         spec.depth_mm
     );
-    let mut c = choose_point(
-        segmenter,
-        classifier,
-        &grid,
-        &spec.speeds_mm_s,
-        &reads,
-        scans,
-        (&spec.thresholds, &spec.min_frames),
-    );
-    c.spec = Some(spec.clone());
-    Ok(c)
+    let each: Vec<Calibration> = pairs
+        .iter()
+        .zip(reads)
+        .map(|(&(_, classifier), reads)| {
+            let mut c = choose_point(
+                segmenter,
+                classifier,
+                &grid,
+                &spec.speeds_mm_s,
+                &reads,
+                scans.clone(),
+                (&spec.thresholds, &spec.min_frames),
+            );
+            c.spec = Some(spec.clone());
+            c
+        })
+        .collect();
+    let names: Vec<&str> = pairs.iter().map(|p| p.1).collect();
+    let mut joint = joint_point(segmenter, &names.join(" + "), &each, scans, (&spec.thresholds, &spec.min_frames));
+    joint.spec = Some(spec.clone());
+    Ok((joint, each))
 }
 
 /// Sweeps the grid of `thresholds` and `min_frames` on the `val` scans of a lab's recordings
@@ -229,8 +314,16 @@ pub fn calibrate_recordings(
             truth: r.text.split_whitespace().map(str::to_uppercase).collect(),
         })
     };
-    let reads =
-        read_grid(models, &grid, scans.len(), &load, "reading recorded val scans at every operating point", progress)?;
+    let reads = read_grid(
+        &[models],
+        &grid,
+        scans.len(),
+        &load,
+        BrailleCode::Grade1Letters,
+        "reading recorded val scans at every operating point",
+        progress,
+    )?
+    .remove(0);
     let text = format!(
         "recorded scans of {}: its {} `val` scans at {:?} mm/s (commanded), speed estimated",
         rec.dir.display(),
@@ -274,38 +367,59 @@ struct Scan {
 /// Per scan: its speed, the printed words, and per grid point the words read (raw, lexicon).
 type Read = (usize, (Vec<String>, Vec<(Vec<String>, Vec<String>)>));
 
-/// Reads scans `0..n` (each loaded by `load`, in parallel) at every point of `grid`, each scan's
-/// network outputs computed once ([`Memo`]).
+/// Reads scans `0..n` (each loaded by `load`, in parallel, once for all readers) with each of
+/// `readers` at every point of `grid`, each scan's network outputs computed once ([`Memo`]). The
+/// words read: the letters' raw reading and the lexicon's, or in a code beyond the letters the
+/// cells back-translated without spelling and by the code's lexicon beam. Per reader, per scan.
 fn read_grid(
-    models: &ReaderModels,
+    readers: &[&ReaderModels],
     grid: &[OperatingPoint],
     n: usize,
     load: &(dyn Fn(usize) -> Result<Scan> + Sync),
+    code: BrailleCode,
     what: &str,
     progress: &dyn Progress,
-) -> Result<Vec<Read>> {
-    let speller = Speller::new(Spell::Lexicon);
+) -> Result<Vec<Vec<Read>>> {
+    let letters = code == BrailleCode::Grade1Letters;
+    let speller = Speller::new(if letters { Spell::Lexicon } else { Spell::None });
+    let in_code = [Speller::in_code(Spell::None, code)?, Speller::in_code(Spell::Lexicon, code)?];
     progress.start(what, n as u64);
-    let reads = (0..n)
+    let per_scan: Vec<Vec<Read>> = (0..n)
         .into_par_iter()
-        .map(|k| -> Result<Read> {
+        .map(|k| -> Result<Vec<Read>> {
             let scan = load(k)?;
-            let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
-            let mut out = Vec::with_capacity(grid.len());
-            for p in grid {
-                let cfg: ReaderConfig = models.config(Timing::ESTIMATED).with_operating_point(p);
-                let r =
-                    read_all(&scan.events, cfg, scan.resolution, &seg, &cls, &speller).map_err(crate::Error::from)?;
-                out.push((
-                    r.words.iter().map(|w| w.raw.clone()).collect(),
-                    r.words.iter().map(|w| w.text.clone()).collect(),
-                ));
+            let mut per_reader = Vec::with_capacity(readers.len());
+            for models in readers {
+                let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
+                let mut out = Vec::with_capacity(grid.len());
+                for p in grid {
+                    let cfg: ReaderConfig = models.config(Timing::ESTIMATED).with_operating_point(p);
+                    let r = read_all(&scan.events, cfg, scan.resolution, &seg, &cls, &speller)
+                        .map_err(crate::Error::from)?;
+                    out.push(if letters {
+                        (
+                            r.words.iter().map(|w| w.raw.clone()).collect(),
+                            r.words.iter().map(|w| w.text.clone()).collect(),
+                        )
+                    } else {
+                        let spell = |sp: &Speller| r.words.iter().map(|w| sp.correct(&w.chars)).collect();
+                        (spell(&in_code[0]), spell(&in_code[1]))
+                    });
+                }
+                per_reader.push((scan.speed, (scan.truth.clone(), out)));
             }
             progress.inc();
-            Ok((scan.speed, (scan.truth, out)))
+            Ok(per_reader)
         })
         .collect::<Result<_>>()?;
     progress.finish();
+    // per reader, per scan
+    let mut reads: Vec<Vec<Read>> = (0..readers.len()).map(|_| Vec::with_capacity(n)).collect();
+    for scan in per_scan {
+        for (r, read) in reads.iter_mut().zip(scan) {
+            r.push(read);
+        }
+    }
     Ok(reads)
 }
 
@@ -346,6 +460,57 @@ fn choose_point(
             }
         })
         .collect();
+    finish(segmenter, classifier, speeds_mm_s, words, rows, scans, (thresholds, min_frames))
+}
+
+/// The point of several pairs' calibrations on the same scans and grid (`each`, one per
+/// classifier reading with the segmentation network): each point's scores averaged over the
+/// pairs, chosen by [`RULE`].
+fn joint_point(
+    segmenter: &str,
+    classifier: &str,
+    each: &[Calibration],
+    scans: String,
+    grid: (&[f32], &[usize]),
+) -> Calibration {
+    let first = &each[0];
+    let n = each.len() as f64;
+    let mean = |f: &dyn Fn(&Calibration, usize) -> Vec<f64>, g: usize| -> Vec<f64> {
+        let mut v = vec![0.0; first.speeds_mm_s.len()];
+        for c in each {
+            for (a, x) in v.iter_mut().zip(f(c, g)) {
+                *a += x / n;
+            }
+        }
+        v
+    };
+    let rows: Vec<CalibrationRow> = (0..first.rows.len())
+        .map(|g| {
+            let none = mean(&|c, g| c.rows[g].none.clone(), g);
+            let lexicon = mean(&|c, g| c.rows[g].lexicon.clone(), g);
+            CalibrationRow {
+                present_threshold: first.rows[g].present_threshold,
+                min_frames: first.rows[g].min_frames,
+                mean_none: none.iter().sum::<f64>() / none.len() as f64,
+                mean_lexicon: lexicon.iter().sum::<f64>() / lexicon.len() as f64,
+                none,
+                lexicon,
+            }
+        })
+        .collect();
+    finish(segmenter, classifier, &first.speeds_mm_s, first.words.clone(), rows, scans, grid)
+}
+
+/// The calibration of scored `rows`: the point [`RULE`] picks, recorded with how it was chosen.
+fn finish(
+    segmenter: &str,
+    classifier: &str,
+    speeds_mm_s: &[f64],
+    words: Vec<usize>,
+    rows: Vec<CalibrationRow>,
+    scans: String,
+    (thresholds, min_frames): (&[f32], &[usize]),
+) -> Calibration {
     let best = choose(&rows);
     let b = &rows[best];
     let chosen = OperatingPoint {
@@ -402,8 +567,14 @@ pub fn markdown(c: &Calibration) -> String {
     let kind = if c.data.starts_with("simulated") { "SIMULATED" } else { "RECORDED" };
     let scans = match &c.spec {
         Some(s) => format!(
-            "`VAL-WORDS`, the validation words (`{}`), {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board",
-            s.board.name(),
+            "{}, {} world with the training sensor builds {:?}, seed {}, {} scans per row at {} ({} printed words per speed), {} mm, speed estimated from the events; no test board",
+            match s.code {
+                BrailleCode::Grade1Letters => format!("`VAL-WORDS`, the validation words (`{}`)", s.board.name()),
+                code => format!(
+                    "`VAL-UEB`, the validation sentences printed in {code} ({} rows); the words read are the cells back-translated, scored exactly (case, digits and punctuation count)",
+                    s.print_rows.len()
+                ),
+            },
             s.world.realism,
             s.world.sensors,
             s.seed,
@@ -497,6 +668,34 @@ mod tests {
         assert_eq!(choose(&rows), 2);
         let rows = vec![row(0.9, 10, 0.85, 0.97), row(0.6, 5, 0.85, 0.97), row(0.5, 4, 0.84, 0.99)];
         assert_eq!(choose(&rows), 1);
+    }
+
+    #[test]
+    fn a_shared_network_takes_the_point_best_for_its_readers_together() {
+        // reader A is best at (0.4, 8), reader B at (0.8, 4); together (0.6, 6) is best, though
+        // neither reader's own choice
+        let of = |rows: Vec<CalibrationRow>, classifier: &str| {
+            finish("seg", classifier, &[16.0], vec![10], rows, "scans".into(), (&[0.4, 0.6, 0.8], &[4, 6, 8]))
+        };
+        let a = of(vec![row(0.4, 8, 0.95, 0.97), row(0.6, 6, 0.90, 0.95), row(0.8, 4, 0.70, 0.80)], "a");
+        let b = of(vec![row(0.4, 8, 0.70, 0.80), row(0.6, 6, 0.90, 0.95), row(0.8, 4, 0.94, 0.96)], "b");
+        assert_eq!((a.chosen.present_threshold, b.chosen.present_threshold), (0.4, 0.8));
+        let joint = joint_point("seg", "a + b", &[a, b], "scans".into(), (&[0.4, 0.6, 0.8], &[4, 6, 8]));
+        assert_eq!((joint.chosen.present_threshold, joint.chosen.min_frames), (0.6, 6));
+        assert!((joint.rows[0].mean_none - 0.825).abs() < 1e-12 && (joint.rows[2].mean_lexicon - 0.88).abs() < 1e-12);
+        let c = joint.chosen.calibration.as_ref().unwrap();
+        assert_eq!((c.classifier.as_str(), c.mean_word_accuracy_none), ("a + b", 0.90));
+    }
+
+    #[test]
+    fn the_sentences_spec_scores_each_row_against_its_print() {
+        let spec = CalibrationSpec::validation_in(Realism::Nominal, BrailleCode::UebGrade2).unwrap();
+        let board = corpus::boards::sentence_board(HeldOut::Validation, BrailleCode::UebGrade2).unwrap();
+        assert_eq!((spec.board, spec.print_rows, spec.depth_mm), (board.kind, board.print_rows, 1.0));
+        assert_eq!(
+            CalibrationSpec::validation_in(Realism::Nominal, BrailleCode::Grade1Letters).unwrap(),
+            CalibrationSpec::validation(Realism::Nominal)
+        );
     }
 
     #[test]
