@@ -11,7 +11,8 @@
 #    accuracy, then the lowest validation loss.
 # 3. The chosen model, the `clean` model and the `nominal` model scored on Table I's test scans
 #    (RAB, 8 mm/s, 1.5 mm, 30 a row, the test builds): the test scans are read once, for these three.
-# Writes docs/results/nominal/recordings_finetune.{md,json}. About 20 minutes on two cores.
+# Writes docs/results/nominal/recordings_finetune.{md,json}. About 5 minutes on two cores (4 on
+# 2026-11-28, its scans already written).
 # BRAILLE overrides the binary; WORK keeps the folder and models (default: a temporary folder).
 set -euo pipefail
 cd "$(dirname "$0")/.."

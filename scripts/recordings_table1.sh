@@ -11,8 +11,9 @@
 # 3. `braille chars-report` on the shipped models and on these, the same RAB test scans (30 a row,
 #    the test builds, seven depths), and a table of the differences:
 #    docs/results/nominal/recordings_training.{md,json}.
-# About 25 minutes on two cores. BRAILLE overrides the binary; WORK keeps the folder, models and
-# reports (default: a temporary folder, removed at the end), and a rerun reuses what it holds.
+# About 25 minutes on two cores alone (36 on 2026-11-28 beside other jobs). BRAILLE overrides
+# the binary; WORK keeps the folder, models and reports (default: a temporary folder, removed at
+# the end), and a rerun reuses what it holds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ -z "${BRAILLE:-}" ]]; then cargo build --release --quiet; fi
