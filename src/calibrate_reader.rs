@@ -6,11 +6,11 @@
 
 use crate::common::Bar;
 use anyhow::{Context, Result};
-use experiments::eval::calibrate::{CalibrationSpec, calibrate, markdown};
+use experiments::eval::calibrate::{Calibration, CalibrationSpec, calibrate, markdown};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::reader::OperatingPoint;
 use snn::model_file::Arch;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -79,16 +79,7 @@ pub fn run(args: Args) -> Result<()> {
         return record(&s_path, &experiments::eval::calibrate::chosen_in(json)?);
     }
     let models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
-    let base = CalibrationSpec::validation(args.realism.realism);
-    let spec = CalibrationSpec {
-        trials: args.trials.unwrap_or(base.trials),
-        speeds_mm_s: args.speeds.clone().unwrap_or_else(|| base.speeds_mm_s.clone()),
-        thresholds: args.thresholds.clone(),
-        min_frames: args.min_frames.clone(),
-        ..base
-    };
-    let name =
-        |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let spec = grid_of(&args, CalibrationSpec::validation(args.realism.realism));
     let r = match &args.recordings {
         Some(dir) => experiments::eval::calibrate::calibrate_recordings(
             &models,
@@ -102,25 +93,9 @@ pub fn run(args: Args) -> Result<()> {
         None => calibrate(&models, &name(&s_path), &name(&c_path), &spec, &Bar::default())?,
     };
     let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir());
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = out.join(format!("operating_point_{}", args.arch));
-    let md = markdown(&r);
-    std::fs::write(stem.with_extension("md"), &md).with_context(|| format!("writing {}.md", stem.display()))?;
-    std::fs::write(stem.with_extension("json"), serde_json::to_string_pretty(&r)? + "\n")
-        .with_context(|| format!("writing {}.json", stem.display()))?;
-    println!(
-        "chosen for {}: threshold {}, {} frames (mean word accuracy {:.3} without spelling, {:.3} with the lexicon); {}.md",
-        s_path.display(),
-        r.chosen.present_threshold,
-        r.chosen.min_frames,
-        r.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_none),
-        r.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
-        stem.display()
-    );
-    if args.write {
-        record(&s_path, &r.chosen)?;
-    }
-    Ok(())
+    let written = Written { joint: &r, each: &[] };
+    conclude(&args, &s_path, &r.chosen, "", &stem, &markdown(&r), &written)
 }
 
 /// `--braille ueb-g1|ueb-g2`: the shared segmentation network of the cell readers, calibrated on
@@ -143,56 +118,89 @@ fn run_cells(args: Args) -> Result<()> {
     if let Some(json) = &args.apply {
         return record(&s_path, &experiments::eval::calibrate::chosen_in(json)?);
     }
-    let name =
-        |p: &PathBuf| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
     let readers: Vec<ReaderModels> = files
         .iter()
         .map(|f| ReaderModels::load(&f.segmenter, &f.classifier, SnnRunner::Sliding))
         .collect::<pipeline::Result<_>>()?;
     let names: Vec<String> = files.iter().map(|f| name(&f.classifier)).collect();
     let pairs: Vec<(&ReaderModels, &str)> = readers.iter().zip(&names).map(|(r, n)| (r, n.as_str())).collect();
-    let base = CalibrationSpec::validation_in(args.realism.realism, args.braille)?;
-    let spec = CalibrationSpec {
-        trials: args.trials.unwrap_or(base.trials),
-        speeds_mm_s: args.speeds.clone().unwrap_or_else(|| base.speeds_mm_s.clone()),
-        thresholds: args.thresholds.clone(),
-        min_frames: args.min_frames.clone(),
-        ..base
-    };
+    let spec = grid_of(&args, CalibrationSpec::validation_in(args.realism.realism, args.braille)?);
     let (joint, each) = experiments::eval::calibrate::calibrate_shared(&pairs, &name(&s_path), &spec, &Bar::default())?;
     let out = args.out.clone().unwrap_or_else(|| args.realism.results_dir().join("ueb"));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = out.join(format!("operating_point_{}", args.braille));
     let mut md = markdown(&joint);
     for (arch, c) in archs.iter().zip(&each) {
         md += &format!("\n## {arch} alone ({})\n\n", c.classifier);
         md += markdown(c).split_once("\n\n").map_or("", |(_, body)| body);
     }
-    std::fs::write(stem.with_extension("md"), &md).with_context(|| format!("writing {}.md", stem.display()))?;
-    #[derive(serde::Serialize)]
-    struct Written<'a> {
-        #[serde(flatten)]
-        joint: &'a experiments::eval::calibrate::Calibration,
-        each: &'a [experiments::eval::calibrate::Calibration],
-    }
-    std::fs::write(
-        stem.with_extension("json"),
-        serde_json::to_string_pretty(&Written { joint: &joint, each: &each })? + "\n",
+    conclude(
+        &args,
+        &s_path,
+        &joint.chosen,
+        " (both architectures)",
+        &stem,
+        &md,
+        &Written { joint: &joint, each: &each },
     )
-    .with_context(|| format!("writing {}.json", stem.display()))?;
+}
+
+/// What a calibration writes as JSON: the (joint) calibration, and with a shared network each
+/// reader's own beside it.
+#[derive(serde::Serialize)]
+struct Written<'a> {
+    #[serde(flatten)]
+    joint: &'a Calibration,
+    #[serde(skip_serializing_if = "<[Calibration]>::is_empty")]
+    each: &'a [Calibration],
+}
+
+/// The calibration's grid as `stem`.md and `stem`.json, the chosen point printed (`whose`: for
+/// which readers) and, with `--write`, recorded in the segmentation network at `s_path`.
+fn conclude(
+    args: &Args,
+    s_path: &Path,
+    chosen: &OperatingPoint,
+    whose: &str,
+    stem: &Path,
+    md: &str,
+    written: &Written,
+) -> Result<()> {
+    if let Some(out) = stem.parent() {
+        std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    }
+    std::fs::write(stem.with_extension("md"), md).with_context(|| format!("writing {}.md", stem.display()))?;
+    std::fs::write(stem.with_extension("json"), serde_json::to_string_pretty(written)? + "\n")
+        .with_context(|| format!("writing {}.json", stem.display()))?;
+    let c = chosen.calibration.as_ref();
     println!(
-        "chosen for {} (both architectures): threshold {}, {} frames (mean word accuracy {:.3} without spelling, {:.3} with the lexicon, over both); {}.md",
+        "chosen for {}{whose}: threshold {}, {} frames (mean word accuracy {:.3} without spelling, {:.3} with the lexicon); {}.md",
         s_path.display(),
-        joint.chosen.present_threshold,
-        joint.chosen.min_frames,
-        joint.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_none),
-        joint.chosen.calibration.as_ref().map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
+        chosen.present_threshold,
+        chosen.min_frames,
+        c.map_or(f64::NAN, |c| c.mean_word_accuracy_none),
+        c.map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
         stem.display()
     );
     if args.write {
-        record(&s_path, &joint.chosen)?;
+        record(s_path, chosen)?;
     }
     Ok(())
+}
+
+/// `base` with the command line's grid, and its scans and speeds where given.
+fn grid_of(args: &Args, base: CalibrationSpec) -> CalibrationSpec {
+    CalibrationSpec {
+        trials: args.trials.unwrap_or(base.trials),
+        speeds_mm_s: args.speeds.clone().unwrap_or_else(|| base.speeds_mm_s.clone()),
+        thresholds: args.thresholds.clone(),
+        min_frames: args.min_frames.clone(),
+        ..base
+    }
+}
+
+/// A model file's name, for the records.
+fn name(p: &Path) -> String {
+    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 /// Writes `point` into the model file at `path` (header only; the weights are written back as

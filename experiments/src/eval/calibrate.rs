@@ -110,6 +110,21 @@ pub struct CalibrationRow {
     pub mean_lexicon: f64,
 }
 
+impl CalibrationRow {
+    /// A point's scores per speed, with their means over the speeds.
+    fn of(present_threshold: f32, min_frames: usize, none: Vec<f64>, lexicon: Vec<f64>) -> CalibrationRow {
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        CalibrationRow {
+            present_threshold,
+            min_frames,
+            mean_none: mean(&none),
+            mean_lexicon: mean(&lexicon),
+            none,
+            lexicon,
+        }
+    }
+}
+
 /// The grid's scores and the point chosen.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Calibration {
@@ -448,16 +463,12 @@ fn choose_point(
         .iter()
         .zip(&metrics)
         .map(|(p, m)| {
-            let none: Vec<f64> = m.iter().map(|x| x.0.word_accuracy()).collect();
-            let lexicon: Vec<f64> = m.iter().map(|x| x.1.word_accuracy()).collect();
-            CalibrationRow {
-                present_threshold: p.present_threshold,
-                min_frames: p.min_frames,
-                mean_none: none.iter().sum::<f64>() / n_speeds as f64,
-                mean_lexicon: lexicon.iter().sum::<f64>() / n_speeds as f64,
-                none,
-                lexicon,
-            }
+            CalibrationRow::of(
+                p.present_threshold,
+                p.min_frames,
+                m.iter().map(|x| x.0.word_accuracy()).collect(),
+                m.iter().map(|x| x.1.word_accuracy()).collect(),
+            )
         })
         .collect();
     finish(segmenter, classifier, speeds_mm_s, words, rows, scans, (thresholds, min_frames))
@@ -475,27 +486,14 @@ fn joint_point(
 ) -> Calibration {
     let first = &each[0];
     let n = each.len() as f64;
-    let mean = |f: &dyn Fn(&Calibration, usize) -> Vec<f64>, g: usize| -> Vec<f64> {
-        let mut v = vec![0.0; first.speeds_mm_s.len()];
-        for c in each {
-            for (a, x) in v.iter_mut().zip(f(c, g)) {
-                *a += x / n;
-            }
-        }
-        v
+    // point g's score at each speed, averaged over the pairs
+    let mean = |g: usize, score: fn(&CalibrationRow) -> &[f64]| -> Vec<f64> {
+        (0..first.speeds_mm_s.len()).map(|s| each.iter().map(|c| score(&c.rows[g])[s] / n).sum()).collect()
     };
     let rows: Vec<CalibrationRow> = (0..first.rows.len())
         .map(|g| {
-            let none = mean(&|c, g| c.rows[g].none.clone(), g);
-            let lexicon = mean(&|c, g| c.rows[g].lexicon.clone(), g);
-            CalibrationRow {
-                present_threshold: first.rows[g].present_threshold,
-                min_frames: first.rows[g].min_frames,
-                mean_none: none.iter().sum::<f64>() / none.len() as f64,
-                mean_lexicon: lexicon.iter().sum::<f64>() / lexicon.len() as f64,
-                none,
-                lexicon,
-            }
+            let r = &first.rows[g];
+            CalibrationRow::of(r.present_threshold, r.min_frames, mean(g, |r| &r.none), mean(g, |r| &r.lexicon))
         })
         .collect();
     finish(segmenter, classifier, &first.speeds_mm_s, first.words.clone(), rows, scans, grid)
