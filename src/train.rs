@@ -209,6 +209,15 @@ pub struct Args {
     /// Decoupled weight decay (AdamW), per unit of learning rate (0: plain Adam).
     #[arg(long)]
     weight_decay: Option<f64>,
+    /// Fine-tuning (with --init): L2-SP, each step's pull toward the starting model's weights,
+    /// per unit of learning rate (0: off; the sparse trainer).
+    #[arg(long)]
+    anchor_decay: Option<f64>,
+    /// Layers that keep their starting weights, comma separated (0 the first; the sparse
+    /// trainer), e.g. `--freeze-layers 0` to fine-tune the readout alone in a one-hidden-layer
+    /// network.
+    #[arg(long, value_delimiter = ',')]
+    freeze_layers: Option<Vec<usize>>,
     /// Stochastic weight averaging over the last this many epochs (0: off).
     #[arg(long)]
     average_epochs: Option<usize>,
@@ -286,7 +295,8 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
         readout_gradient <- a.readout_gradient, surrogate <- a.surrogate, surrogate_scale <- a.surrogate_scale,
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
-        event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, average_epochs <- a.average_epochs,
+        event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, anchor_decay <- a.anchor_decay,
+        frozen_layers <- a.freeze_layers, average_epochs <- a.average_epochs,
         dropout <- a.dropout, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
         patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff,
         chip_quantisation <- a.chip_quantisation);

@@ -1040,6 +1040,12 @@ pub struct Adam {
     pub weight_decay: f32,
     /// 0: no clipping.
     pub clip_norm: f32,
+    /// L2-SP (Li et al., ICML 2018, "Explicit inductive bias for transfer learning with
+    /// convolutional networks"), decoupled as AdamW decouples its decay: every step pulls each
+    /// weight toward its value in these starting weights by `lr * strength * (w - w0)`.
+    pub anchor: Option<(Params, f32)>,
+    /// Layers whose tensors stay as they started (true: frozen), by layer index.
+    pub frozen: Vec<bool>,
     m: Params,
     v: Params,
     time: i32,
@@ -1047,7 +1053,27 @@ pub struct Adam {
 
 impl Adam {
     pub fn new(params: &Params, weight_decay: f32, clip_norm: f32) -> Adam {
-        Adam { weight_decay, clip_norm, m: params.zeros_like(), v: params.zeros_like(), time: 0 }
+        Adam {
+            weight_decay,
+            clip_norm,
+            anchor: None,
+            frozen: Vec::new(),
+            m: params.zeros_like(),
+            v: params.zeros_like(),
+            time: 0,
+        }
+    }
+
+    /// Pulls the weights toward `start` with `strength` per unit of learning rate (L2-SP; 0: off).
+    pub fn with_anchor(mut self, start: &Params, strength: f32) -> Adam {
+        self.anchor = (strength > 0.0).then(|| (start.clone(), strength));
+        self
+    }
+
+    /// Keeps the layers marked true as they are.
+    pub fn with_frozen(mut self, frozen: Vec<bool>) -> Adam {
+        self.frozen = frozen;
+        self
     }
 
     /// One step of `lr` along `grads`.
@@ -1059,10 +1085,25 @@ impl Adam {
         let bc2 = (1.0 - B2.powi(self.time)).sqrt();
         let factor = bc2 / (1.0 - B1.powi(self.time));
         let decay = 1.0 - (lr * self.weight_decay as f64) as f32;
+        // at most all the way back (a larger pull would overshoot the start)
+        let pull = self.anchor.as_ref().map(|(_, s)| ((lr * *s as f64) as f32).min(1.0));
         let lr = lr as f32;
-        for (((p, g), m), v) in
-            params.tensors_mut().zip(grads.tensors()).zip(self.m.tensors_mut()).zip(self.v.tensors_mut())
+        let empty = Params { layers: Vec::new() };
+        let anchors = self.anchor.as_ref().map_or(&empty, |(a, _)| a);
+        // three tensors a layer (weight, bias, recurrent), as `Params::tensors` lists them
+        let frozen: Vec<bool> =
+            (0..params.layers.len()).flat_map(|l| [self.frozen.get(l).copied().unwrap_or(false); 3]).collect();
+        for (((((p, g), m), v), frozen), a) in params
+            .tensors_mut()
+            .zip(grads.tensors())
+            .zip(self.m.tensors_mut())
+            .zip(self.v.tensors_mut())
+            .zip(frozen)
+            .zip(anchors.tensors().map(Some).chain(std::iter::repeat(None)))
         {
+            if frozen {
+                continue;
+            }
             let clip = if self.clip_norm > 0.0 {
                 let norm = g.iter().map(|g| g * g).sum::<f32>().sqrt();
                 (self.clip_norm / (norm + f32::MIN_POSITIVE)).min(1.0)
@@ -1078,6 +1119,9 @@ impl Adam {
                     *p *= decay;
                 }
                 *p -= lr * delta;
+            }
+            if let (Some(pull), Some(a)) = (pull, a) {
+                p.iter_mut().zip(a).for_each(|(p, &a)| *p = a + (1.0 - pull) * (*p - a));
             }
         }
     }
@@ -1095,6 +1139,38 @@ mod tests {
 
     fn layer(op: OpSpec, neurons: Option<NeuronParams>, recurrent: bool, bias: bool) -> LayerSpec {
         LayerSpec { op, neurons, recurrent, bias, recurrent_bias: false }
+    }
+
+    fn two_layers(w0: f32, w1: f32) -> Params {
+        let t = |w: f32| Tensors { weight: vec![w; 4], bias: vec![w; 2], recurrent: Vec::new() };
+        Params { layers: vec![t(w0), t(w1)] }
+    }
+
+    #[test]
+    fn a_frozen_layer_keeps_its_weights_and_the_anchor_pulls_toward_the_start() {
+        let start = two_layers(1.0, -1.0);
+        let grads = two_layers(0.5, 0.5);
+        let mut frozen = start.clone();
+        let mut adam = Adam::new(&frozen, 0.0, 0.0).with_frozen(vec![true, false]);
+        adam.step(&mut frozen, &grads, 1e-2);
+        assert_eq!(frozen.layers[0], start.layers[0], "the frozen layer moved");
+        assert!(
+            frozen.layers[1].weight.iter().all(|&w| w < -1.0),
+            "the free layer did not move: {:?}",
+            frozen.layers[1]
+        );
+        // a pull of lr * strength = 1 puts every weight back at its start after the step
+        let mut pulled = start.clone();
+        let mut adam = Adam::new(&pulled, 0.0, 0.0).with_anchor(&start, 100.0);
+        adam.step(&mut pulled, &grads, 1e-2);
+        assert_eq!(pulled, start);
+        // half the pull: half the way back from where plain Adam would have gone
+        let (mut plain, mut half) = (start.clone(), start.clone());
+        Adam::new(&plain, 0.0, 0.0).step(&mut plain, &grads, 1e-2);
+        Adam::new(&half, 0.0, 0.0).with_anchor(&start, 50.0).step(&mut half, &grads, 1e-2);
+        for (h, (p, s)) in half.tensors().flatten().zip(plain.tensors().flatten().zip(start.tensors().flatten())) {
+            assert!((h - (p + s) / 2.0).abs() < 1e-6, "{h} against {p} and {s}");
+        }
     }
 
     /// Conv, IF, LIF, CubaLIF with recurrence, sum and average pooling, biases, both resets and

@@ -40,6 +40,14 @@ pub struct TrainConfig {
     /// Decoupled weight decay (AdamW) per unit of learning rate; 0: plain Adam.
     #[serde(default)]
     pub weight_decay: f64,
+    /// L2-SP, decoupled (the sparse trainer): every step pulls each weight toward its starting
+    /// value by `lr * anchor_decay * (w - w0)`; for fine-tuning, a pull toward the trained model
+    /// (0: off).
+    #[serde(default)]
+    pub anchor_decay: f64,
+    /// Layers (by index, 0 the first) that keep their starting weights (the sparse trainer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub frozen_layers: Vec<usize>,
     /// Stochastic weight averaging (0: off): the mean of the weights of the last this many epochs
     /// is a candidate beside each epoch's own, chosen on validation like them; without a
     /// validation set it is taken.
@@ -166,6 +174,8 @@ impl Default for TrainConfig {
             augment: Augment::default(),
             clip_norm: 0.0,
             weight_decay: 0.0,
+            anchor_decay: 0.0,
+            frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
             trainer: Trainer::Sparse,
@@ -499,7 +509,23 @@ pub fn train(
             cfg.dropout, cfg.weight_decay, cfg.augment.event_jitter_us
         )));
     }
+    if !(0.0..=f64::MAX).contains(&cfg.anchor_decay) {
+        return Err(snn::Error::input(format!("anchor decay {} must not be negative", cfg.anchor_decay)));
+    }
+    if let Some(&l) = cfg.frozen_layers.iter().find(|&&l| l >= init.len()) {
+        return Err(snn::Error::input(format!(
+            "frozen layer {l}: the network has {} layers (0 to {})",
+            init.len(),
+            init.len().saturating_sub(1)
+        )));
+    }
+    if cfg.frozen_layers.len() >= init.len() && !init.is_empty() {
+        return Err(snn::Error::input("every layer frozen: nothing would train"));
+    }
     match cfg.trainer {
+        Trainer::Dense if cfg.anchor_decay > 0.0 || !cfg.frozen_layers.is_empty() => Err(snn::Error::input(
+            "the anchor decay (L2-SP) and frozen layers run on the sparse trainer (--trainer sparse)",
+        )),
         Trainer::Sparse if cfg.chip.is_some_and(|c| c.chip == snn::chip::Chip::Loihi2) => Err(snn::Error::input(
             "quantisation-aware training for Loihi 2 runs on the dense trainer (--trainer dense)",
         )),
@@ -551,7 +577,10 @@ pub fn train(
             let mut net = SparseSnn::new(twin.spec.clone(), twin.surrogate, twin.readout, cfg.gradient_cutoff)?;
             net.clamped_readout_gradient = twin.clamped_readout_gradient;
             let params = net.params(init)?;
-            let adam = Adam::new(&params, cfg.weight_decay as f32, cfg.clip_norm as f32);
+            let frozen = (0..init.len()).map(|l| cfg.frozen_layers.contains(&l)).collect();
+            let adam = Adam::new(&params, cfg.weight_decay as f32, cfg.clip_norm as f32)
+                .with_anchor(&params, cfg.anchor_decay as f32)
+                .with_frozen(frozen);
             let masks = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x6d61_736b);
             let mut fitter = SparseFitter {
                 net,

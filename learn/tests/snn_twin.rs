@@ -347,7 +347,33 @@ fn weight_averaging_and_weight_decay() {
     };
     let decayed = last(TrainConfig { weight_decay: 5.0, ..base.clone() });
     assert!(norm(&decayed) < 0.5 * norm(&last(base.clone())), "{} vs {}", norm(&decayed), norm(&last(base.clone())));
-    for bad in [TrainConfig { dropout: 1.0, ..base.clone() }, TrainConfig { weight_decay: -1.0, ..base.clone() }] {
+    // fine-tuning's restraints: a frozen layer keeps its weights, a full pull keeps them all
+    let frozen = last(TrainConfig { frozen_layers: vec![0], ..base.clone() });
+    assert_eq!(frozen[0], init[0]);
+    assert_ne!(frozen[1], init[1], "the readout trains");
+    assert_eq!(last(TrainConfig { anchor_decay: 1e6, ..base.clone() }), init);
+    let pulled = last(TrainConfig { anchor_decay: 20.0, ..base.clone() });
+    let moved = |w: &[snn::spec::LayerWeights]| {
+        norm(
+            &w.iter()
+                .zip(&init)
+                .map(|(a, b)| {
+                    let mut d = a.clone();
+                    d.weight.iter_mut().zip(&b.weight).for_each(|(x, y)| *x -= y);
+                    d
+                })
+                .collect::<Vec<_>>(),
+        )
+    };
+    assert!(moved(&pulled) < moved(&last(base.clone())), "{} vs {}", moved(&pulled), moved(&last(base.clone())));
+    for bad in [
+        TrainConfig { dropout: 1.0, ..base.clone() },
+        TrainConfig { weight_decay: -1.0, ..base.clone() },
+        TrainConfig { anchor_decay: -1.0, ..base.clone() },
+        TrainConfig { frozen_layers: vec![2], ..base.clone() },
+        TrainConfig { frozen_layers: vec![0, 1], ..base.clone() },
+        TrainConfig { anchor_decay: 1.0, trainer: learn::train::Trainer::Dense, ..base.clone() },
+    ] {
         assert!(train(&twin, &init, &train_set, &val, &bad, &mut Silent).is_err());
     }
 }

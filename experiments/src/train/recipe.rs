@@ -176,6 +176,13 @@ pub struct SnnRecipe {
     pub event_jitter_us: i64,
     /// Decoupled weight decay (AdamW) per unit of learning rate (0: Adam).
     pub weight_decay: f64,
+    /// Fine-tuning: L2-SP, each step's pull toward the starting (`--init`) weights per unit of
+    /// learning rate (0: off; the sparse trainer).
+    #[serde(default)]
+    pub anchor_decay: f64,
+    /// Layers (0 the first) that keep their starting weights (the sparse trainer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub frozen_layers: Vec<usize>,
     /// Stochastic weight averaging over the last this many epochs (0: off).
     pub average_epochs: usize,
     /// Neuron dropout per training sample (0: off).
@@ -248,6 +255,8 @@ impl Default for SnnRecipe {
             stretch: 0.0,
             event_jitter_us: 0,
             weight_decay: 0.0,
+            anchor_decay: 0.0,
+            frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
             val_fraction: 0.1,
@@ -431,6 +440,8 @@ impl SnnRecipe {
             clip_norm: self.clip_norm,
             warmup_steps: self.warmup_steps,
             weight_decay: self.weight_decay,
+            anchor_decay: self.anchor_decay,
+            frozen_layers: self.frozen_layers.clone(),
             average_epochs: self.average_epochs,
             dropout: self.dropout,
             trainer: match self.trainer {
