@@ -519,7 +519,7 @@ pub fn train(
             init.len().saturating_sub(1)
         )));
     }
-    if cfg.frozen_layers.len() >= init.len() && !init.is_empty() {
+    if !init.is_empty() && (0..init.len()).all(|l| cfg.frozen_layers.contains(&l)) {
         return Err(snn::Error::input("every layer frozen: nothing would train"));
     }
     match cfg.trainer {
