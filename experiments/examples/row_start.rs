@@ -1,0 +1,129 @@
+//! Why the first word of a row reads worse than the rest (issue #47), on the validation board
+//! only: VAL-LETTERS scanned by the training builds at the validation seed, read by the shipped
+//! `nominal` SNN reader with the speed given (so the speed estimate is out of it), with the
+//! simulator's per-scan nuisances as drawn, and again with one of them switched off: the row's
+//! yaw, the depth's tilt along the row, the lateral misalignment. Per variant: the first word
+//! right (raw letters, no spelling) against the later words, and for the scans as drawn, the
+//! first word's rate by the drawn yaw's size.
+//!
+//! `cargo run --release -p experiments --example row_start [trials] [speed_mm_s] [depth_mm]`
+//! (defaults 4, 16, 1.0; about 2 minutes a variant on two cores at the defaults).
+
+use corpus::boards::{HeldOut, all_letters_board};
+use corpus::world::{SensorBuilds, VALIDATION_SEED, World};
+use pipeline::classify::{ReaderModels, SnnRunner};
+use pipeline::reader::{Spell, Speller, Timing};
+use rayon::prelude::*;
+use sim::Realism;
+
+/// One scan: the drawn yaw (degrees) and misalignment (mm), first word right, later words right
+/// of later words printed (aligned from the row's end).
+struct Outcome {
+    yaw_deg: f64,
+    misalignment_mm: f64,
+    first: bool,
+    later: (usize, usize),
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Variant {
+    AsDrawn,
+    NoYaw,
+    NoTilt,
+    NoMisalignment,
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let trials: u64 = args.get(1).map_or(Ok(4), |a| a.parse())?;
+    let speed: f64 = args.get(2).map_or(Ok(16.0), |a| a.parse())?;
+    let depth: f64 = args.get(3).map_or(Ok(1.0), |a| a.parse())?;
+    let world = World::of(Realism::Nominal, SensorBuilds::Training);
+    let setup = world.setup();
+    let kind = all_letters_board(HeldOut::Validation);
+    let board = world.board(&setup, &kind)?;
+    let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    let models = ReaderModels::load(
+        "models/nominal/snn-segment.safetensors".as_ref(),
+        "models/nominal/snn-words.safetensors".as_ref(),
+        SnnRunner::Sliding,
+    )?;
+    let speller = Speller::new(Spell::None);
+    let jobs: Vec<(usize, u64)> = (0..board.rows.len()).flat_map(|r| (0..trials).map(move |t| (r, t))).collect();
+    println!(
+        "VAL-LETTERS, training builds, seed {VALIDATION_SEED}, {speed} mm/s, {depth} mm, {} scans, SNN reader, speed given, no spelling",
+        jobs.len()
+    );
+    for variant in [Variant::AsDrawn, Variant::NoYaw, Variant::NoTilt, Variant::NoMisalignment] {
+        let outcomes: Vec<Outcome> = jobs
+            .par_iter()
+            .map(|&(row, trial)| -> Result<Outcome, String> {
+                let seed = world.scan_seed(VALIDATION_SEED, &kind, row, trial, speed, depth);
+                let sensor = &sensors[(trial % sensors.len() as u64) as usize];
+                let mut scan = setup.scan(speed, depth, row, seed);
+                match variant {
+                    Variant::AsDrawn => {}
+                    Variant::NoYaw => scan.yaw_sigma_deg = 0.0,
+                    Variant::NoTilt => scan.depth_tilt_sigma_mm_per_100mm = 0.0,
+                    Variant::NoMisalignment => scan.misalignment_sigma_mm = 0.0,
+                }
+                let s = sim::simulate(&board, sensor, &scan).map_err(|e| e.to_string())?;
+                let read = models
+                    .read(&s.events, sensor.camera.resolution, Timing::Given { speed_mm_s: speed }, &speller)
+                    .map_err(|e| e.to_string())?;
+                let truth: Vec<&str> = s.truth.row_text.split_whitespace().collect();
+                let words: Vec<&str> = read.words.iter().map(|w| w.raw.as_str()).collect();
+                let first = words.first() == truth.first();
+                let later = (1..truth.len())
+                    .filter(|&k| {
+                        let from_end = truth.len() - k;
+                        words.len() > from_end
+                            && words.len() - from_end >= 1
+                            && words[words.len() - from_end] == truth[k]
+                    })
+                    .count();
+                Ok(Outcome {
+                    yaw_deg: s.truth.yaw_deg,
+                    misalignment_mm: s.truth.misalignment_mm,
+                    first,
+                    later: (later, truth.len() - 1),
+                })
+            })
+            .collect::<Result<_, String>>()?;
+        let n = outcomes.len() as f64;
+        let first = outcomes.iter().filter(|o| o.first).count() as f64 / n;
+        let (right, printed) = outcomes.iter().fold((0, 0), |(a, b), o| (a + o.later.0, b + o.later.1));
+        let name = match variant {
+            Variant::AsDrawn => "as drawn",
+            Variant::NoYaw => "no yaw",
+            Variant::NoTilt => "no depth tilt",
+            Variant::NoMisalignment => "no misalignment",
+        };
+        println!(
+            "{name}: first word {:.1}%, later words {:.1}% ({right} of {printed})",
+            100.0 * first,
+            100.0 * right as f64 / printed as f64
+        );
+        if variant == Variant::AsDrawn {
+            for (what, key) in [
+                ("|yaw|", Box::new(|o: &Outcome| o.yaw_deg.abs()) as Box<dyn Fn(&Outcome) -> f64>),
+                ("|misalignment|", Box::new(|o: &Outcome| o.misalignment_mm.abs())),
+            ] {
+                let mut sorted: Vec<&Outcome> = outcomes.iter().collect();
+                sorted.sort_by(|a, b| key(a).total_cmp(&key(b)));
+                for (k, third) in sorted.chunks(sorted.len().div_ceil(3)).enumerate() {
+                    let rate = third.iter().filter(|o| o.first).count() as f64 / third.len() as f64;
+                    println!(
+                        "  {what} third {} ({:.2} to {:.2}): first word {:.1}% of {}",
+                        k + 1,
+                        key(third[0]),
+                        key(third[third.len() - 1]),
+                        100.0 * rate,
+                        third.len()
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
