@@ -134,6 +134,10 @@ pub struct Args {
     /// for the ResNet].
     #[arg(long)]
     pool: Option<usize>,
+    /// SNN on simulated windows: the pooled rows of the labeler's 120 kept in the crop, first and
+    /// last plus one [default: 28,92].
+    #[arg(long, value_delimiter = ',')]
+    crop_rows: Option<Vec<usize>>,
     /// SNN on simulated windows: centre each window vertically.
     #[arg(long)]
     center: Option<bool>,
@@ -303,6 +307,12 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     if a.chip.is_some() {
         r.chip = a.chip;
     }
+    if let Some(rows) = &a.crop_rows {
+        match rows[..] {
+            [first, end] if first < end && end <= 120 => r.crop_rows = Some([first, end]),
+            _ => bail!("--crop-rows {rows:?}: two pooled rows, first below last, within 0..=120"),
+        }
+    }
     match a.braille {
         Some(pipeline::code::BrailleCode::Grade1Letters) => {
             r.cells = None;
@@ -371,6 +381,9 @@ pub fn run(args: Args) -> Result<()> {
         (Arch::Resnet, None) => {
             if args.trainer.is_some() || args.gradient_cutoff.is_some() {
                 bail!("--trainer and --gradient-cutoff choose how an SNN is trained; the ResNet trains on burn");
+            }
+            if args.crop_rows.is_some() {
+                bail!("--crop-rows sets the SNN's crop; a ResNet preset fixes its own (--preset)");
             }
             let t = ResnetTraining {
                 preset: args.preset,

@@ -909,3 +909,18 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("ResNet is timed on windows"), "{err}");
 }
+
+/// The crop's rows for the SNN on simulated windows: recorded in the recipe, refused out of the
+/// labeler's grid or backwards.
+#[test]
+fn train_takes_the_crop_rows_and_refuses_bad_ones() {
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", "20,100", "--print-recipe"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let recipe: serde_json::Value = serde_json::from_str(&out).expect("the recipe as JSON");
+    assert_eq!(recipe["crop_rows"], serde_json::json!([20, 100]));
+    for bad in ["90,20", "0,121", "20"] {
+        let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
+        assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
+    }
+}

@@ -6,8 +6,9 @@
 //! right (raw letters, no spelling) against the later words, and for the scans as drawn, the
 //! first word's rate by the drawn yaw's size.
 //!
-//! `cargo run --release -p experiments --example row_start [trials] [speed_mm_s] [depth_mm]`
-//! (defaults 4, 16, 1.0; about 2 minutes a variant on two cores at the defaults).
+//! `cargo run --release -p experiments --example row_start [trials] [speed_mm_s] [depth_mm] [classifier]`
+//! (defaults 4, 16, 1.0 and `models/nominal/snn-words.safetensors`; about 2 minutes a variant on
+//! two cores at the defaults).
 
 use corpus::boards::{HeldOut, all_letters_board};
 use corpus::world::{SensorBuilds, VALIDATION_SEED, World};
@@ -45,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
     let models = ReaderModels::load(
         "models/nominal/snn-segment.safetensors".as_ref(),
-        "models/nominal/snn-words.safetensors".as_ref(),
+        args.get(4).map_or("models/nominal/snn-words.safetensors", String::as_str).as_ref(),
         SnnRunner::Sliding,
     )?;
     let speller = Speller::new(Spell::None);

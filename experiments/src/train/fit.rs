@@ -369,7 +369,7 @@ pub fn train_windows(
     }
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
-        rows: LITE_ROWS,
+        rows: r.crop_rows.map_or(LITE_ROWS, |[a, b]| a..b),
         cols: LITE_COLS,
         pool,
         preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },

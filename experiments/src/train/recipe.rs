@@ -118,6 +118,10 @@ pub struct SnnRecipe {
     pub realism: sim::Realism,
     /// Sum-pooling of the 64x80 crop.
     pub pool: usize,
+    /// Simulated windows: the pooled rows of the labeler's grid (120 rows) kept in the crop, first
+    /// and last plus one (None: `pipeline::input::LITE_ROWS`, 28..92).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop_rows: Option<[usize; 2]>,
     /// Centre each window vertically.
     pub center: bool,
     // The network.
@@ -224,6 +228,7 @@ impl Default for SnnRecipe {
             train_speeds_mm_s: Vec::new(),
             train_depths_mm: Vec::new(),
             pool: 2,
+            crop_rows: None,
             center: true,
             dt_us: 10_000,
             conv: Vec::new(),
