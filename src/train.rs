@@ -419,6 +419,9 @@ pub fn run(args: Args) -> Result<()> {
             experiments::train::fit::train_windows(&r, rec.as_ref(), args.init.as_deref(), &mut epochs, &bar)?
         }
         (Arch::Snn, Some(_)) => {
+            if args.crop_rows.is_some() {
+                bail!("--crop-rows crops simulated windows; a dataset folder's taxels are the input as they are");
+            }
             let dataset = dataset.as_ref().expect("loaded above for the SNN");
             if args.recipe.is_none()
                 && let Some(p) = &profile

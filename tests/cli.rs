@@ -923,4 +923,13 @@ fn train_takes_the_crop_rows_and_refuses_bad_ones() {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
         assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
     }
+    // nor for what is not a simulated window: a dataset folder's taxels, or a ResNet (its preset's)
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.safetensors");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
+    for args in [&["--data", data.to_str().unwrap()][..], &["--arch", "resnet"]] {
+        let o = braille(&[&["train", "--crop-rows", "20,100", "--out", out.to_str().unwrap()][..], args].concat());
+        assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{args:?}: {}", text(&o).1);
+    }
+    assert!(!out.exists(), "nothing written");
 }
