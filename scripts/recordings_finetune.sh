@@ -15,7 +15,8 @@
 # 3. The chosen folder and setting fine-tuned again with seeds 2 and 3; the three fine-tuned models,
 #    the `clean` model and the `nominal` model scored on Table I's test scans (RAB, 8 mm/s,
 #    1.5 mm, 30 a row, the test builds), read once for these five.
-# Writes docs/results/nominal/recordings_finetune.{md,json}. About 25 minutes on two cores.
+# Writes docs/results/nominal/recordings_finetune.{md,json}. About 11 minutes on two cores (2026-11-29,
+# beside another job).
 # BRAILLE overrides the binary; WORK keeps the folders and models (default: a temporary folder).
 set -euo pipefail
 cd "$(dirname "$0")/.."
