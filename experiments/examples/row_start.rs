@@ -78,9 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let later = (1..truth.len())
                     .filter(|&k| {
                         let from_end = truth.len() - k;
-                        words.len() > from_end
-                            && words.len() - from_end >= 1
-                            && words[words.len() - from_end] == truth[k]
+                        words.len() > from_end && words[words.len() - from_end] == truth[k]
                     })
                     .count();
                 Ok(Outcome {

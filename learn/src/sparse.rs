@@ -1088,40 +1088,35 @@ impl Adam {
         // at most all the way back (a larger pull would overshoot the start)
         let pull = self.anchor.as_ref().map(|(_, s)| ((lr * *s as f64) as f32).min(1.0));
         let lr = lr as f32;
-        let empty = Params { layers: Vec::new() };
-        let anchors = self.anchor.as_ref().map_or(&empty, |(a, _)| a);
-        // three tensors a layer (weight, bias, recurrent), as `Params::tensors` lists them
-        let frozen: Vec<bool> =
-            (0..params.layers.len()).flat_map(|l| [self.frozen.get(l).copied().unwrap_or(false); 3]).collect();
-        for (((((p, g), m), v), frozen), a) in params
-            .tensors_mut()
-            .zip(grads.tensors())
-            .zip(self.m.tensors_mut())
-            .zip(self.v.tensors_mut())
-            .zip(frozen)
-            .zip(anchors.tensors().map(Some).chain(std::iter::repeat(None)))
+        for (l, (((layer, g), m), v)) in
+            params.layers.iter_mut().zip(&grads.layers).zip(&mut self.m.layers).zip(&mut self.v.layers).enumerate()
         {
-            if frozen {
+            if self.frozen.get(l).copied().unwrap_or(false) {
                 continue;
             }
-            let clip = if self.clip_norm > 0.0 {
-                let norm = g.iter().map(|g| g * g).sum::<f32>().sqrt();
-                (self.clip_norm / (norm + f32::MIN_POSITIVE)).min(1.0)
-            } else {
-                1.0
-            };
-            for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
-                let g = g * clip;
-                *m = *m * B1 + g * (1.0 - B1);
-                *v = *v * B2 + g * g * (1.0 - B2);
-                let delta = *m * factor / (v.sqrt() + EPS * bc2);
-                if self.weight_decay > 0.0 {
-                    *p *= decay;
+            let anchor = self.anchor.as_ref().map(|(a, _)| a.layers[l].all());
+            for (k, (((p, g), m), v)) in
+                layer.all_mut().into_iter().zip(g.all()).zip(m.all_mut()).zip(v.all_mut()).enumerate()
+            {
+                let clip = if self.clip_norm > 0.0 {
+                    let norm = g.iter().map(|g| g * g).sum::<f32>().sqrt();
+                    (self.clip_norm / (norm + f32::MIN_POSITIVE)).min(1.0)
+                } else {
+                    1.0
+                };
+                for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+                    let g = g * clip;
+                    *m = *m * B1 + g * (1.0 - B1);
+                    *v = *v * B2 + g * g * (1.0 - B2);
+                    let delta = *m * factor / (v.sqrt() + EPS * bc2);
+                    if self.weight_decay > 0.0 {
+                        *p *= decay;
+                    }
+                    *p -= lr * delta;
                 }
-                *p -= lr * delta;
-            }
-            if let (Some(pull), Some(a)) = (pull, a) {
-                p.iter_mut().zip(a).for_each(|(p, &a)| *p = a + (1.0 - pull) * (*p - a));
+                if let (Some(pull), Some(a)) = (pull, &anchor) {
+                    p.iter_mut().zip(a[k]).for_each(|(p, &a)| *p = a + (1.0 - pull) * (*p - a));
+                }
             }
         }
     }

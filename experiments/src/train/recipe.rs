@@ -116,7 +116,7 @@ pub struct SnnRecipe {
     /// The simulator's nuisances for the simulated windows (training sensor builds beyond
     /// `clean`).
     pub realism: sim::Realism,
-    /// Sum-pooling of the 64x80 crop.
+    /// Sum-pooling of the crop (64x80 unless `crop_rows`).
     pub pool: usize,
     /// Simulated windows: the pooled rows of the labeler's grid (120 rows) kept in the crop, first
     /// and last plus one (None: `pipeline::input::LITE_ROWS`, 28..92).
