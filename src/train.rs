@@ -134,8 +134,8 @@ pub struct Args {
     /// for the ResNet].
     #[arg(long)]
     pool: Option<usize>,
-    /// SNN on simulated windows: the pooled rows of the labeler's 120 kept in the crop, first and
-    /// last plus one [default: 28,92].
+    /// Simulated windows (the SNN, the lite and tiny ResNets): the pooled rows of the labeler's
+    /// 120 kept in the crop, first and last plus one [default: 28,92].
     #[arg(long, value_delimiter = ',')]
     crop_rows: Option<Vec<usize>>,
     /// SNN on simulated windows: centre each window vertically.
@@ -382,9 +382,6 @@ pub fn run(args: Args) -> Result<()> {
             if args.trainer.is_some() || args.gradient_cutoff.is_some() {
                 bail!("--trainer and --gradient-cutoff choose how an SNN is trained; the ResNet trains on burn");
             }
-            if args.crop_rows.is_some() {
-                bail!("--crop-rows sets the SNN's crop; a ResNet preset fixes its own (--preset)");
-            }
             let t = ResnetTraining {
                 preset: args.preset,
                 preprocess: args.aug,
@@ -392,6 +389,7 @@ pub fn run(args: Args) -> Result<()> {
                 jitter_ms: r.jitter_ms,
                 blank_cells: r.blank_cells,
                 pool: args.pool.unwrap_or(1),
+                crop_rows: r.crop_rows,
                 trials: r.trials,
                 word_rows: r.word_rows,
                 letter_rows: r.letter_rows,

@@ -910,8 +910,9 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
     assert!(!o.status.success() && err.contains("ResNet is timed on windows"), "{err}");
 }
 
-/// The crop's rows for the SNN on simulated windows: recorded in the recipe, refused out of the
-/// labeler's grid or backwards.
+/// The crop's rows on simulated windows: recorded in the SNN's recipe, refused out of the
+/// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
+/// divide them.
 #[test]
 fn train_takes_the_crop_rows_and_refuses_bad_ones() {
     let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", "20,100", "--print-recipe"]);
@@ -923,13 +924,19 @@ fn train_takes_the_crop_rows_and_refuses_bad_ones() {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
         assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
     }
-    // nor for what is not a simulated window: a dataset folder's taxels, or a ResNet (its preset's)
+    // nor for what is not a simulated window's crop: a dataset folder's taxels, the paper ResNet's
+    // whole frame; nor a pooling that does not divide the crop's rows
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.safetensors");
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
-    for args in [&["--data", data.to_str().unwrap()][..], &["--arch", "resnet"]] {
-        let o = braille(&[&["train", "--crop-rows", "20,100", "--out", out.to_str().unwrap()][..], args].concat());
-        assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{args:?}: {}", text(&o).1);
+    for (args, says) in [
+        (&["--crop-rows", "20,100", "--data", data.to_str().unwrap()][..], "--crop-rows"),
+        (&["--crop-rows", "20,100", "--arch", "resnet", "--preset", "paper"], "crop_rows"),
+        (&["--crop-rows", "20,99", "--arch", "resnet", "--preset", "lite", "--pool", "2"], "pool"),
+        (&["--crop-rows", "20,98", "--arch", "snn", "--recipe", "words", "--pool", "4"], "pool"),
+    ] {
+        let o = braille(&[&["train", "--out", out.to_str().unwrap()][..], args].concat());
+        assert!(!o.status.success() && text(&o).1.contains(says), "{args:?}: {}", text(&o).1);
     }
     assert!(!out.exists(), "nothing written");
 }

@@ -12,7 +12,7 @@ use encoders::sigma_delta::SigmaDeltaConfig;
 use learn::data::{SpikeSet, TactileEncoding};
 use learn::snn::SnnTwin;
 use learn::train::{EpochReport, Observer, Outcome, TrainConfig};
-use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
+use pipeline::input::{CharInput, LITE_COLS};
 use serde::Serialize;
 use snn::engine::Mode;
 use snn::model_file::{Readout, SnnConfig, SnnModel};
@@ -349,7 +349,8 @@ pub fn train_windows(
     observer: &mut dyn Observer,
     progress: &dyn Progress,
 ) -> Result<TrainedSnn> {
-    let pool = crate::train::resnet::check_pool(r.pool)?;
+    let rows = crate::train::resnet::crop_rows(r.crop_rows)?;
+    let pool = crate::train::resnet::check_pool(r.pool, &rows)?;
     match (r.val_builds, recordings) {
         (Some(builds), Some(_)) => {
             return Err(Error::Setting {
@@ -369,7 +370,7 @@ pub fn train_windows(
     }
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
-        rows: r.crop_rows.map_or(LITE_ROWS, |[a, b]| a..b),
+        rows,
         cols: LITE_COLS,
         pool,
         preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },

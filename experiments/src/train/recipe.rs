@@ -353,6 +353,9 @@ impl SnnRecipe {
                 letter_rows: 4,
                 word_rows: 60,
                 center: false,
+                // the cell readers keep the lite crop they were trained on (the letters' taller
+                // crop, issue #47, was not chosen for them)
+                crop_rows: None,
                 ..SnnRecipe::preset("words")?
             },
             // models/REALISM/ueb/snn-segment.safetensors: the segment recipe on the cell boards
@@ -360,6 +363,7 @@ impl SnnRecipe {
                 cells: Some(pipeline::code::BrailleCode::UebGrade2),
                 letter_rows: 2,
                 word_rows: 30,
+                crop_rows: None,
                 ..SnnRecipe::preset("segment")?
             },
             // models/icub/chip/xylo-braille7.safetensors: the NIR paper's seven-letter Braille task

@@ -25,14 +25,28 @@ pub enum ResnetPreset {
     Tiny,
 }
 
-/// A pooling factor that divides the lite crop.
-pub fn check_pool(pool: usize) -> Result<usize> {
-    let (h, w) = (LITE_ROWS.len(), LITE_COLS.len());
+/// The crop's pooled rows: `crop_rows` (first, last plus one) or the lite crop's
+/// ([`LITE_ROWS`]), checked against the labeler's 120 rows.
+pub fn crop_rows(crop_rows: Option<[usize; 2]>) -> Result<std::ops::Range<usize>> {
+    match crop_rows {
+        None => Ok(LITE_ROWS),
+        Some([first, end]) if first < end && end <= 120 => Ok(first..end),
+        Some([first, end]) => Err(Error::Setting {
+            name: "crop_rows",
+            value: format!("{first},{end}"),
+            expected: "two pooled rows, first below last, within 0..=120",
+        }),
+    }
+}
+
+/// A pooling factor that divides the crop (`rows` by the lite crop's 80 columns).
+pub fn check_pool(pool: usize, rows: &std::ops::Range<usize>) -> Result<usize> {
+    let (h, w) = (rows.len(), LITE_COLS.len());
     if pool == 0 || h % pool != 0 || w % pool != 0 {
         return Err(Error::Setting {
             name: "pool",
             value: pool.to_string(),
-            expected: "a factor of the 64x80 lite crop",
+            expected: "a factor of the crop's rows and its 80 columns",
         });
     }
     Ok(pool)
@@ -48,6 +62,9 @@ pub struct ResnetTraining {
     /// Segmentation: blank cells as background too ([`corpus::windows::blank_cell_starts`]).
     pub blank_cells: bool,
     pub pool: usize,
+    /// Lite and tiny: the crop's pooled rows, first and last plus one (`None`: [`LITE_ROWS`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crop_rows: Option<[usize; 2]>,
     pub trials: u64,
     pub word_rows: usize,
     /// Rows that hold every letter at every place this many times (0: none).
@@ -104,11 +121,18 @@ pub fn train_resnet(
     progress: &dyn Progress,
 ) -> Result<TrainedResnet> {
     let labeler = LabelerConfig::default();
-    let (rows, cols) = match t.preset {
-        ResnetPreset::Lite | ResnetPreset::Tiny => (LITE_ROWS, LITE_COLS),
-        ResnetPreset::Paper => (0..120, 20..100),
+    let (rows, cols) = match (t.preset, t.crop_rows) {
+        (ResnetPreset::Lite | ResnetPreset::Tiny, c) => (crop_rows(c)?, LITE_COLS),
+        (ResnetPreset::Paper, None) => (0..120, 20..100),
+        (ResnetPreset::Paper, Some([first, end])) => {
+            return Err(Error::Setting {
+                name: "crop_rows",
+                value: format!("{first},{end}"),
+                expected: "none for the paper preset (it sees the whole frame)",
+            });
+        }
     };
-    let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool)? };
+    let pool = if t.preset == ResnetPreset::Paper { 1 } else { check_pool(t.pool, &rows)? };
     // cells: shifts of at most 4% of the crop (about a third of a dot's pitch), so that a shift
     // never moves a dot to its neighbour's row (the letters' 10% would)
     let augment = match t.task {
