@@ -2,7 +2,7 @@
 //! recipe (`--recipe NAME|FILE.json`, `experiments::train::recipe`) whose fields the flags override.
 
 use crate::common::{Bar, Epochs};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use corpus::windows::Task;
 use encoders::dataset::Dataset;
 use experiments::train::fit::{EvalTest, TactileData, train_on};
@@ -308,10 +308,10 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         r.chip = a.chip;
     }
     if let Some(rows) = &a.crop_rows {
-        match rows[..] {
-            [first, end] if first < end && end <= 120 => r.crop_rows = Some([first, end]),
-            _ => bail!("--crop-rows {rows:?}: two pooled rows, first below last, within 0..=120"),
-        }
+        let [first, end] = rows[..] else { bail!("--crop-rows {rows:?}: two pooled rows, first and last plus one") };
+        // the library's rule (within the labeler's grid, first below last), checked here already
+        experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("--crop-rows {rows:?}"))?;
+        r.crop_rows = Some([first, end]);
     }
     match a.braille {
         Some(pipeline::code::BrailleCode::Grade1Letters) => {
