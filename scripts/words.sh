@@ -22,6 +22,11 @@
 # words three times (every letter at every place in a word) instead of the 80 rows of random
 # words, its scans swept over 8-48 mm/s and 0.6-1.5 mm: chosen on VAL-LETTERS and VAL-WORDS
 # (docs/log/letters-2026-11-27.md). The ResNet keeps the 80 word rows at 8 mm/s and 1.5 mm.
+# Since 2026-11-29 both SNNs (classifier and segmentation network, chosen as a pair) crop 9.3 mm
+# of the sensor's height (pooled rows 20..100) instead of the lite 7.4 mm (28..92): a row is yawed
+# and its first letter left the lite crop (docs/log/letters-2026-11-29.md, chosen on VAL-LETTERS;
+# the recipes carry it, `--crop-rows`). The ResNets keep the lite crop (the taller one lost on
+# validation).
 # REALISM=clean|nominal|harsh picks the simulator's preset (default nominal, the published tables;
 # clean is kept for regression); beyond clean, models go to models/$REALISM/ and results to
 # docs/results/$REALISM/, training uses the training sensor builds and the reports the test

@@ -213,6 +213,11 @@ pub struct Args {
     /// Decoupled weight decay (AdamW), per unit of learning rate (0: plain Adam).
     #[arg(long)]
     weight_decay: Option<f64>,
+    /// Class-balanced sampling: each class's share of an epoch in proportion to its windows'
+    /// count to the power 1 - P (0: every window once; 0.5: square-root sampling; 1: every class
+    /// alike); the epoch's length unchanged. SNN and ResNet.
+    #[arg(long, value_name = "P")]
+    class_balance: Option<f64>,
     /// Fine-tuning (with --init): L2-SP, each step's pull toward the starting model's weights,
     /// per unit of learning rate (0: off; the sparse trainer).
     #[arg(long)]
@@ -301,7 +306,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
         event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, anchor_decay <- a.anchor_decay,
         frozen_layers <- a.freeze_layers, average_epochs <- a.average_epochs,
-        dropout <- a.dropout, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
+        dropout <- a.dropout, class_balance <- a.class_balance, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
         patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff,
         chip_quantisation <- a.chip_quantisation);
     if a.chip.is_some() {

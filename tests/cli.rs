@@ -426,6 +426,22 @@ fn train_and_eval_an_snn_on_a_dataset_folder() {
         text(&o)
     );
     assert!(!other.exists());
+    // class-balanced sampling outside [0, 1] is refused, nothing written
+    let o = braille(&[
+        "train",
+        "--data",
+        data.to_str().unwrap(),
+        "--epochs",
+        "1",
+        "--hidden",
+        "16",
+        "--class-balance",
+        "1.5",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success() && text(&o).1.contains("class balance 1.5"), "{:?}", text(&o));
+    assert!(!other.exists());
     let csv = dir.path().join("predictions.csv");
     let o = braille(&[
         "eval",
@@ -915,11 +931,18 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
 /// divide them.
 #[test]
 fn train_takes_the_crop_rows_and_refuses_bad_ones() {
-    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", "20,100", "--print-recipe"]);
-    let (out, err) = text(&o);
-    assert!(o.status.success(), "{err}");
-    let recipe: serde_json::Value = serde_json::from_str(&out).expect("the recipe as JSON");
-    assert_eq!(recipe["crop_rows"], serde_json::json!([20, 100]));
+    // the words preset's own crop (2026-11-29), and the flag's in its place
+    for (flag, rows) in [(&[][..], [20, 100]), (&["--crop-rows", "12,108"][..], [12, 108])] {
+        let o = braille(&[&["train", "--arch", "snn", "--recipe", "words", "--print-recipe"][..], flag].concat());
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let recipe: serde_json::Value = serde_json::from_str(&out).expect("the recipe as JSON");
+        assert_eq!(recipe["crop_rows"], serde_json::json!(rows), "{flag:?}");
+        assert!(recipe.get("class_balance").is_none(), "not recorded at 0");
+    }
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--class-balance", "0.5", "--print-recipe"]);
+    let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
+    assert_eq!(recipe["class_balance"], 0.5);
     for bad in ["90,20", "0,121", "20"] {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
         assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);

@@ -315,7 +315,8 @@ pub fn evaluate(model: &Resnet, set: &ImageSet, batch_size: usize) -> (f64, f64,
 
 /// Trains a ResNet: Adam, seeded shuffling and initialisation (or the weights of `init`, a
 /// trained model's tensors of the same `cfg`, to fine-tune it), `augment` applied to each
-/// training image each time it is drawn, the best validation epoch kept.
+/// training image each time it is drawn, the best validation epoch kept (ties to the lower
+/// validation loss).
 #[cfg(feature = "train")]
 pub fn train(
     cfg: &ResnetConfig,
@@ -328,7 +329,9 @@ pub fn train(
 ) -> Result<(Resnet, Vec<crate::train::EpochReport>)> {
     use burn::optim::{AdamConfig, GradientsParams};
     use rand::SeedableRng;
-    use rand::seq::SliceRandom;
+    if !(0.0..=1.0).contains(&tc.class_balance) {
+        return Err(::snn::Error::input(format!("class balance {} must lie in [0, 1]", tc.class_balance)).into());
+    }
     let device = Device::flex().autodiff();
     device.seed(tc.seed);
     let mut model = cfg.init(&device);
@@ -339,12 +342,13 @@ pub fn train(
     let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(tc.seed);
     let mut order: Vec<usize> = (0..train_set.len()).collect();
-    let mut best: (Option<Resnet>, f64) = (None, -1.0);
+    let mut turns = crate::train::ClassTurns::new(&train_set.labels, cfg.classes, tc.class_balance);
+    let mut best: (Option<Resnet>, f64, f64) = (None, -1.0, f64::INFINITY);
     let mut history = Vec::new();
     for epoch in 1..=tc.epochs {
         let start = std::time::Instant::now();
         let lr = tc.lr_at(epoch);
-        order.shuffle(&mut rng);
+        crate::train::epoch_order(&mut order, turns.as_mut(), &mut rng);
         let batches: Vec<&[usize]> = order.chunks(tc.batch_size.max(1)).collect();
         observer.epoch_begin(epoch, batches.len());
         let (mut loss_sum, mut hits) = (0.0, 0usize);
@@ -373,9 +377,12 @@ pub fn train(
             start,
         );
         observer.epoch_end(&report);
-        let score = if val.is_empty() { epoch as f64 } else { val_accuracy };
-        if score > best.1 {
-            best = (Some(inference), score);
+        // the best validation accuracy, ties going to the lower validation loss (as the SNN
+        // trainers choose; before 2026-11-29 the first of the tied epochs was kept); without a
+        // validation set the last epoch
+        let (score, loss) = if val.is_empty() { (epoch as f64, 0.0) } else { (val_accuracy, val_loss) };
+        if score > best.1 || (score == best.1 && loss < best.2) {
+            best = (Some(inference), score, loss);
         }
         history.push(report);
     }

@@ -56,6 +56,12 @@ pub struct TrainConfig {
     /// Each hidden spiking neuron is silenced with this probability for a whole training sample.
     #[serde(default)]
     pub dropout: f64,
+    /// Class-balanced sampling: each epoch draws class c's samples in proportion to
+    /// `n_c^(1 - class_balance)`, the epoch as long as the training set (0: every sample once, as
+    /// before; 0.5: square-root sampling; 1: every class alike). A class's samples are drawn in
+    /// shuffled turns, none twice before all have been drawn ([`epoch_order`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub class_balance: f64,
     /// Which trainer computes an SNN's gradients (records from before the sparse trainer were
     /// trained dense, which is what a record without this field reads as).
     #[serde(default = "Trainer::recorded")]
@@ -178,6 +184,7 @@ impl Default for TrainConfig {
             frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
+            class_balance: 0.0,
             trainer: Trainer::Sparse,
             gradient_cutoff: crate::sparse::DEFAULT_CUTOFF,
             chip: None,
@@ -512,6 +519,9 @@ pub fn train(
     if !(0.0..=f64::MAX).contains(&cfg.anchor_decay) {
         return Err(snn::Error::input(format!("anchor decay {} must not be negative", cfg.anchor_decay)));
     }
+    if !(0.0..=1.0).contains(&cfg.class_balance) {
+        return Err(snn::Error::input(format!("class balance {} must lie in [0, 1]", cfg.class_balance)));
+    }
     if let Some(&l) = cfg.frozen_layers.iter().find(|&&l| l >= init.len()) {
         return Err(snn::Error::input(format!(
             "frozen layer {l}: the network has {} layers (0 to {})",
@@ -613,12 +623,13 @@ fn fit(
     let mut best_loss = f64::INFINITY;
     let mut history = Vec::new();
     let mut order: Vec<usize> = (0..train.len()).collect();
+    let mut turns = ClassTurns::new(&train.labels, train.classes.len(), cfg.class_balance);
     let mut sum: Option<(Vec<LayerWeights>, usize)> = None;
     let mut steps = 0usize;
     for epoch in 1..=cfg.epochs {
         let start = Instant::now();
         let lr = cfg.lr_at(epoch);
-        order.shuffle(&mut rng);
+        epoch_order(&mut order, turns.as_mut(), &mut rng);
         let batches: Vec<&[usize]> = order.chunks(cfg.batch_size).collect();
         observer.epoch_begin(epoch, batches.len());
         fitter.check_truncation(cfg.check_truncation && (epoch == 1 || epoch == cfg.epochs))?;
@@ -714,6 +725,84 @@ fn scale_weights(w: &mut [LayerWeights], k: f32) {
     }
 }
 
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// Class-balanced sampling's state ([`TrainConfig::class_balance`]): each class's share of an
+/// epoch and its samples' indices, drawn in shuffled turns that carry over from epoch to epoch.
+#[derive(Debug, Clone)]
+pub struct ClassTurns {
+    /// Draws per epoch of each class (summing to the training set's size).
+    pub draws: Vec<usize>,
+    pools: Vec<Vec<usize>>,
+    /// How far each class's current turn has been drawn.
+    next: Vec<usize>,
+}
+
+impl ClassTurns {
+    /// The turns for samples labelled `labels` over `classes` classes at `balance` (None at 0:
+    /// every sample once an epoch). Draws are `n * n_c^(1 - balance) / sum`, rounded by largest
+    /// remainder (ties to the lower class) so that they sum to `n`; a class with samples draws
+    /// at least one.
+    pub fn new(labels: &[usize], classes: usize, balance: f64) -> Option<ClassTurns> {
+        if balance == 0.0 || labels.is_empty() {
+            return None;
+        }
+        let mut pools = vec![Vec::new(); classes.max(labels.iter().max().map_or(0, |&m| m + 1))];
+        for (i, &l) in labels.iter().enumerate() {
+            pools[l].push(i);
+        }
+        let weight: Vec<f64> =
+            pools.iter().map(|p| if p.is_empty() { 0.0 } else { (p.len() as f64).powf(1.0 - balance) }).collect();
+        let total: f64 = weight.iter().sum();
+        let n = labels.len();
+        let exact: Vec<f64> = weight.iter().map(|w| n as f64 * w / total).collect();
+        let mut draws: Vec<usize> = exact
+            .iter()
+            .zip(&pools)
+            .map(|(&e, p)| if p.is_empty() { 0 } else { (e.floor() as usize).max(1) })
+            .collect();
+        // largest remainders first, until the draws sum to n (or, where the floor of one took
+        // some, the largest shares give one back)
+        let mut by_remainder: Vec<usize> = (0..pools.len()).filter(|&c| !pools[c].is_empty()).collect();
+        by_remainder
+            .sort_by(|&a, &b| (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())).then(a.cmp(&b)));
+        let mut k = 0;
+        while draws.iter().sum::<usize>() < n {
+            draws[by_remainder[k % by_remainder.len()]] += 1;
+            k += 1;
+        }
+        while draws.iter().sum::<usize>() > n {
+            let c = (0..draws.len()).max_by_key(|&c| (draws[c], std::cmp::Reverse(c))).expect("a class");
+            draws[c] -= 1;
+        }
+        let next = pools.iter().map(Vec::len).collect();
+        Some(ClassTurns { draws, pools, next })
+    }
+}
+
+/// The next epoch's sample order into `order`: every sample once, shuffled by `rng` (no turns),
+/// or each class's draws taken from its turns, the whole shuffled.
+pub fn epoch_order(order: &mut Vec<usize>, turns: Option<&mut ClassTurns>, rng: &mut ChaCha8Rng) {
+    let Some(t) = turns else {
+        order.shuffle(rng);
+        return;
+    };
+    order.clear();
+    for c in 0..t.pools.len() {
+        for _ in 0..t.draws[c] {
+            if t.next[c] == t.pools[c].len() {
+                t.pools[c].shuffle(rng);
+                t.next[c] = 0;
+            }
+            order.push(t.pools[c][t.next[c]]);
+            t.next[c] += 1;
+        }
+    }
+    order.shuffle(rng);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -758,5 +847,44 @@ mod tests {
         assert!(on_input_1.iter().filter(|&&c| c > 0.0).count() >= 4, "events spread: {on_input_1:?}");
         let plain = batch_input(&set, &[0], &Device::flex());
         assert_eq!(plain[10].to_data().convert::<f32>().try_to_vec::<f32>().unwrap(), vec![0.0, 50.0, 0.0]);
+    }
+
+    /// Square-root sampling of 90 A, 9 B and 1 C: 100 draws an epoch shared as n^0.5 (9.49 : 3 : 1,
+    /// so 70.3, 22.2 and 7.4, rounded by largest remainder to 70, 22 and 8), each class's samples
+    /// all drawn before any twice; at 0 every sample once.
+    #[test]
+    fn class_balance_shares_the_epoch_and_cycles_each_class() {
+        let labels: Vec<usize> = [vec![0; 90], vec![1; 9], vec![2; 1]].concat();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mut order: Vec<usize> = (0..100).collect();
+        epoch_order(&mut order, None, &mut rng);
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..100).collect::<Vec<_>>(), "no turns: a permutation");
+        assert!(ClassTurns::new(&labels, 3, 0.0).is_none());
+
+        let mut t = ClassTurns::new(&labels, 3, 0.5).unwrap();
+        assert_eq!(t.draws, vec![70, 22, 8]);
+        let w = [90f64.sqrt(), 3.0, 1.0];
+        let exact: Vec<f64> = w.iter().map(|x| 100.0 * x / w.iter().sum::<f64>()).collect();
+        assert_eq!(t.draws.iter().sum::<usize>(), 100);
+        for (d, e) in t.draws.iter().zip(&exact) {
+            assert!((*d as f64 - e).abs() < 1.0, "{:?} against {exact:?}", t.draws);
+        }
+        // B's nine samples: its draws over two epochs hold every one of them at least
+        // floor(draws / 9) times and none more than once beyond that
+        let mut count = [0usize; 100];
+        for _ in 0..2 {
+            epoch_order(&mut order, Some(&mut t), &mut rng);
+            assert_eq!(order.len(), 100);
+            order.iter().for_each(|&i| count[i] += 1);
+        }
+        let b = &count[90..99];
+        let (lo, hi) = (b.iter().min().unwrap(), b.iter().max().unwrap());
+        assert!(hi - lo <= 1 && b.iter().sum::<usize>() == 2 * t.draws[1], "{b:?}");
+        assert_eq!(count[99], 2 * t.draws[2]);
+        // fully balanced: every class alike
+        let t = ClassTurns::new(&labels, 3, 1.0).unwrap();
+        assert_eq!(t.draws, vec![34, 33, 33]);
     }
 }

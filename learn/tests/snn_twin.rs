@@ -373,6 +373,8 @@ fn weight_averaging_and_weight_decay() {
         TrainConfig { frozen_layers: vec![2], ..base.clone() },
         TrainConfig { frozen_layers: vec![0, 1], ..base.clone() },
         TrainConfig { anchor_decay: 1.0, trainer: learn::train::Trainer::Dense, ..base.clone() },
+        TrainConfig { class_balance: 1.5, ..base.clone() },
+        TrainConfig { class_balance: -0.5, ..base.clone() },
     ] {
         assert!(train(&twin, &init, &train_set, &val, &bad, &mut Silent).is_err());
     }

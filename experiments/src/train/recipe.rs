@@ -191,6 +191,10 @@ pub struct SnnRecipe {
     pub average_epochs: usize,
     /// Neuron dropout per training sample (0: off).
     pub dropout: f64,
+    /// Class-balanced sampling: class c's share of an epoch `n_c^(1 - class_balance)` (0: every
+    /// window once; 0.5: square-root sampling; `learn::train::TrainConfig::class_balance`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub class_balance: f64,
     /// Share of the training split held out for validation (0: none).
     pub val_fraction: f64,
     /// Stop after this many epochs without a better validation accuracy (0: never).
@@ -264,6 +268,7 @@ impl Default for SnnRecipe {
             frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
+            class_balance: 0.0,
             val_fraction: 0.1,
             patience: 0,
             seed: 1,
@@ -321,8 +326,12 @@ impl SnnRecipe {
             // VAL-LETTERS and VAL-WORDS, docs/log/letters-2026-11-27.md; before, `--words 80
             // --letter-rows 0` at 8 mm/s and 1.5 mm, chosen on VAL, docs/results/nominal/
             // words_recipe.md; the shipped `clean` model was trained before that, `--trials 5`)
+            // Since 2026-11-29 the crop is 9.3 mm tall (pooled rows 20..100, not the lite
+            // 28..92): it keeps a yawed row's first letter (chosen on VAL-LETTERS,
+            // docs/log/letters-2026-11-29.md; the `clean` model keeps the lite crop).
             "words" => SnnRecipe {
                 letter_rows: 3,
+                crop_rows: Some([20, 100]),
                 train_speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0],
                 train_depths_mm: vec![1.5, 1.0, 0.6],
                 trials: 10,
@@ -333,8 +342,10 @@ impl SnnRecipe {
             // models/clean/snn-segment.safetensors: character present against background; blank cells
             // as background too since 2026-11-25 (chosen on VAL-WORDS, docs/reading.md; the
             // shipped `clean` model was trained before, `--blank-cells false`)
+            // The words classifier's taller crop since 2026-11-29 (chosen with it, as a pair).
             "segment" => SnnRecipe {
                 task: Task::Segment,
+                crop_rows: Some([20, 100]),
                 blank_cells: true,
                 word_rows: 30,
                 trials: 10,
@@ -453,6 +464,7 @@ impl SnnRecipe {
             frozen_layers: self.frozen_layers.clone(),
             average_epochs: self.average_epochs,
             dropout: self.dropout,
+            class_balance: self.class_balance,
             trainer: match self.trainer {
                 TrainerChoice::Sparse => learn::train::Trainer::Sparse,
                 TrainerChoice::Dense => learn::train::Trainer::Dense,
@@ -471,6 +483,10 @@ pub fn sweep(speeds: &[f64], depths: &[f64]) -> Option<corpus::windows::Sweep> {
     let speeds = if speeds.is_empty() { vec![8.0] } else { speeds.to_vec() };
     let depths = if depths.is_empty() { vec![1.5] } else { depths.to_vec() };
     (speeds != [8.0] || depths != [1.5]).then_some(corpus::windows::Sweep { speeds_mm_s: speeds, depths_mm: depths })
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 #[cfg(test)]
