@@ -327,11 +327,13 @@ impl SnnRecipe {
             // --letter-rows 0` at 8 mm/s and 1.5 mm, chosen on VAL, docs/results/nominal/
             // words_recipe.md; the shipped `clean` model was trained before that, `--trials 5`)
             // Since 2026-11-29 the crop is 9.3 mm tall (pooled rows 20..100, not the lite
-            // 28..92): it keeps a yawed row's first letter (chosen on VAL-LETTERS,
-            // docs/log/letters-2026-11-29.md; the `clean` model keeps the lite crop).
+            // 28..92): it keeps a yawed row's first letter; and the classes are drawn by
+            // square-root sampling, for the rare letters (both chosen on VAL-LETTERS,
+            // docs/log/letters-2026-11-29.md; the `clean` model has neither).
             "words" => SnnRecipe {
                 letter_rows: 3,
                 crop_rows: Some([20, 100]),
+                class_balance: 0.5,
                 train_speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0],
                 train_depths_mm: vec![1.5, 1.0, 0.6],
                 trials: 10,
@@ -364,9 +366,11 @@ impl SnnRecipe {
                 letter_rows: 4,
                 word_rows: 60,
                 center: false,
-                // the cell readers keep the lite crop they were trained on (the letters' taller
-                // crop, issue #47, was not chosen for them)
+                // the cell readers keep the lite crop and the plain sampling they were trained
+                // with (the letters' taller crop and class balance, issue #47, were not chosen
+                // for them)
                 crop_rows: None,
+                class_balance: 0.0,
                 ..SnnRecipe::preset("words")?
             },
             // models/REALISM/ueb/snn-segment.safetensors: the segment recipe on the cell boards
