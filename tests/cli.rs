@@ -121,11 +121,12 @@ fn demo_runs_on_its_defaults() {
     assert!(o.status.success(), "{err}");
     // the main job: both EV rows at 16 mm/s (simulated), read from raw events by both
     // architectures (deterministic: same seed, same scans, so the words read are pinned); the
-    // SNN reads PUSH as LUSH on row 1 (P read as L, its dot 4 lost; since the words recipe of 2026-11-27)
+    // SNN read PUSH as LUSH on row 1 with the words classifier of 2026-11-27 (P read as L, its
+    // dot 4 lost), and reads every word since the taller crop and class balance of 2026-11-29
     assert!(out.contains("SIMULATED") && out.contains("truth \"RIGHT LEFT EXIT OPEN\""), "{out}");
     assert!(out.contains("snn    read \"RIGHT LEFT EXIT OPEN\""), "{out}");
-    assert!(out.contains("snn    read \"LUSH PULL STOP HELP WATER\""), "{out}");
-    assert!(out.contains("snn: 8/9 words right"), "{out}");
+    assert!(out.contains("snn    read \"PUSH PULL STOP HELP WATER\""), "{out}");
+    assert!(out.contains("snn: 9/9 words right"), "{out}");
     assert!(out.contains("resnet read") && out.contains("of the stream's duration"), "{out}");
     assert!(dir.path().join("ev_row0_16mm_s.aedat4").exists() && dir.path().join("ev_row1_16mm_s.truth.json").exists());
     assert!(out.contains("1350 samples, 27 classes, 12 taxels"), "{out}");
