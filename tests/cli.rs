@@ -953,6 +953,9 @@ fn train_takes_the_crop_rows_and_refuses_bad_ones() {
     // whole frame; nor a pooling that does not divide the crop's rows
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.safetensors");
+    // a class balance out of [0, 1]: refused before any window is simulated
+    let o = braille(&["train", "--arch", "resnet", "--class-balance", "1.5", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success() && text(&o).1.contains("class balance 1.5"), "{}", text(&o).1);
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
     for (args, says) in [
         (&["--crop-rows", "20,100", "--data", data.to_str().unwrap()][..], "--crop-rows"),
