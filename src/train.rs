@@ -313,9 +313,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         r.chip = a.chip;
     }
     // refused before any window is simulated (the trainers refuse it too)
-    if !(0.0..=1.0).contains(&r.class_balance) {
-        bail!("class balance {} (--class-balance) must lie in [0, 1]", r.class_balance);
-    }
+    learn::train::check_class_balance(r.class_balance).context("--class-balance")?;
     if let Some(rows) = &a.crop_rows {
         let [first, end] = rows[..] else { bail!("--crop-rows {rows:?}: two pooled rows, first and last plus one") };
         // the library's rule (within the labeler's grid, first below last), checked here already

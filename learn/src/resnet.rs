@@ -329,9 +329,7 @@ pub fn train(
 ) -> Result<(Resnet, Vec<crate::train::EpochReport>)> {
     use burn::optim::{AdamConfig, GradientsParams};
     use rand::SeedableRng;
-    if !(0.0..=1.0).contains(&tc.class_balance) {
-        return Err(::snn::Error::input(format!("class balance {} must lie in [0, 1]", tc.class_balance)).into());
-    }
+    crate::train::check_class_balance(tc.class_balance)?;
     let device = Device::flex().autodiff();
     device.seed(tc.seed);
     let mut model = cfg.init(&device);

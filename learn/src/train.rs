@@ -519,9 +519,7 @@ pub fn train(
     if !(0.0..=f64::MAX).contains(&cfg.anchor_decay) {
         return Err(snn::Error::input(format!("anchor decay {} must not be negative", cfg.anchor_decay)));
     }
-    if !(0.0..=1.0).contains(&cfg.class_balance) {
-        return Err(snn::Error::input(format!("class balance {} must lie in [0, 1]", cfg.class_balance)));
-    }
+    check_class_balance(cfg.class_balance)?;
     if let Some(&l) = cfg.frozen_layers.iter().find(|&&l| l >= init.len()) {
         return Err(snn::Error::input(format!(
             "frozen layer {l}: the network has {} layers (0 to {})",
@@ -727,6 +725,15 @@ fn scale_weights(w: &mut [LayerWeights], k: f32) {
 
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
+}
+
+/// A class balance ([`TrainConfig::class_balance`]) lies in [0, 1].
+pub fn check_class_balance(balance: f64) -> snn::Result<()> {
+    if (0.0..=1.0).contains(&balance) {
+        Ok(())
+    } else {
+        Err(snn::Error::input(format!("class balance {balance} must lie in [0, 1]")))
+    }
 }
 
 /// Class-balanced sampling's state ([`TrainConfig::class_balance`]): each class's share of an
