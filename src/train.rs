@@ -110,6 +110,10 @@ pub struct Args {
     /// added to the training boards (0: none).
     #[arg(long)]
     letter_rows: Option<usize>,
+    /// Without --data: passes of letter strings that hold every ordered pair of letters inside a
+    /// word (the neighbours a character's window sees), added to the training boards (0: none).
+    #[arg(long)]
+    pair_rows: Option<usize>,
     /// Without --data: training scans spread over these speeds (mm/s), one pairing with
     /// `--train-depths` per trial (trial k at speed k mod S, depth (k / S) mod D) [the recipe's;
     /// the paper's: 8].
@@ -298,7 +302,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     macro_rules! set {
         ($($field:ident <- $flag:expr),* $(,)?) => { $( if let Some(v) = $flag.clone() { r.$field = v; } )* };
     }
-    set!(task <- a.task, jitter_ms <- a.jitter_ms, blank_cells <- a.blank_cells, realism <- a.realism, trials <- a.trials, word_rows <- a.words, letter_rows <- a.letter_rows, train_speeds_mm_s <- a.train_speeds, train_depths_mm <- a.train_depths, pool <- a.pool,
+    set!(task <- a.task, jitter_ms <- a.jitter_ms, blank_cells <- a.blank_cells, realism <- a.realism, trials <- a.trials, word_rows <- a.words, letter_rows <- a.letter_rows, pair_rows <- a.pair_rows, train_speeds_mm_s <- a.train_speeds, train_depths_mm <- a.train_depths, pool <- a.pool,
         center <- a.center, period_us <- a.period_us, sigma_delta <- a.sigma_delta, dt_us <- a.dt_us,
         hidden <- a.hidden, neuron <- a.neuron, tau_mem_us <- a.tau_mem_us, tau_syn_us <- a.tau_syn_us,
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
@@ -400,6 +404,7 @@ pub fn run(args: Args) -> Result<()> {
                 trials: r.trials,
                 word_rows: r.word_rows,
                 letter_rows: r.letter_rows,
+                pair_rows: r.pair_rows,
                 sweep: experiments::train::recipe::sweep(&r.train_speeds_mm_s, &r.train_depths_mm),
                 cells: r.cells,
                 realism: r.realism,

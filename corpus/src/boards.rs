@@ -379,6 +379,59 @@ pub fn training_cell_rows(seed: u64, times: usize, max_chars: usize) -> String {
     rows.join("/")
 }
 
+/// Training rows of letter strings that hold every ordered pair of letters inside a word `times`
+/// times (the neighbours a classifier's window sees; the training words hold 256 of the 676
+/// pairs, and letters after an unseen pair were misread 3.7% of the time on VAL-LETTERS against
+/// 0.05% after a seen one: docs/log/letters-2026-11-29.md). Each pass is an Eulerian circuit of
+/// the pairs (a de Bruijn sequence of order 2 over A-Z, 677 letters) in a seeded order, cut into
+/// strings of 3-8 letters where each string begins with the last letter of the one before, so
+/// that no pair is lost at a cut; rows of at most `max_chars`, joined by `/`. Seeded.
+pub fn training_pair_rows(seed: u64, times: usize, max_chars: usize) -> String {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut rows: Vec<String> = Vec::new();
+    let mut row = String::new();
+    for _ in 0..times {
+        // Hierholzer's algorithm on the complete digraph with loops, each vertex's exits shuffled.
+        let mut exits: Vec<Vec<u8>> = (0..26u8)
+            .map(|_| {
+                let mut e: Vec<u8> = (0..26).collect();
+                for i in (1..e.len()).rev() {
+                    e.swap(i, rng.random_range(0..=i));
+                }
+                e
+            })
+            .collect();
+        let mut stack = vec![rng.random_range(0..26u8)];
+        let mut circuit: Vec<u8> = Vec::with_capacity(26 * 26 + 1);
+        while let Some(&v) = stack.last() {
+            match exits[usize::from(v)].pop() {
+                Some(u) => stack.push(u),
+                None => circuit.extend(stack.pop()),
+            }
+        }
+        circuit.reverse();
+        let letters: Vec<char> = circuit.iter().map(|&c| char::from(b'A' + c)).collect();
+        let mut start = 0;
+        while start + 1 < letters.len() {
+            let end = (start + rng.random_range(3..=8usize)).min(letters.len());
+            let word: String = letters[start..end].iter().collect();
+            if !row.is_empty() && row.len() + 1 + word.len() > max_chars {
+                rows.push(std::mem::take(&mut row));
+            }
+            if !row.is_empty() {
+                row.push(' ');
+            }
+            row.push_str(&word);
+            start = end - 1;
+        }
+    }
+    if !row.is_empty() {
+        rows.push(row);
+    }
+    rows.join("/")
+}
+
 /// A board of print in a Braille code: the rows as printed and the board of their cells, row
 /// for row (print wrapped at spaces so that each row's cells fit [`UEB_ROW_CELLS`]; the
 /// simulator wraps no further).
@@ -747,6 +800,24 @@ mod tests {
         assert_eq!(board_name(&BoardKind::Ev), "EV");
         assert_eq!(parse_board("val-letters"), Ok(BoardKind::Text(val.text())));
         assert_eq!(all_letters_rows(&held_out_pool(HeldOut::Test), ALL_LETTERS_TIMES, 25), *test, "a fixed rule");
+    }
+
+    #[test]
+    fn training_pair_rows_hold_every_pair_inside_words() {
+        let text = training_pair_rows(7, 2, 22);
+        assert_eq!(text, training_pair_rows(7, 2, 22), "seeded");
+        assert_ne!(text, training_pair_rows(8, 2, 22));
+        let mut pairs = vec![0usize; 26 * 26];
+        for row in text.split('/') {
+            assert!(row.len() <= 22, "{row}");
+            for word in row.split(' ') {
+                assert!((2..=8).contains(&word.len()), "{word}");
+                for p in word.as_bytes().windows(2) {
+                    pairs[usize::from(p[0] - b'A') * 26 + usize::from(p[1] - b'A')] += 1;
+                }
+            }
+        }
+        assert!(pairs.iter().all(|&n| n == 2), "every pair exactly twice: {pairs:?}");
     }
 
     #[test]

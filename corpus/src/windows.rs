@@ -563,6 +563,11 @@ pub struct TrainingScans {
     /// Rows that hold every letter at every place this many times
     /// ([`crate::boards::training_letter_rows`], the rare letters' share; 0: none).
     pub letter_rows: usize,
+    /// Passes of letter strings that hold every ordered pair of letters inside a word
+    /// ([`crate::boards::training_pair_rows`], the neighbours a window sees; 0: none; not with
+    /// `cells`, whose cell rows are in seeded orders already).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pair_rows: usize,
     /// Scans spread over speeds and depths (`None`: the paper's 8 mm/s and 1.5 mm).
     pub sweep: Option<Sweep>,
     /// The boards of a cell reader (UEB): in place of SAB, UN and the letter and word rows,
@@ -581,8 +586,13 @@ impl TrainingScans {
                 self.letter_rows, self.word_rows
             ),
             None => format!(
-                "SAB and UN, {} rows of random words, all-letters rows {} times",
-                self.word_rows, self.letter_rows
+                "SAB and UN, {} rows of random words, all-letters rows {} times{}",
+                self.word_rows,
+                self.letter_rows,
+                match self.pair_rows {
+                    0 => String::new(),
+                    n => format!(", every letter pair {n} times"),
+                }
             ),
         }
     }
@@ -601,8 +611,14 @@ pub fn training_windows(
     world: &World,
     progress: &dyn Progress,
 ) -> Result<TrainingWindows> {
-    let TrainingScans { trials, seed, word_rows, letter_rows, ref sweep, cells } = *scans;
+    let TrainingScans { trials, seed, word_rows, letter_rows, pair_rows, ref sweep, cells } = *scans;
     let boards = match cells {
+        Some(_) if pair_rows > 0 => {
+            return Err(Error::Board {
+                board: "cell training boards".into(),
+                what: "pair rows are the letters' (the cell rows are in seeded orders)".into(),
+            });
+        }
         Some(code) => training_cell_boards(seed, letter_rows, word_rows, code)?,
         None => {
             let mut boards = vec![BoardKind::Sab, BoardKind::Un];
@@ -612,6 +628,9 @@ pub fn training_windows(
             }
             if letter_rows > 0 {
                 boards.push(BoardKind::Text(crate::boards::training_letter_rows(letter_rows, 22).text()));
+            }
+            if pair_rows > 0 {
+                boards.push(BoardKind::Text(crate::boards::training_pair_rows(seed ^ 0x5041_4952, pair_rows, 22)));
             }
             boards
         }
@@ -729,6 +748,10 @@ pub fn snn_set(input: &CharInput, raw: &ImageSet, idx: &[usize], dt_us: i64, tas
         labels: idx.iter().map(|&i| raw.labels[i]).collect(),
         dropped_events: 0,
     }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 #[cfg(test)]

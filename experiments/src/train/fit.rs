@@ -476,6 +476,7 @@ pub fn train_windows(
                 "blank_cells": r.blank_cells,
                 "word_rows": r.word_rows,
                 "letter_rows": r.letter_rows,
+                "pair_rows": r.pair_rows,
                 "scans": scans,
                 "train_windows": train.len(),
                 "val_windows": val.len(),

@@ -105,6 +105,10 @@ pub struct SnnRecipe {
     /// Rows of training words that hold every letter at every place in a row this many times,
     /// added to the training boards (0: none; `corpus::boards::training_letter_rows`).
     pub letter_rows: usize,
+    /// Passes of letter strings holding every ordered pair of letters inside a word, added to the
+    /// training boards (0: none; `corpus::boards::training_pair_rows`).
+    #[serde(skip_serializing_if = "is_zero_count")]
+    pub pair_rows: usize,
     /// A cell reader's training boards in this code in place of the letters' (SAB, UN and the
     /// letter and word rows): `letter_rows` times every cell and `word_rows` rows of print
     /// (`corpus::windows::TrainingScans::cells`).
@@ -228,6 +232,7 @@ impl Default for SnnRecipe {
             trials: 10,
             word_rows: 0,
             letter_rows: 0,
+            pair_rows: 0,
             cells: None,
             train_speeds_mm_s: Vec::new(),
             train_depths_mm: Vec::new(),
@@ -371,6 +376,7 @@ impl SnnRecipe {
                 // for them)
                 crop_rows: None,
                 class_balance: 0.0,
+                pair_rows: 0,
                 ..SnnRecipe::preset("words")?
             },
             // models/REALISM/ueb/snn-segment.safetensors: the segment recipe on the cell boards
@@ -443,6 +449,7 @@ impl SnnRecipe {
             seed: self.seed,
             word_rows: self.word_rows,
             letter_rows: self.letter_rows,
+            pair_rows: self.pair_rows,
             sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm),
             cells: self.cells,
         }
@@ -491,6 +498,10 @@ pub fn sweep(speeds: &[f64], depths: &[f64]) -> Option<corpus::windows::Sweep> {
 
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
+}
+
+fn is_zero_count(n: &usize) -> bool {
+    *n == 0
 }
 
 #[cfg(test)]

@@ -69,6 +69,9 @@ pub struct ResnetTraining {
     pub word_rows: usize,
     /// Rows that hold every letter at every place this many times (0: none).
     pub letter_rows: usize,
+    /// Passes of letter strings holding every ordered pair of letters (0: none).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub pair_rows: usize,
     /// Training scans over speeds and depths (`None`: 8 mm/s, 1.5 mm).
     pub sweep: Option<corpus::windows::Sweep>,
     /// A cell reader's boards in this code in place of the letters' (`TrainingScans::cells`).
@@ -87,6 +90,7 @@ impl ResnetTraining {
             seed: self.train.seed,
             word_rows: self.word_rows,
             letter_rows: self.letter_rows,
+            pair_rows: self.pair_rows,
             sweep: self.sweep.clone(),
             cells: self.cells,
         }
@@ -204,6 +208,7 @@ pub fn train_resnet(
         "blank_cells": t.blank_cells,
         "word_rows": t.word_rows,
         "letter_rows": t.letter_rows,
+        "pair_rows": t.pair_rows,
         "sweep": t.sweep,
         "scans": tw.scans,
         "train_windows": train_set.len(),
@@ -251,4 +256,8 @@ impl std::fmt::Display for TrainedResnet {
         let kind = if self.data.starts_with("recorded") { "RECORDED" } else { "SIMULATED" };
         writeln!(f, "best validation accuracy {:.2}% ({kind})", 100.0 * self.best_val_accuracy)
     }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
