@@ -71,6 +71,10 @@ pub struct Args {
     /// Print the recipe the flags make, as JSON, and stop.
     #[arg(long)]
     print_recipe: bool,
+    /// Without --data: print the simulated training boards the recipe scans (each board's name,
+    /// then its rows as printed), and stop.
+    #[arg(long, conflicts_with = "data")]
+    print_boards: bool,
     /// Without --data: the Braille code of the training boards: `grade1-letters` (the paper's
     /// letters: SAB, UN and letter and word rows) or `ueb-g1`/`ueb-g2` (every cell in seeded
     /// orders and rows of UEB print; a character classifier then learns the 63 cells)
@@ -279,7 +283,7 @@ pub struct Args {
     #[arg(long, value_enum)]
     val_builds: Option<crate::common::SensorBuilds>,
     /// Model file to write.
-    #[arg(long, required_unless_present = "print_recipe")]
+    #[arg(long, required_unless_present_any = ["print_recipe", "print_boards"])]
     out: Option<PathBuf>,
     /// Replace an existing model file.
     #[arg(long)]
@@ -372,6 +376,16 @@ pub fn run(args: Args) -> Result<()> {
             eprintln!("{p}");
         }
         println!("{}", serde_json::to_string_pretty(&r)?);
+        return Ok(());
+    }
+    if args.print_boards {
+        for board in corpus::windows::training_boards(&r.training_scans())? {
+            let (rows, spread) = board.rows();
+            let kind = if spread { "letters spread over the row" } else { "at the cell spacing" };
+            let name = if matches!(board, sim::BoardKind::Text(_)) { "text".into() } else { board.name() };
+            println!("# {name} ({} rows, {kind})", rows.len());
+            rows.iter().for_each(|row| println!("{row}"));
+        }
         return Ok(());
     }
     let out = args.out.clone().expect("clap requires --out");

@@ -927,6 +927,36 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
 /// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
 /// divide them.
 #[test]
+fn train_prints_its_boards_with_every_letter_pair_when_asked() {
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--pair-rows", "1", "--print-boards"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let heads: Vec<&str> = out.lines().filter(|l| l.starts_with("# ")).collect();
+    assert_eq!(heads.len(), 4, "SAB, UN, the all-letters rows and the pair rows: {heads:?}");
+    assert!(heads[0].starts_with("# SAB (3 rows, letters spread") && heads[1].starts_with("# UN "), "{heads:?}");
+    // the last board, the pair rows, holds every ordered pair of letters inside a word
+    let pairs: std::collections::HashSet<&[u8]> = out
+        .split("\n# ")
+        .last()
+        .unwrap()
+        .lines()
+        .skip(1)
+        .flat_map(|row| row.split(' '))
+        .flat_map(|w| w.as_bytes().windows(2))
+        .collect();
+    assert_eq!(pairs.len(), 26 * 26);
+    // the recipe records the pair rows; without them the boards are as before (three)
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--pair-rows", "1", "--print-recipe"]);
+    let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
+    assert_eq!(recipe["pair_rows"], 1);
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--print-boards"]);
+    assert_eq!(text(&o).0.lines().filter(|l| l.starts_with("# ")).count(), 3);
+    // a cell reader's boards are in seeded orders already: pair rows refused, naming them
+    let o = braille(&["train", "--arch", "snn", "--recipe", "cells", "--pair-rows", "1", "--print-boards"]);
+    assert!(!o.status.success() && text(&o).1.contains("pair rows"), "{:?}", text(&o));
+}
+
+#[test]
 fn train_takes_the_crop_rows_and_refuses_bad_ones() {
     // the words preset's own crop (2026-11-29), and the flag's in its place
     for (flag, rows) in [(&[][..], [20, 100]), (&["--crop-rows", "12,108"][..], [12, 108])] {

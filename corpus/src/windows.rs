@@ -598,21 +598,11 @@ impl TrainingScans {
     }
 }
 
-/// The training protocol's windows in `world` (its training sensor builds): SAB and UN at 8 mm/s
-/// and 1.5 mm (the paper's; or over `scans.sweep`), plus the word and all-letters rows of
-/// `scans`, split by whole scans (every fifth trial goes to validation when there are five or
-/// more), so no scan feeds both.
-pub fn training_windows(
-    scans: &TrainingScans,
-    input: &CharInput,
-    task: Task,
-    jitter_ms: f64,
-    blank_cells: bool,
-    world: &World,
-    progress: &dyn Progress,
-) -> Result<TrainingWindows> {
-    let TrainingScans { trials, seed, word_rows, letter_rows, pair_rows, ref sweep, cells } = *scans;
-    let boards = match cells {
+/// The boards [`training_windows`] scans for `scans`: SAB and UN and the word, all-letters and
+/// pair rows (or a cell reader's boards), in that order.
+pub fn training_boards(scans: &TrainingScans) -> Result<Vec<BoardKind>> {
+    let TrainingScans { seed, word_rows, letter_rows, pair_rows, cells, .. } = *scans;
+    Ok(match cells {
         Some(_) if pair_rows > 0 => {
             return Err(Error::Board {
                 board: "cell training boards".into(),
@@ -634,7 +624,24 @@ pub fn training_windows(
             }
             boards
         }
-    };
+    })
+}
+
+/// The training protocol's windows in `world` (its training sensor builds): SAB and UN at 8 mm/s
+/// and 1.5 mm (the paper's; or over `scans.sweep`), plus the word and all-letters rows of
+/// `scans`, split by whole scans (every fifth trial goes to validation when there are five or
+/// more), so no scan feeds both.
+pub fn training_windows(
+    scans: &TrainingScans,
+    input: &CharInput,
+    task: Task,
+    jitter_ms: f64,
+    blank_cells: bool,
+    world: &World,
+    progress: &dyn Progress,
+) -> Result<TrainingWindows> {
+    let TrainingScans { trials, seed, ref sweep, .. } = *scans;
+    let boards = training_boards(scans)?;
     let spec = CharSetSpec {
         boards,
         speed_mm_s: 8.0,
