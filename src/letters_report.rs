@@ -2,7 +2,7 @@
 //! from SIMULATED scans of the all-letters board over speed and depth (Markdown and JSON).
 
 use crate::common::Bar;
-use anyhow::Result;
+use anyhow::{Result, bail};
 use corpus::boards::HeldOut;
 use experiments::reports::letters::{LettersReportSpec, letters_report};
 use snn::model_file::Arch;
@@ -21,6 +21,11 @@ pub struct Args {
     /// for choices, in place of the test board `ALL-LETTERS` with the test builds and seed.
     #[arg(long)]
     validation: bool,
+    /// With `--validation`: the sensor builds that scan it, `training` (the default) or
+    /// `validation` (builds held out of training and test, as the test builds are: for choices
+    /// that must hold on a sensor never trained on). The test builds are the test board's only.
+    #[arg(long, value_enum, requires = "validation")]
+    sensor_builds: Option<crate::common::SensorBuilds>,
     /// Read with this SNN classifier in place of the shipped one (a candidate).
     #[arg(long)]
     snn_classifier: Option<PathBuf>,
@@ -59,7 +64,13 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let models = args.models.clone().unwrap_or_else(|| args.realism.models_dir());
     let (held_out, builds, seed) = if args.validation {
-        (HeldOut::Validation, crate::common::SensorBuilds::Training, corpus::world::VALIDATION_SEED)
+        let builds = args.sensor_builds.unwrap_or(crate::common::SensorBuilds::Training);
+        if builds == crate::common::SensorBuilds::Test {
+            bail!(
+                "--sensor-builds test: the test builds read the test board only (choices are made on training or validation builds)"
+            );
+        }
+        (HeldOut::Validation, builds, corpus::world::VALIDATION_SEED)
     } else {
         (HeldOut::Test, crate::common::SensorBuilds::Test, corpus::world::TEST_SEED)
     };

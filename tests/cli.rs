@@ -945,11 +945,11 @@ fn train_prints_its_boards_with_every_letter_pair_when_asked() {
         .flat_map(|w| w.as_bytes().windows(2))
         .collect();
     assert_eq!(pairs.len(), 26 * 26);
-    // the recipe records the pair rows; without them the boards are as before (three)
-    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--pair-rows", "1", "--print-recipe"]);
+    // the words preset's pair rows (since 2026-11-29) are in its recipe; without them, three boards
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--print-recipe"]);
     let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
     assert_eq!(recipe["pair_rows"], 1);
-    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--print-boards"]);
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--pair-rows", "0", "--print-boards"]);
     assert_eq!(text(&o).0.lines().filter(|l| l.starts_with("# ")).count(), 3);
     // a cell reader's boards are in seeded orders already: pair rows refused, naming them
     let o = braille(&["train", "--arch", "snn", "--recipe", "cells", "--pair-rows", "1", "--print-boards"]);

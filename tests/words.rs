@@ -412,6 +412,23 @@ fn letters_report_reads_the_all_letters_board() {
     );
     let md = std::fs::read_to_string(dir.path().join("val_letters.md")).unwrap();
     assert!(md.contains("## Per letter at 16 mm/s and 1 mm") && md.contains("--speeds 64 --depths 1.5"), "{md}");
+    // on the builds held out of training and test, for choices that must hold on a new sensor;
+    // the test builds are refused on the validation board
+    let mut args = common.to_vec();
+    args.extend(["--focus-speed", "64", "--focus-depth", "1.5", "--focus-trials", "1", "--rows", "1"]);
+    args.extend(["--validation", "--sensor-builds", "validation", "--out", out]);
+    let o = braille(&args);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("val_letters.json")).unwrap()).unwrap();
+    assert_eq!(v["sensor_builds"], serde_json::json!([51, 52]));
+    let md = std::fs::read_to_string(dir.path().join("val_letters.md")).unwrap();
+    assert!(
+        md.contains("builds held out of training and test") && md.contains("--validation --sensor-builds validation"),
+        "{md}"
+    );
+    let o = braille(&["letters-report", "--validation", "--sensor-builds", "test", "--rows", "1", "--out", out]);
+    assert!(!o.status.success() && text(&o).1.contains("--sensor-builds test"), "{}", text(&o).1);
 }
 
 #[test]

@@ -157,6 +157,7 @@ pub fn markdown(r: &LettersReport) -> String {
     let (speeds, depths) = (&r.speeds_mm_s, &r.depths_mm);
     let list = |v: &[f64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",");
     let validation = r.board == "VAL-LETTERS";
+    let held_out_builds = r.sensor_builds[..] == corpus::world::VALIDATION_SENSORS[..];
     let _ = writeln!(
         m,
         "# Every letter at every place in a row (SIMULATED)\n\n{}All figures on **simulated** scans (virtual Evetac, realism `{realism}`, sensor builds {:?}{}) of the `{}` board: {} rows of held-out words{} chosen by a fixed rule so that every letter stands at least {} times at a row's start, a later word's start, inside a word and at a word's end (`corpus::boards::all_letters_rows`). Cells its words could not fill: {}. Seed {}; {} scans per row at each condition, {} at {} mm/s and {} mm (the per-letter tables). Each architecture reads every scan from its raw events with the speed estimated from them. Regenerate: `braille letters-report --realism {realism} --speeds {} --depths {} --trials {} --focus-trials {}{}{}`.\n",
@@ -166,7 +167,12 @@ pub fn markdown(r: &LettersReport) -> String {
             String::new()
         },
         r.sensor_builds,
-        if validation { ", the training builds: a validation board, for choices" } else { ", never trained on" },
+        match (validation, held_out_builds) {
+            (true, false) => ", the training builds: a validation board, for choices",
+            (true, true) =>
+                ", builds held out of training and test: a validation board, for choices on a sensor never trained on",
+            (false, _) => ", never trained on",
+        },
         r.board,
         r.board_rows,
         if validation {
@@ -189,7 +195,11 @@ pub fn markdown(r: &LettersReport) -> String {
         list(depths),
         r.trials,
         r.focus_trials,
-        if validation { " --validation" } else { "" },
+        match (validation, held_out_builds) {
+            (true, false) => " --validation",
+            (true, true) => " --validation --sensor-builds validation",
+            (false, _) => "",
+        },
         if r.rows.len() < r.board_rows { format!(" --rows {}", r.rows.len()) } else { String::new() },
     );
     for (arch, seg, cls) in &r.readers {

@@ -334,9 +334,13 @@ impl SnnRecipe {
             // Since 2026-11-29 the crop is 9.3 mm tall (pooled rows 20..100, not the lite
             // 28..92): it keeps a yawed row's first letter; and the classes are drawn by
             // square-root sampling, for the rare letters (both chosen on VAL-LETTERS,
-            // docs/log/letters-2026-11-29.md; the `clean` model has neither).
+            // docs/log/letters-2026-11-29.md; the `clean` model has neither). And one pass of
+            // letter strings holding every ordered letter pair: the classifier had learnt the
+            // training words' neighbours as context and misread letters after pairs it never saw
+            // (same log, session 47).
             "words" => SnnRecipe {
                 letter_rows: 3,
+                pair_rows: 1,
                 crop_rows: Some([20, 100]),
                 class_balance: 0.5,
                 train_speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0],
