@@ -27,7 +27,9 @@
 # and its first letter left the lite crop (docs/log/letters-2026-11-29.md, chosen on VAL-LETTERS;
 # the recipes carry it, `--crop-rows`). The ResNets keep the lite crop (the taller one lost on
 # validation). The same day the SNN classifier's epochs began drawing its classes by square-root
-# sampling (`--class-balance 0.5`, in the `words` recipe), for the rare letters J, Q and X.
+# sampling (`--class-balance 0.5`, in the `words` recipe), for the rare letters J, Q and X, and
+# then also trains on one pass of letter strings holding every ordered letter pair
+# (`--pair-rows 1`, in the recipe): it had learnt the training words' neighbours as context.
 # REALISM=clean|nominal|harsh picks the simulator's preset (default nominal, the published tables;
 # clean is kept for regression); beyond clean, models go to models/$REALISM/ and results to
 # docs/results/$REALISM/, training uses the training sensor builds and the reports the test
