@@ -566,7 +566,7 @@ pub struct TrainingScans {
     /// Passes of letter strings that hold every ordered pair of letters inside a word
     /// ([`crate::boards::training_pair_rows`], the neighbours a window sees; 0: none; not with
     /// `cells`, whose cell rows are in seeded orders already).
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "is_zero")]
     pub pair_rows: usize,
     /// Scans spread over speeds and depths (`None`: the paper's 8 mm/s and 1.5 mm).
     pub sweep: Option<Sweep>,
