@@ -353,10 +353,14 @@ impl SnnRecipe {
             // models/clean/snn-segment.safetensors: character present against background; blank cells
             // as background too since 2026-11-25 (chosen on VAL-WORDS, docs/reading.md; the
             // shipped `clean` model was trained before, `--blank-cells false`)
-            // The words classifier's taller crop since 2026-11-29 (chosen with it, as a pair).
+            // The words classifier's taller crop since 2026-11-29 (chosen with it, as a pair);
+            // and, the same day, its one pass of every ordered letter pair: the network missed
+            // letters in pairs it never saw (I, W) and split their words (VAL-LETTERS 0.9970
+            // against 0.9622 without spelling, docs/log/letters-2026-11-29.md, session 47).
             "segment" => SnnRecipe {
                 task: Task::Segment,
                 crop_rows: Some([20, 100]),
+                pair_rows: 1,
                 blank_cells: true,
                 word_rows: 30,
                 trials: 10,
@@ -389,6 +393,7 @@ impl SnnRecipe {
                 letter_rows: 2,
                 word_rows: 30,
                 crop_rows: None,
+                pair_rows: 0,
                 ..SnnRecipe::preset("segment")?
             },
             // models/icub/chip/xylo-braille7.safetensors: the NIR paper's seven-letter Braille task
@@ -504,7 +509,8 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-fn is_zero_count(n: &usize) -> bool {
+/// Serialisation skips a zero count (a field added later stays out of older records' form).
+pub(crate) fn is_zero_count(n: &usize) -> bool {
     *n == 0
 }
 

@@ -70,7 +70,7 @@ pub struct ResnetTraining {
     /// Rows that hold every letter at every place this many times (0: none).
     pub letter_rows: usize,
     /// Passes of letter strings holding every ordered pair of letters (0: none).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "crate::train::recipe::is_zero_count")]
     pub pair_rows: usize,
     /// Training scans over speeds and depths (`None`: 8 mm/s, 1.5 mm).
     pub sweep: Option<corpus::windows::Sweep>,
@@ -256,8 +256,4 @@ impl std::fmt::Display for TrainedResnet {
         let kind = if self.data.starts_with("recorded") { "RECORDED" } else { "SIMULATED" };
         writeln!(f, "best validation accuracy {:.2}% ({kind})", 100.0 * self.best_val_accuracy)
     }
-}
-
-fn is_zero(n: &usize) -> bool {
-    *n == 0
 }
