@@ -30,6 +30,9 @@
 # sampling (`--class-balance 0.5`, in the `words` recipe), for the rare letters J, Q and X, and
 # then also trains on one pass of letter strings holding every ordered letter pair
 # (`--pair-rows 1`, in the recipe): it had learnt the training words' neighbours as context.
+# The segmentation SNN took the same pass of letter pairs that day (in the `segment` recipe): it
+# missed letters in pairs it never saw and split their words (docs/log/letters-2026-11-29.md).
+# The `clean` models were trained before all of this.
 # REALISM=clean|nominal|harsh picks the simulator's preset (default nominal, the published tables;
 # clean is kept for regression); beyond clean, models go to models/$REALISM/ and results to
 # docs/results/$REALISM/, training uses the training sensor builds and the reports the test

@@ -6,9 +6,11 @@
 //! right (raw letters, no spelling) against the later words, and for the scans as drawn, the
 //! first word's rate by the drawn yaw's size.
 //!
-//! `cargo run --release -p experiments --example row_start [trials] [speed_mm_s] [depth_mm] [classifier]`
-//! (defaults 4, 16, 1.0 and `models/nominal/snn-words.safetensors`; about 2 minutes a variant on
-//! two cores at the defaults).
+//! `cargo run --release -p experiments --example row_start [trials] [speed_mm_s] [depth_mm]
+//! [classifier] [builds] [arch] [variants]` (defaults 4, 16, 1.0, `-`: the architecture's shipped
+//! classifier, `training` builds (or `validation`: builds 51 and 52, held out of training and
+//! test), `snn` (or `resnet`), and every variant (or a comma list of `as-drawn`, `no-yaw`,
+//! `no-tilt`, `no-misalignment`); about 2 minutes a variant on two cores at the defaults).
 
 use corpus::boards::{HeldOut, all_letters_board};
 use corpus::world::{SensorBuilds, VALIDATION_SEED, World};
@@ -26,7 +28,7 @@ struct Outcome {
     later: (usize, usize),
 }
 
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Variant {
     AsDrawn,
     NoYaw,
@@ -39,23 +41,52 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let trials: u64 = args.get(1).map_or(Ok(4), |a| a.parse())?;
     let speed: f64 = args.get(2).map_or(Ok(16.0), |a| a.parse())?;
     let depth: f64 = args.get(3).map_or(Ok(1.0), |a| a.parse())?;
-    let world = World::of(Realism::Nominal, SensorBuilds::Training);
+    let builds = match args.get(5).map_or("training", String::as_str) {
+        "training" => SensorBuilds::Training,
+        "validation" => SensorBuilds::Validation,
+        other => {
+            return Err(format!("builds {other:?}: training or validation (the test builds are the reports')").into());
+        }
+    };
+    let arch = match args.get(6).map_or("snn", String::as_str) {
+        "snn" => snn::model_file::Arch::Snn,
+        "resnet" => snn::model_file::Arch::Resnet,
+        other => return Err(format!("arch {other:?}: snn or resnet").into()),
+    };
+    let all = [Variant::AsDrawn, Variant::NoYaw, Variant::NoTilt, Variant::NoMisalignment];
+    let variants: Vec<Variant> = match args.get(7) {
+        None => all.to_vec(),
+        Some(list) => list
+            .split(',')
+            .map(|v| match v {
+                "as-drawn" => Ok(Variant::AsDrawn),
+                "no-yaw" => Ok(Variant::NoYaw),
+                "no-tilt" => Ok(Variant::NoTilt),
+                "no-misalignment" => Ok(Variant::NoMisalignment),
+                other => Err(format!("variant {other:?}: as-drawn, no-yaw, no-tilt or no-misalignment")),
+            })
+            .collect::<Result<_, _>>()?,
+    };
+    let world = World::of(Realism::Nominal, builds);
     let setup = world.setup();
     let kind = all_letters_board(HeldOut::Validation);
     let board = world.board(&setup, &kind)?;
     let sensors = world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
-    let models = ReaderModels::load(
-        "models/nominal/snn-segment.safetensors".as_ref(),
-        args.get(4).map_or("models/nominal/snn-words.safetensors", String::as_str).as_ref(),
-        SnnRunner::Sliding,
-    )?;
+    let shipped = pipeline::shipped::reader_in("models/nominal".as_ref(), arch);
+    let classifier = match args.get(4).map(String::as_str) {
+        None | Some("-") => shipped.classifier.clone(),
+        Some(path) => path.into(),
+    };
+    let models = ReaderModels::load(&shipped.segmenter, &classifier, SnnRunner::Sliding)?;
     let speller = Speller::new(Spell::None);
     let jobs: Vec<(usize, u64)> = (0..board.rows.len()).flat_map(|r| (0..trials).map(move |t| (r, t))).collect();
     println!(
-        "VAL-LETTERS, training builds, seed {VALIDATION_SEED}, {speed} mm/s, {depth} mm, {} scans, SNN reader, speed given, no spelling",
-        jobs.len()
+        "VAL-LETTERS, {} builds, seed {VALIDATION_SEED}, {speed} mm/s, {depth} mm, {} scans, {arch:?} reader ({}), speed given, no spelling",
+        args.get(5).map_or("training", String::as_str),
+        jobs.len(),
+        classifier.display()
     );
-    for variant in [Variant::AsDrawn, Variant::NoYaw, Variant::NoTilt, Variant::NoMisalignment] {
+    for variant in variants {
         let outcomes: Vec<Outcome> = jobs
             .par_iter()
             .map(|&(row, trial)| -> Result<Outcome, String> {

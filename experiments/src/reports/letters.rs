@@ -354,8 +354,9 @@ pub fn targets(r: &LettersReport) -> Vec<String> {
     }
     if let Some((gap, v, d)) = worst_gap {
         out.push(format!(
-            "SNN word accuracy with the lexicon within 1 point of the ResNet's at every condition: largest gap {:+.1} points (ResNet ahead) at {v} mm/s, {d} mm: {}",
+            "SNN word accuracy with the lexicon within 1 point of the ResNet's at every condition: the ResNet's largest lead {:+.1} points ({}) at {v} mm/s, {d} mm: {}",
             100.0 * gap,
+            if gap > 0.0 { "the ResNet ahead" } else { "negative: the SNN ahead at every condition" },
             verdict(gap <= 0.01)
         ));
     }
