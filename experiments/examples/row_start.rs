@@ -41,7 +41,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let trials: u64 = args.get(1).map_or(Ok(4), |a| a.parse())?;
     let speed: f64 = args.get(2).map_or(Ok(16.0), |a| a.parse())?;
     let depth: f64 = args.get(3).map_or(Ok(1.0), |a| a.parse())?;
-    let builds = match args.get(5).map_or("training", String::as_str) {
+    let builds_name = args.get(5).map_or("training", String::as_str);
+    let builds = match builds_name {
         "training" => SensorBuilds::Training,
         "validation" => SensorBuilds::Validation,
         other => {
@@ -82,7 +83,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let jobs: Vec<(usize, u64)> = (0..board.rows.len()).flat_map(|r| (0..trials).map(move |t| (r, t))).collect();
     println!(
         "VAL-LETTERS, {} builds, seed {VALIDATION_SEED}, {speed} mm/s, {depth} mm, {} scans, {arch:?} reader ({}), speed given, no spelling",
-        args.get(5).map_or("training", String::as_str),
+        builds_name,
         jobs.len(),
         classifier.display()
     );

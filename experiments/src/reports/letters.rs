@@ -356,13 +356,7 @@ pub fn targets(r: &LettersReport) -> Vec<String> {
         out.push(format!(
             "SNN word accuracy with the lexicon within 1 point of the ResNet's at every condition: the ResNet's largest lead {:+.1} points ({}) at {v} mm/s, {d} mm: {}",
             100.0 * gap,
-            if gap > 0.0 {
-                "the ResNet ahead"
-            } else if gap < 0.0 {
-                "negative: the SNN ahead at every condition"
-            } else {
-                "the SNN level or ahead at every condition"
-            },
+            if gap > 0.0 { "the ResNet ahead" } else { "the SNN level or ahead at every condition" },
             verdict(gap <= 0.01)
         ));
     }
