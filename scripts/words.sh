@@ -21,17 +21,20 @@
 # Since 2026-11-27 (issue #47) the SNN's `words` recipe trains on the all-letters rows of training
 # words three times (every letter at every place in a word) instead of the 80 rows of random
 # words, its scans swept over 8-48 mm/s and 0.6-1.5 mm: chosen on VAL-LETTERS and VAL-WORDS
-# (docs/log/letters-2026-11-27.md). The ResNet keeps the 80 word rows at 8 mm/s and 1.5 mm.
+# (docs/log/letters-2026-11-27.md).
 # Since 2026-11-29 both SNNs (classifier and segmentation network, chosen as a pair) crop 9.3 mm
 # of the sensor's height (pooled rows 20..100) instead of the lite 7.4 mm (28..92): a row is yawed
 # and its first letter left the lite crop (docs/log/letters-2026-11-29.md, chosen on VAL-LETTERS;
-# the recipes carry it, `--crop-rows`). The ResNets keep the lite crop (the taller one lost on
-# validation). The same day the SNN classifier's epochs began drawing its classes by square-root
-# sampling (`--class-balance 0.5`, in the `words` recipe), for the rare letters J, Q and X, and
-# then also trains on one pass of letter strings holding every ordered letter pair
-# (`--pair-rows 1`, in the recipe): it had learnt the training words' neighbours as context.
+# the recipes carry it, `--crop-rows`). The same day the SNN classifier's epochs began drawing
+# its classes by square-root sampling (`--class-balance 0.5`, in the `words` recipe), for the rare
+# letters J, Q and X, and then also trains on one pass of letter strings holding every ordered
+# letter pair (`--pair-rows 1`, in the recipe): it had learnt the training words' neighbours as context.
 # The segmentation SNN took the same pass of letter pairs that day (in the `segment` recipe): it
 # missed letters in pairs it never saw and split their words (docs/log/letters-2026-11-29.md).
+# Later that day the ResNet pair followed (chosen as a pair on VAL-LETTERS' validation builds,
+# docs/log/letters-2026-11-29.md): the classifier trains on the all-letters rows three times at
+# 8-48 mm/s and 0.6-1.5 mm instead of the 80 word rows at 8 mm/s and 1.5 mm, and both networks
+# crop 9.3 mm; the ResNet's first letters had left the lite crop on yawed rows.
 # The `clean` models were trained before all of this.
 # REALISM=clean|nominal|harsh picks the simulator's preset (default nominal, the published tables;
 # clean is kept for regression); beyond clean, models go to models/$REALISM/ and results to
@@ -61,13 +64,14 @@ if [[ "$realism" == clean ]]; then word_trials=(--trials 5); else word_trials=()
 if [[ "${1:-}" != "--report-only" ]]; then
   $b train --trainer "$trainer" --arch snn --recipe words "${word_trials[@]}" "${r[@]}" --out "$models/snn-words.safetensors" \
     --history "$out/snn_words_history.json" --force --quiet
-  $b train --arch resnet --preset lite --aug normaug --pool 2 --words 80 --trials 5 --jitter-ms 40 \
+  $b train --arch resnet --preset lite --aug normaug --pool 2 --words 0 --letter-rows 3 \
+    --train-speeds 8,16,32,48 --train-depths 1.5,1.0,0.6 --trials 5 --jitter-ms 40 --crop-rows 20,100 \
     --epochs 15 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-lite-normaug-words.safetensors" \
     --history "$out/resnet_lite_normaug_words_history.json" --force --quiet
   $b train --trainer "$trainer" --arch snn --recipe segment --blank-cells "$blank" "${r[@]}" --out "$models/snn-segment.safetensors" \
     --history "$out/snn_segment_history.json" --force --quiet
   $b train --arch resnet --task segment --blank-cells "$blank" --preset tiny --pool 2 --aug aug --words 30 --trials 10 \
-    --epochs 8 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-tiny-segment.safetensors" \
+    --crop-rows 20,100 --epochs 8 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-tiny-segment.safetensors" \
     --history "$out/resnet_tiny_segment_history.json" --force --quiet
   # Each segmentation network's operating point (threshold, shortest segment), chosen with its
   # classifier on the validation words (VAL-WORDS, training sensor builds, validation seed) and
