@@ -891,18 +891,19 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let r: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(r["input"], serde_json::json!([40, 32, 40]));
+    assert_eq!(r["input"], serde_json::json!([40, 40, 40]));
     assert_eq!(r["windows"], 5);
-    // every window a draw at 0.5: about half of 5 x 51,200 cells
+    // every window a draw at 0.5: about half of 5 x 64,000 cells (20 bins of two polarities on
+    // the 9.3 mm crop pooled 2x2, 40 x 40)
     assert!((r["density"].as_f64().unwrap() - 0.5).abs() < 0.01, "{r}");
     // the tiny preset's MACs, counted by hand in learn's `macs` test and by this formula:
-    // stem 8x16x20 outputs x 40x7x7 + two 3x3 convs of 8 at 8x10 + 16 at 4x5 (two, and the
+    // stem 8x20x20 outputs x 40x7x7 + two 3x3 convs of 8 at 10x10 + 16 at 5x5 (two, and the
     // projection) + fully connected 16x16 + 16x2
-    let macs = 8 * 16 * 20 * 40 * 49
-        + 2 * (8 * 8 * 10 * 8 * 9)
-        + 16 * 4 * 5 * 8 * 9
-        + 16 * 4 * 5 * 16 * 9
-        + 16 * 4 * 5 * 8
+    let macs = 8 * 20 * 20 * 40 * 49
+        + 2 * (8 * 8 * 10 * 10 * 9)
+        + 16 * 5 * 5 * 8 * 9
+        + 16 * 5 * 5 * 16 * 9
+        + 16 * 5 * 5 * 8
         + 16 * 16
         + 16 * 2;
     assert_eq!(r["macs_per_window"], macs);
@@ -923,9 +924,8 @@ fn bench_times_a_resnet_on_windows_beside_burn() {
     assert!(!o.status.success() && err.contains("ResNet is timed on windows"), "{err}");
 }
 
-/// The crop's rows on simulated windows: recorded in the SNN's recipe, refused out of the
-/// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
-/// divide them.
+/// `train --print-boards` with the pair rows: SAB, UN, the all-letters rows and the pair rows,
+/// the last holding every ordered letter pair inside a word.
 #[test]
 fn train_prints_its_boards_with_every_letter_pair_when_asked() {
     let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--pair-rows", "1", "--print-boards"]);
@@ -956,6 +956,9 @@ fn train_prints_its_boards_with_every_letter_pair_when_asked() {
     assert!(!o.status.success() && text(&o).1.contains("pair rows"), "{:?}", text(&o));
 }
 
+/// The crop's rows on simulated windows: recorded in the SNN's recipe, refused out of the
+/// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
+/// divide them.
 #[test]
 fn train_takes_the_crop_rows_and_refuses_bad_ones() {
     // the words preset's own crop (2026-11-29), and the flag's in its place
