@@ -43,11 +43,15 @@ struct Conv {
 pub const SPARSE_BELOW: f64 = 0.2;
 
 /// [`SPARSE_BELOW`] where the dense convolution is the direct one (the `direct` module, about three
-/// times im2col's speed on the lite stem): the two measured about equal at 3% of the cells
-/// non-zero (2026-11-28, lite, one core, each path forced: the scatter 0.9-1.4 / 1.0-1.1 / 1.8 /
-/// 2.4 ms a window at 1 / 2 / 3 / 5%, the direct convolution 1.7-1.9 ms at any density; on the
-/// EV board's windows, 4.6% non-zero, the direct one 1.2 ms against the scatter's 1.6-1.7 ms).
-pub const SPARSE_BELOW_DIRECT: f64 = 0.03;
+/// times im2col's speed on the lite stem). First set at 3%, where the two measured about equal
+/// (2026-11-28, lite, one core, each path forced). Since 2026-11-29 the scatter finds a cell's
+/// row without dividing and its non-zero cells without a branch per cell, and the shipped models
+/// crop 40 x 40 pooled cells: `braille bench --model M --density D --samples 300 --batch 1
+/// --threads 1`, batch 1, one core, the scatter below the threshold and the direct convolution
+/// above it, the tiny segmentation network 0.21 / 0.22 / 0.26 ms a window at 4.9 / 5.5 / 5.9%
+/// against the direct one's 0.24-0.26 ms at any density, the lite classifier 0.27 / 0.27-0.39 /
+/// 0.30-0.33 ms against 0.35-0.36 ms: about equal at 6% for the tiny one, the lite one ahead.
+pub const SPARSE_BELOW_DIRECT: f64 = 0.06;
 
 /// The most floats of im2col columns made at once (1 MiB; on 2026-11-28's 2-core EPYC the tiny
 /// preset's dense stem ran in 1.6 ms a window with it against 2.1 ms with 256 KiB, the lite
@@ -113,26 +117,8 @@ impl Conv {
         for _ in 0..oh * ow {
             col.extend_from_slice(&self.bias);
         }
-        for &(i, v) in nz {
-            let i = i as usize;
-            let (c, rest) = (i / (h * w), i % (h * w));
-            let (iy, ix) = (rest / w + p, rest % w + p);
-            // outputs oy with oy * s + ky = iy (+ p), ky < k
-            for ky in (iy % s..k.min(iy + 1)).step_by(s) {
-                let oy = (iy - ky) / s;
-                if oy >= oh {
-                    continue;
-                }
-                for kx in (ix % s..k.min(ix + 1)).step_by(s) {
-                    let ox = (ix - kx) / s;
-                    if ox >= ow {
-                        continue;
-                    }
-                    let wrow = &self.weight_by_input[((c * k + ky) * k + kx) * co..][..co];
-                    axpy(v, wrow, &mut col[(oy * ow + ox) * co..][..co]);
-                }
-            }
-        }
+        let g = Scatter { h, w, k, s, p, co, oh, ow };
+        scatter(nz, &self.weight_by_input, g, col);
         out.clear();
         out.resize(co * oh * ow, 0.0);
         for (pos, acc) in col.chunks_exact(co).enumerate() {
@@ -317,6 +303,97 @@ fn im2col(
     }
 }
 
+/// A scattered convolution's sizes: the input `h x w`, kernel `k`, stride `s`, padding `p`,
+/// `co` output channels of `oh x ow`.
+#[derive(Debug, Clone, Copy)]
+struct Scatter {
+    h: usize,
+    w: usize,
+    k: usize,
+    s: usize,
+    p: usize,
+    co: usize,
+    oh: usize,
+    ow: usize,
+}
+
+/// Adds each non-zero input `nz` times its weights (`[c_in][k][k][co]`) into every output it
+/// reaches, in `col` (`[oy][ox][co]`).
+fn scatter(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
+    let Scatter { h, w, k, s, p, co, oh, ow } = g;
+    // The cells come in index order, so their row (and channel) is found by walking on from
+    // the last one's rather than by dividing.
+    let (mut c, mut y, mut row_start) = (0usize, 0usize, 0usize);
+    for &(i, v) in nz {
+        let i = i as usize;
+        while i >= row_start + w {
+            row_start += w;
+            y += 1;
+            if y == h {
+                (c, y) = (c + 1, 0);
+            }
+        }
+        let (iy, ix) = (y + p, i - row_start + p);
+        // outputs oy with oy * s + ky = iy (+ p), ky < k (the stride's division by a constant
+        // where it is 1 or 2, the strides these networks have)
+        let taps = |n: usize| match s {
+            1 => Taps::new::<1>(n, k),
+            2 => Taps::new::<2>(n, k),
+            _ => Taps::any(n, k, s),
+        };
+        for (ky, oy) in taps(iy) {
+            if oy >= oh {
+                continue;
+            }
+            for (kx, ox) in taps(ix) {
+                if ox >= ow {
+                    continue;
+                }
+                let wrow = &weight_by_input[((c * k + ky) * k + kx) * co..][..co];
+                axpy(v, wrow, &mut col[(oy * ow + ox) * co..][..co]);
+            }
+        }
+    }
+}
+
+/// The kernel offsets `t < k` with `t ≡ n (mod s)`, `t <= n`, each with its output `(n - t) / s`:
+/// the outputs a padded input coordinate `n` reaches.
+struct Taps {
+    t: usize,
+    end: usize,
+    s: usize,
+    out: usize,
+}
+
+impl Taps {
+    /// With the stride `S` a constant (its division and remainder shifts and masks).
+    #[inline]
+    fn new<const S: usize>(n: usize, k: usize) -> Taps {
+        let t = n % S;
+        Taps { t, end: k.min(n + 1), s: S, out: (n - t) / S }
+    }
+
+    fn any(n: usize, k: usize, s: usize) -> Taps {
+        let t = n % s;
+        Taps { t, end: k.min(n + 1), s, out: (n - t) / s }
+    }
+}
+
+impl Iterator for Taps {
+    type Item = (usize, usize);
+
+    #[inline]
+    fn next(&mut self) -> Option<(usize, usize)> {
+        if self.t >= self.end {
+            return None;
+        }
+        let item = (self.t, self.out);
+        self.t += self.s;
+        self.out = self.out.wrapping_sub(1);
+        Some(item)
+    }
+}
+
 /// `y += a * x`, eight lanes at a time (fixed-width chunks, so that the compiler vectorises them).
 fn axpy(a: f32, x: &[f32], y: &mut [f32]) {
     let mut ys = y.chunks_exact_mut(8);
@@ -336,20 +413,25 @@ fn axpy(a: f32, x: &[f32], y: &mut [f32]) {
 /// The non-zero cells of `x` as `(index, value)` into `nz`, unless there are `limit` or more
 /// (then `false`). Runs of eight zeros (either sign) are skipped at once.
 fn nonzeros(x: &[f32], limit: usize, nz: &mut Vec<(u32, f32)>) -> bool {
+    // Every cell of a chunk is written and the count moves on by whether it is non-zero (no
+    // branch a sparse map's scattered cells would mispredict); room for one chunk past `limit`.
     nz.clear();
+    nz.resize(limit + 8, (0, 0.0));
+    let mut n = 0;
     for (b, chunk) in x.chunks(8).enumerate() {
         if chunk.iter().fold(0u32, |m, v| m | (v.to_bits() << 1)) == 0 {
             continue;
         }
         for (j, &v) in chunk.iter().enumerate() {
-            if v != 0.0 {
-                nz.push(((b * 8 + j) as u32, v));
-            }
+            nz[n] = ((b * 8 + j) as u32, v);
+            n += usize::from(v != 0.0);
         }
-        if nz.len() >= limit {
+        if n >= limit {
+            nz.truncate(n);
             return false;
         }
     }
+    nz.truncate(n);
     true
 }
 
@@ -653,6 +735,66 @@ mod tests {
                             "{cfg:?}, direct {}: {a} against burn's {b}",
                             f.direct_convolution()
                         );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The scatter equals a plain sum for strides 1, 2 and 3 (the constant and the general tap
+    /// walks), paddings and kernels, on inputs with empty rows and empty channels between the
+    /// non-zero cells (the row walk), and finds the same non-zero cells as a filter.
+    #[test]
+    fn the_scatter_is_the_plain_convolution() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        // (c_in, h, w, k, s, p, c_out)
+        for (c_in, h, w, k, s, p, c_out) in
+            [(3, 9, 11, 7, 2, 3, 8), (4, 6, 5, 3, 1, 1, 16), (2, 10, 13, 5, 3, 2, 8), (5, 4, 7, 1, 2, 0, 8)]
+        {
+            let fan = c_in * k * k;
+            let weight: Vec<f32> = (0..c_out * fan).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let bias: Vec<f32> = (0..c_out).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let mut weight_by_input = vec![0.0; weight.len()];
+            for o in 0..c_out {
+                for j in 0..fan {
+                    weight_by_input[j * c_out + o] = weight[o * fan + j];
+                }
+            }
+            let conv = Conv { c_in, c_out, k, stride: s, pad: p, weight, weight_by_input, bias };
+            // channel 1 empty, and every third row of the others
+            let x: Vec<f32> = (0..c_in * h * w)
+                .map(|i| {
+                    let (c, y) = (i / (h * w), i / w % h);
+                    if c == 1 || y % 3 == 2 || !rng.random_bool(0.3) { 0.0 } else { rng.random_range(-2.0..2.0) }
+                })
+                .collect();
+            let mut nz = Vec::new();
+            assert!(nonzeros(&x, x.len(), &mut nz));
+            let want_nz: Vec<(u32, f32)> =
+                x.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(i, v)| (i as u32, *v)).collect();
+            assert_eq!(nz, want_nz);
+            assert!(!nonzeros(&x, want_nz.len(), &mut nz), "as many as the limit: refused");
+            let (mut out, mut col) = (Vec::new(), Vec::new());
+            let (oh, ow) = conv.forward_scatter(&want_nz, (h, w), &mut out, &mut col, false);
+            for co in 0..c_out {
+                for oy in 0..oh {
+                    for ox in 0..ow {
+                        let mut want = conv.bias[co] as f64;
+                        for ci in 0..c_in {
+                            for ky in 0..k {
+                                for kx in 0..k {
+                                    let (iy, ix) =
+                                        ((oy * s + ky) as isize - p as isize, (ox * s + kx) as isize - p as isize);
+                                    if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
+                                        continue;
+                                    }
+                                    want += x[(ci * h + iy as usize) * w + ix as usize] as f64
+                                        * conv.weight[co * fan + (ci * k + ky) * k + kx] as f64;
+                                }
+                            }
+                        }
+                        let got = out[(co * oh + oy) * ow + ox] as f64;
+                        assert!((got - want).abs() <= 1e-5 * (1.0 + want.abs()), "k{k} s{s}: {got} against {want}");
                     }
                 }
             }
