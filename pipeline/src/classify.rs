@@ -52,9 +52,10 @@ struct BinCache {
 /// without cropping every bin again at each of the frames whose window holds it.
 #[derive(Default)]
 struct CropCache {
-    /// Consecutive bins by end time: each its crop's non-zero cells, as [`crop_bin`] gives them.
+    /// Consecutive bins by end time: each its crop's non-zero cells, as [`BinCropper::crop`] gives
+    /// them.
     bins: std::collections::VecDeque<(i64, Vec<CroppedCell>)>,
-    scratch: Vec<f32>,
+    cropper: BinCropper,
 }
 
 impl CropCache {
@@ -65,7 +66,7 @@ impl CropCache {
         let ends: Vec<i64> = w.bin_ends_us().collect();
         let kept = keep_window_bins(&mut self.bins, &ends, |b| b.0);
         for (cells, &t) in w.bins().zip(&ends).skip(kept) {
-            self.bins.push_back((t, crop_bin(input, cells, w.height, w.width, &mut self.scratch)));
+            self.bins.push_back((t, self.cropper.crop(input, cells, w.height, w.width)));
         }
         let mut out = vec![0f32; planes * h * wd];
         for (plane, (_, cells)) in out.chunks_exact_mut(2 * h * wd).zip(&self.bins) {
@@ -140,7 +141,7 @@ pub struct WindowState {
 enum StateKind {
     Crops(CropCache),
     Engine(EngineState),
-    Sliding { bins: std::collections::VecDeque<BinCache>, scratch: Vec<f32>, run: RunScratch },
+    Sliding { bins: std::collections::VecDeque<BinCache>, cropper: BinCropper, run: RunScratch },
 }
 
 /// A model's work on one stream.
@@ -336,34 +337,65 @@ fn softmax(v: &[f32]) -> Vec<f32> {
     e.into_iter().map(|x| x / s).collect()
 }
 
-/// A bin's cells cropped and pooled as [`CharInput::crop_window`] does, in
-/// ascending (polarity, row, column) order; `scratch` is a zeroed grid of the crop.
-fn crop_bin(
-    input: &CharInput,
-    cells: &[crate::reader::Cell],
-    height: usize,
-    width: usize,
-    scratch: &mut Vec<f32>,
-) -> Vec<CroppedCell> {
-    let [_, h, w] = input.shape();
-    scratch.resize(2 * h * w, 0.0);
-    let mut touched: Vec<usize> = Vec::new();
-    for c in cells {
-        if let Some(j) = input.crop_cell(c.input, height, width) {
-            if scratch[j] == 0.0 {
-                touched.push(j);
-            }
-            scratch[j] += c.count;
+/// Crops a stream's bins ([`BinCropper::crop`]), with the stream's tables: where each of the
+/// reader's cells falls in the crop ([`CharInput::crop_cell`] for every cell, made at the first
+/// bin: a stream's grid does not change), the crop's cells as `(polarity, row, column)`, and a
+/// zeroed grid of the crop to sum in.
+#[derive(Default)]
+struct BinCropper {
+    /// The reader's grid (height, width) the tables are for.
+    grid: (usize, usize),
+    /// The crop's cell of each of the reader's cells, or `u32::MAX` outside the crop.
+    cell_of: Vec<u32>,
+    /// `(polarity, row, column)` of each of the crop's cells.
+    place_of: Vec<(u16, u16, u16)>,
+    scratch: Vec<f32>,
+    touched: Vec<u32>,
+}
+
+impl BinCropper {
+    /// A bin's cells cropped and pooled as [`CharInput::crop_window`] does, in ascending
+    /// (polarity, row, column) order.
+    fn crop(
+        &mut self,
+        input: &CharInput,
+        cells: &[crate::reader::Cell],
+        height: usize,
+        width: usize,
+    ) -> Vec<CroppedCell> {
+        let [_, h, w] = input.shape();
+        if self.grid != (height, width) || self.cell_of.is_empty() {
+            self.grid = (height, width);
+            self.cell_of = (0..2 * height * width)
+                .map(|i| input.crop_cell(i as u32, height, width).map_or(u32::MAX, |j| j as u32))
+                .collect();
+            self.place_of =
+                (0..2 * h * w).map(|j| ((j / (h * w)) as u16, (j / w % h) as u16, (j % w) as u16)).collect();
+            self.scratch = vec![0.0; 2 * h * w];
         }
+        self.touched.clear();
+        for c in cells {
+            // a cell past the grid (none from the reader) is outside the crop, as `crop_cell` says
+            let j = self.cell_of.get(c.input as usize).copied().unwrap_or(u32::MAX);
+            if j == u32::MAX {
+                continue;
+            }
+            let v = &mut self.scratch[j as usize];
+            if *v == 0.0 {
+                self.touched.push(j);
+            }
+            *v += c.count;
+        }
+        self.touched.sort_unstable();
+        self.touched
+            .iter()
+            .map(|&j| {
+                let v = std::mem::take(&mut self.scratch[j as usize]);
+                let (pol, r, col) = self.place_of[j as usize];
+                (pol as usize, r as usize, col as usize, v)
+            })
+            .collect()
     }
-    touched.sort_unstable();
-    touched
-        .into_iter()
-        .map(|j| {
-            let v = std::mem::take(&mut scratch[j]);
-            (j / (h * w), (j / w) % h, j % w, v)
-        })
-        .collect()
 }
 
 impl WindowModel {
@@ -371,7 +403,7 @@ impl WindowModel {
         let Runner::Sliding { model, input, net } = &self.runner else {
             unreachable!("called for the sliding runner only")
         };
-        let StateKind::Sliding { bins, scratch, run } = &mut st.kind else {
+        let StateKind::Sliding { bins, cropper, run } = &mut st.kind else {
             return Err(Error::Mismatch { what: "a window state of another model" });
         };
         let [_, h, wd] = input.shape();
@@ -380,7 +412,7 @@ impl WindowModel {
         let ends: Vec<i64> = w.bin_ends_us().collect();
         let kept = keep_window_bins(bins, &ends, |b| b.t_end_us);
         for (cells, &t) in w.bins().zip(&ends).skip(kept) {
-            let cells = crop_bin(input, cells, w.height, w.width, scratch);
+            let cells = cropper.crop(input, cells, w.height, w.width);
             let (mass, moment) =
                 cells.iter().fold((0f64, 0f64), |(m, r), &(_, row, _, c)| (m + c as f64, r + c as f64 * row as f64));
             bins.push_back(BinCache { t_end_us: t, cells, mass, moment, currents: Vec::new() });
@@ -428,9 +460,11 @@ impl WindowClassifier for WindowModel {
         let kind = match &self.runner {
             Runner::Resnet { .. } | Runner::Chip { .. } => StateKind::Crops(CropCache::default()),
             Runner::Engine { engine, .. } => StateKind::Engine(engine.state(0)),
-            Runner::Sliding { .. } => {
-                StateKind::Sliding { bins: Default::default(), scratch: Vec::new(), run: RunScratch::default() }
-            }
+            Runner::Sliding { .. } => StateKind::Sliding {
+                bins: Default::default(),
+                cropper: BinCropper::default(),
+                run: RunScratch::default(),
+            },
         };
         WindowState { kind, stats: CallStats::default() }
     }

@@ -534,9 +534,14 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
     ring: Vec<Vec<Cell>>,
     ring_end_us: Vec<i64>,
     head: usize,
-    /// The bin being filled: dense counts and the cells touched.
-    acc: Vec<f32>,
+    /// The bin being filled: dense counts (16 bits: half the cache lines of a float, and no cell
+    /// of a bin nears 65 535 events; they saturate there), and the cells touched, the first
+    /// `touched_len` of `touched`, which has room for every cell and one more: each event writes
+    /// its cell at `touched_len` and moves it on only when the cell was empty, so that the
+    /// scattered events take no branch on their cell's count.
+    acc: Vec<u16>,
     touched: Vec<u32>,
+    touched_len: usize,
     /// Start of the bin being filled (set by the first event).
     bin_start: Option<i64>,
     /// Bins in the ring that hold an event.
@@ -586,8 +591,9 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             ring: Vec::with_capacity(frames),
             ring_end_us: Vec::with_capacity(frames),
             head: 0,
-            acc: vec![0.0; 2 * cells],
-            touched: Vec::new(),
+            acc: vec![0; 2 * cells],
+            touched: vec![0; 2 * cells + 1],
+            touched_len: 0,
             bin_start: None,
             nonempty: 0,
             last_t: i64::MIN,
@@ -610,7 +616,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         let cell = std::mem::size_of::<Cell>();
         self.ring.iter().map(|b| b.capacity() * cell).sum::<usize>()
             + self.ring_end_us.capacity() * 8
-            + self.acc.capacity() * 4
+            + self.acc.capacity() * 2
             + self.touched.capacity() * 4
             + self.word.iter().map(|c| std::mem::size_of::<ReadChar>() + c.probs.capacity() * 4).sum::<usize>()
             + self.pending.capacity() * std::mem::size_of::<FilterOutput>()
@@ -728,10 +734,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             return Ok(());
         };
         let i = e.polarity.index() as u32 * self.cells as u32 + cell;
-        if self.acc[i as usize] == 0.0 {
-            self.touched.push(i);
-        }
-        self.acc[i as usize] += 1.0;
+        self.touched[self.touched_len] = i;
+        let a = &mut self.acc[i as usize];
+        self.touched_len += usize::from(*a == 0);
+        *a = a.saturating_add(1);
         Ok(())
     }
 
@@ -750,8 +756,8 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             let due = self.estimator.as_ref().map_or(i64::MAX, |s| s.next_update_us().unwrap_or(i64::MIN));
             let cells = self.cells as u32;
             let (mut last, mut masked, start) = (self.last_t, 0u64, k);
-            let (map, acc, touched, mut est) =
-                (&self.map, &mut self.acc[..], &mut self.touched, self.estimator.as_mut());
+            let (map, acc, touched, mut n_touched, mut est) =
+                (&self.map, &mut self.acc[..], &mut self.touched[..], self.touched_len, self.estimator.as_mut());
             while k < events.len() {
                 let e = &events[k];
                 if e.t_us >= end || e.t_us < last || e.t_us >= due {
@@ -765,10 +771,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
                     Some(cell) => {
                         let i = (e.polarity.index() as u32 * cells + cell) as usize;
                         if let Some(a) = acc.get_mut(i) {
-                            if *a == 0.0 {
-                                touched.push(i as u32);
-                            }
-                            *a += 1.0;
+                            // (at most every cell is touched, so `n_touched` stays inside)
+                            touched[n_touched] = i as u32;
+                            n_touched += usize::from(*a == 0);
+                            *a = a.saturating_add(1);
                         }
                     }
                     None => masked += 1,
@@ -776,6 +782,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
                 k += 1;
             }
             self.last_t = last;
+            self.touched_len = n_touched;
             self.stats.events += (k - start) as u64;
             self.stats.events_masked += masked;
         }
@@ -791,7 +798,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             self.retune();
             // a long silence: once the window is empty, skip to the bin holding `t_us` (the
             // filter still sees the time pass)
-            if self.nonempty == 0 && self.touched.is_empty() && t_us >= start + self.bin_us {
+            if self.nonempty == 0 && self.touched_len == 0 && t_us >= start + self.bin_us {
                 let skip = (t_us - start) / self.bin_us;
                 let target = start + skip * self.bin_us;
                 // the frames at which the filter closes a segment or a word, on the frame grid
@@ -837,11 +844,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             Vec::new()
         };
         bin.clear();
-        for &i in &self.touched {
-            bin.push(Cell { input: i, count: self.acc[i as usize] });
-            self.acc[i as usize] = 0.0;
+        for &i in &self.touched[..self.touched_len] {
+            bin.push(Cell { input: i, count: f32::from(std::mem::take(&mut self.acc[i as usize])) });
         }
-        self.touched.clear();
+        self.touched_len = 0;
         self.nonempty += usize::from(!bin.is_empty());
         if self.ring.len() < self.frames {
             self.ring.push(bin);
