@@ -101,7 +101,8 @@ impl Conv {
     }
 
     /// As [`Conv::forward`] without residual, for a sparse input given as its non-zero cells
-    /// `nz` (of `[c_in, h, w]`): each added into every output it reaches (accumulated as
+    /// `nz` (of `[c_in, h, w]`, in index order, as [`nonzeros`] gives them): each added into
+    /// every output it reaches (accumulated as
     /// `[oy][ox][c_out]` in `col`, then laid out as `[c_out][oy][ox]` in `out`).
     fn forward_scatter(
         &self,
@@ -317,8 +318,8 @@ struct Scatter {
     ow: usize,
 }
 
-/// Adds each non-zero input `nz` times its weights (`[c_in][k][k][co]`) into every output it
-/// reaches, in `col` (`[oy][ox][co]`).
+/// Adds each non-zero input `nz` (in index order) times its weights (`[c_in][k][k][co]`) into
+/// every output it reaches, in `col` (`[oy][ox][co]`).
 fn scatter(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
     let Scatter { h, w, k, s, p, co, oh, ow } = g;
     // The cells come in index order, so their row (and channel) is found by walking on from
