@@ -192,6 +192,35 @@ impl Resnet {
     }
 }
 
+/// The tests' reference convolution, summed plainly in f64: output `(oy, ox)` of one output
+/// channel over `x` (`[c_in, h, w]`) with a kernel `k`, stride `s` and zero padding `p`, where
+/// `weight(ci, ky, kx)` is that channel's weight; returns the sum and the sum of its terms'
+/// magnitudes (for a tolerance).
+#[cfg(test)]
+fn plain_conv_at(
+    x: &[f32],
+    (c_in, h, w): (usize, usize, usize),
+    (k, s, p): (usize, usize, usize),
+    (oy, ox): (usize, usize),
+    weight: impl Fn(usize, usize, usize) -> f32,
+) -> (f64, f64) {
+    let (mut sum, mut magnitude) = (0f64, 0f64);
+    for ci in 0..c_in {
+        for ky in 0..k {
+            for kx in 0..k {
+                let (iy, ix) = ((oy * s + ky) as isize - p as isize, (ox * s + kx) as isize - p as isize);
+                if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
+                    continue;
+                }
+                let term = x[(ci * h + iy as usize) * w + ix as usize] as f64 * weight(ci, ky, kx) as f64;
+                sum += term;
+                magnitude += term.abs();
+            }
+        }
+    }
+    (sum, magnitude)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -343,8 +343,8 @@ fn softmax(v: &[f32]) -> Vec<f32> {
 /// zeroed grid of the crop to sum in.
 #[derive(Default)]
 struct BinCropper {
-    /// The reader's grid (height, width) the tables are for.
-    grid: (usize, usize),
+    /// The reader's grid (height, width) the tables are for (`None` before the first bin).
+    grid: Option<(usize, usize)>,
     /// The crop's cell of each of the reader's cells, or `u32::MAX` outside the crop.
     cell_of: Vec<u32>,
     /// `(polarity, row, column)` of each of the crop's cells.
@@ -364,8 +364,8 @@ impl BinCropper {
         width: usize,
     ) -> Vec<CroppedCell> {
         let [_, h, w] = input.shape();
-        if self.grid != (height, width) || self.cell_of.is_empty() {
-            self.grid = (height, width);
+        if self.grid != Some((height, width)) {
+            self.grid = Some((height, width));
             self.cell_of = (0..2 * height * width)
                 .map(|i| input.crop_cell(i as u32, height, width).map_or(u32::MAX, |j| j as u32))
                 .collect();

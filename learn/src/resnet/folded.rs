@@ -338,9 +338,9 @@ fn scatter(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f3
         // outputs oy with oy * s + ky = iy (+ p), ky < k (the stride's division by a constant
         // where it is 1 or 2, the strides these networks have)
         let taps = |n: usize| match s {
-            1 => Taps::new::<1>(n, k),
-            2 => Taps::new::<2>(n, k),
-            _ => Taps::any(n, k, s),
+            1 => Taps::new(n, k, 1),
+            2 => Taps::new(n, k, 2),
+            _ => Taps::new(n, k, s),
         };
         for (ky, oy) in taps(iy) {
             if oy >= oh {
@@ -367,14 +367,9 @@ struct Taps {
 }
 
 impl Taps {
-    /// With the stride `S` a constant (its division and remainder shifts and masks).
-    #[inline]
-    fn new<const S: usize>(n: usize, k: usize) -> Taps {
-        let t = n % S;
-        Taps { t, end: k.min(n + 1), s: S, out: (n - t) / S }
-    }
-
-    fn any(n: usize, k: usize, s: usize) -> Taps {
+    /// Inlined, so that a constant stride's division and remainder become shifts and masks.
+    #[inline(always)]
+    fn new(n: usize, k: usize, s: usize) -> Taps {
         let t = n % s;
         Taps { t, end: k.min(n + 1), s, out: (n - t) / s }
     }
@@ -780,20 +775,11 @@ mod tests {
             for co in 0..c_out {
                 for oy in 0..oh {
                     for ox in 0..ow {
-                        let mut want = conv.bias[co] as f64;
-                        for ci in 0..c_in {
-                            for ky in 0..k {
-                                for kx in 0..k {
-                                    let (iy, ix) =
-                                        ((oy * s + ky) as isize - p as isize, (ox * s + kx) as isize - p as isize);
-                                    if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
-                                        continue;
-                                    }
-                                    want += x[(ci * h + iy as usize) * w + ix as usize] as f64
-                                        * conv.weight[co * fan + (ci * k + ky) * k + kx] as f64;
-                                }
-                            }
-                        }
+                        let (sum, _) =
+                            super::super::plain_conv_at(&x, (c_in, h, w), (k, s, p), (oy, ox), |ci, ky, kx| {
+                                conv.weight[co * fan + (ci * k + ky) * k + kx]
+                            });
+                        let want = conv.bias[co] as f64 + sum;
                         let got = out[(co * oh + oy) * ow + ox] as f64;
                         assert!((got - want).abs() <= 1e-5 * (1.0 + want.abs()), "k{k} s{s}: {got} against {want}");
                     }
