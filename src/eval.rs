@@ -391,6 +391,7 @@ fn words(args: WordsArgs) -> Result<()> {
         readers = ReaderModels {
             segmenter: on_chip(readers.segmenter, &files.segmenter)?,
             classifier: on_chip(readers.classifier, &files.classifier)?,
+            cell_grid: readers.cell_grid,
         };
     }
     if let Some(dir) = &args.recordings {

@@ -34,6 +34,10 @@ pub struct Args {
     /// UEB: scans per row of the cell board.
     #[arg(long, default_value_t = 30)]
     cell_trials: u64,
+    /// UEB: the readers keep the classifier's column for cells of one dot column (no cell grid,
+    /// `pipeline::grid`), to measure what the grid does.
+    #[arg(long)]
+    no_cell_grid: bool,
     /// UEB: the validation boards (VCB, VAL-UEB) scanned by the training builds, for choices,
     /// in place of the test boards (`ueb_validation.*`).
     #[arg(long)]
@@ -111,6 +115,7 @@ fn ueb(args: Args, models: &std::path::Path) -> Result<()> {
         depth_mm: args.depth.unwrap_or(1.0),
         trials: args.trials.unwrap_or(3),
         timing,
+        cell_grid: !args.no_cell_grid,
         seed: args.seed,
         world: args.realism.world(builds),
     };

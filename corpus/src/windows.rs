@@ -13,8 +13,10 @@ use encoders::braille::{Cell, cell_on_board};
 use encoders::heatmap::Heatmap;
 use learn::data::SpikeSet;
 use learn::resnet::ImageSet;
+use pipeline::grid::GridMark;
 use pipeline::input::CharInput;
 use pipeline::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
+use pipeline::speed::SpeedEstimatorConfig;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::sensor::Sensor;
@@ -95,6 +97,10 @@ pub struct CharSample {
     pub map: Heatmap,
     /// Which scan it came from.
     pub scan: ScanId,
+    /// Where its character passed, for the cell grid (`pipeline::grid`): the labeler's last peak
+    /// and column count, and, for cells, the speed the reader's estimator gives from the scan's
+    /// events there (`None` otherwise).
+    pub mark: GridMark,
 }
 
 /// Which scans to take windows from.
@@ -226,9 +232,20 @@ pub fn label_scan(
     if !l.count_matched {
         return Ok(None);
     }
+    // the speed a reader would estimate from the events, where the cell grid needs it
+    let estimates = if task == Task::Cells {
+        pipeline::speed::estimates_of(events, &SpeedEstimatorConfig::default(), resolution)?
+    } else {
+        Vec::new()
+    };
     let mut out = Vec::with_capacity(chars.len());
     let scaled = |ms: f64| (ms * 1e3 * cfg.reference_speed_mm_s / speed_mm_s).round() as i64;
     for (k, (w, &letter)) in l.windows.iter().zip(chars).enumerate() {
+        let mark = GridMark {
+            t_us: w.t_max_us,
+            two_columns: w.peaks >= 2,
+            speed_mm_s: pipeline::speed::speed_near(&estimates, w.t_max_us, GRID_SPEED_HALF_MS),
+        };
         let mut windows = Vec::new();
         match task {
             Task::Chars | Task::Cells => {
@@ -290,7 +307,7 @@ pub fn label_scan(
         }
         for (class, w) in windows {
             let map = window_heatmap(events, resolution, speed_mm_s, &w, cfg)?;
-            out.push(CharSample { letter, class, map, scan: id.clone() });
+            out.push(CharSample { letter, class, map, scan: id.clone(), mark });
         }
     }
     Ok(Some(out))
@@ -383,6 +400,8 @@ pub struct Windows {
     pub sets: Vec<ImageSet>,
     /// Per window: its scan.
     pub origin: Vec<ScanId>,
+    /// Per window: where its character passed (`CharSample::mark`).
+    pub marks: Vec<GridMark>,
     /// Scans simulated, and those skipped because the labeler's window count was off.
     pub scans: usize,
     pub skipped_scans: usize,
@@ -468,15 +487,19 @@ pub fn build_many_in(
     Ok(gather(per_scan, inputs, printed))
 }
 
-/// A window's class, its crop for each input, and its scan.
-type Kept = (usize, Vec<Vec<f32>>, ScanId);
+/// The estimates a window's speed for the cell grid is the median of: those within this much of
+/// its character's last peak (the estimator updates every few ms; the median drops an outlier).
+const GRID_SPEED_HALF_MS: f64 = 500.0;
+
+/// A window's class, its crop for each input, its scan and its mark.
+type Kept = (usize, Vec<Vec<f32>>, ScanId, GridMark);
 
 fn crop_all(samples: Vec<CharSample>, inputs: &[&CharInput]) -> Result<Vec<Kept>> {
     samples
         .into_iter()
         .map(|s| {
             let crops = inputs.iter().map(|i| Ok(i.crop(&s.map)?.counts)).collect::<Result<_>>()?;
-            Ok((s.class, crops, s.scan))
+            Ok((s.class, crops, s.scan, s.mark))
         })
         .collect()
 }
@@ -484,17 +507,18 @@ fn crop_all(samples: Vec<CharSample>, inputs: &[&CharInput]) -> Result<Vec<Kept>
 /// The windows of every scan in order (`None`: a scan the labeler miscounted) as one set per input.
 fn gather(per_scan: Vec<Option<Vec<Kept>>>, inputs: &[&CharInput], printed: usize) -> Windows {
     let mut sets: Vec<ImageSet> = inputs.iter().map(|i| ImageSet { shape: i.shape(), ..ImageSet::default() }).collect();
-    let mut origin = Vec::new();
+    let (mut origin, mut marks) = (Vec::new(), Vec::new());
     let scans = per_scan.len();
     let skipped_scans = per_scan.iter().filter(|s| s.is_none()).count();
-    for (class, crops, scan) in per_scan.into_iter().flatten().flatten() {
+    for (class, crops, scan, mark) in per_scan.into_iter().flatten().flatten() {
         for (set, counts) in sets.iter_mut().zip(crops) {
             set.data.push(counts);
             set.labels.push(class);
         }
         origin.push(scan);
+        marks.push(mark);
     }
-    Windows { sets, origin, scans, skipped_scans, printed }
+    Windows { sets, origin, marks, scans, skipped_scans, printed }
 }
 
 /// The labelled windows of recorded scans (a lab's recordings folder, docs/recordings.md), as

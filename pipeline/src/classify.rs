@@ -515,6 +515,9 @@ impl WindowClassifier for WindowModel {
 pub struct ReaderModels {
     pub segmenter: WindowModel,
     pub classifier: WindowModel,
+    /// The cell grid a cell reader places cells of one dot column with (`None`: the classifier's
+    /// column stands; [`crate::grid`]). Loading sets the standard's.
+    pub cell_grid: Option<crate::grid::CellGrid>,
 }
 
 impl ReaderModels {
@@ -535,7 +538,7 @@ impl ReaderModels {
         if seg.input().labeler != cls.input().labeler {
             return Err(bad(classifier, format!("windows its input unlike {}", segmenter.display())));
         }
-        Ok(ReaderModels { segmenter: seg, classifier: cls })
+        Ok(ReaderModels { segmenter: seg, classifier: cls, cell_grid: Some(crate::grid::CellGrid::default()) })
     }
 
     /// The reader's configuration with this timing, the models' windowing and the segmentation
@@ -543,6 +546,7 @@ impl ReaderModels {
     pub fn config(&self, timing: crate::reader::Timing) -> crate::reader::ReaderConfig {
         crate::reader::ReaderConfig {
             labeler: self.classifier.input().labeler.clone(),
+            cell_grid: self.cell_grid.clone(),
             ..crate::reader::ReaderConfig::new(timing)
         }
         .with_operating_point(self.operating_point())

@@ -7,7 +7,8 @@
 //! shipped model named in one place ([`shipped`]), any SNN or NIR graph run on events
 //! ([`network`]), and the Braille codes from print to cells and back ([`code`]: the paper's
 //! letters, Unified English Braille grades 1 and 2 through liblouis's tables; words of cells read
-//! back to print in [`cell_spell`]).
+//! back to print in [`cell_spell`]; cells of one dot column placed on the print's grid in
+//! [`grid`]).
 //!
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
@@ -17,6 +18,7 @@ pub mod cell_spell;
 pub mod classify;
 pub mod code;
 pub mod error;
+pub mod grid;
 pub mod input;
 pub mod labeling;
 pub mod lexicon;

@@ -19,6 +19,7 @@ use crate::cell_spell::CellSpeller;
 use crate::classify::WindowModel;
 use crate::code::BrailleCode;
 use crate::error::{Error, Result};
+use crate::grid::{CellGrid, Column, GridMark};
 use crate::labeling::LabelerConfig;
 use crate::lexicon::LexiconDecoder;
 use crate::speed::{SpeedEstimate, SpeedEstimator, SpeedEstimatorConfig};
@@ -408,6 +409,16 @@ pub struct ReaderConfig {
     /// without word gaps keeps memory bounded; nothing is dropped).
     #[serde(default = "default_max_word_chars")]
     pub max_word_chars: usize,
+    /// Cell readers: the cell grid that puts a cell of one dot column in its column
+    /// ([`crate::grid`]; `None`: the classifier's column stands). A one-column cell is given out
+    /// once the next character registers or its word ends, so that the grid sees a neighbour on
+    /// either side. Letter readers do not use it.
+    #[serde(default = "default_cell_grid")]
+    pub cell_grid: Option<CellGrid>,
+}
+
+fn default_cell_grid() -> Option<CellGrid> {
+    Some(CellGrid::default())
 }
 
 fn default_max_word_chars() -> usize {
@@ -437,6 +448,7 @@ impl ReaderConfig {
             filter: TemporalFilterConfig { min_frames: OperatingPoint::PAPER.min_frames, ..Default::default() },
             present_threshold: OperatingPoint::PAPER.present_threshold,
             max_word_chars: default_max_word_chars(),
+            cell_grid: default_cell_grid(),
         }
     }
 
@@ -554,9 +566,18 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
     filter: TemporalFilter,
     speller: &'m Speller,
     word: Vec<ReadChar>,
+    /// Characters of `word` given out so far (a one-column cell waits for the cell grid).
+    word_given: usize,
+    /// The cell grid's marks of the current word's characters, and the last two-column marks of
+    /// the words before it (at most [`GRID_HISTORY`]).
+    word_marks: Vec<GridMark>,
+    grid_history: Vec<GridMark>,
     pending: Vec<FilterOutput>,
     pub stats: ReaderStats,
 }
+
+/// Two-column marks kept from earlier words for the cell grid (it looks at the nearest two).
+const GRID_HISTORY: usize = 4;
 
 impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     pub fn new(
@@ -604,6 +625,9 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             classifier,
             speller,
             word: Vec::new(),
+            word_given: 0,
+            word_marks: Vec::new(),
+            grid_history: Vec::new(),
             pending: Vec::new(),
             stats: ReaderStats { speed_mm_s, ..ReaderStats::default() },
         })
@@ -620,6 +644,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             + self.touched.capacity() * 4
             + self.word.iter().map(|c| std::mem::size_of::<ReadChar>() + c.probs.capacity() * 4).sum::<usize>()
             + self.pending.capacity() * std::mem::size_of::<FilterOutput>()
+            + (self.word_marks.capacity() + self.grid_history.capacity()) * std::mem::size_of::<GridMark>()
             + self.estimator.as_ref().map_or(0, SpeedEstimator::memory_bytes)
             + self.held.capacity() * std::mem::size_of::<Event>()
     }
@@ -909,8 +934,9 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
                         self.end_word(out);
                     }
                     self.stats.characters += 1;
-                    self.word.push(c.clone());
-                    out.push(ReadOutput::Char(c));
+                    self.word_marks.push(self.grid_mark(&c));
+                    self.word.push(c);
+                    self.give_chars(out, false);
                     if self.word.len() >= self.cfg.max_word_chars.max(1) {
                         self.end_word(out);
                     }
@@ -924,7 +950,55 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         }
     }
 
+    /// Where character `c` passed, for the cell grid: its segment's middle, and for a cell of
+    /// one column the labeler's shift taken off (the classifiers' windows of a lone column end
+    /// that much later than a two-column cell's), so that every mark stands at its cell's last
+    /// column.
+    fn grid_mark(&self, c: &ReadChar) -> GridMark {
+        let cell = BrailleCell::from_unicode(c.letter).unwrap_or(BrailleCell::EMPTY);
+        let middle_us = (c.t_start_us + c.t_end_us) / 2;
+        let shift_us = match (Column::of(cell), c.speed_mm_s) {
+            (Some(_), Some(v)) if v > 0.0 => {
+                (self.cfg.labeler.single_column_shift_ms * 1e3 * self.cfg.labeler.reference_speed_mm_s / v) as i64
+            }
+            _ => 0,
+        };
+        GridMark { t_us: middle_us - shift_us, two_columns: cell.two_columns(), speed_mm_s: c.speed_mm_s }
+    }
+
+    /// Gives out the word's characters not yet given: a one-column cell once a character follows
+    /// it (or, with `all`, at the word's end), placed on the cell grid first.
+    fn give_chars(&mut self, out: &mut Vec<ReadOutput>, all: bool) {
+        while self.word_given < self.word.len() {
+            let i = self.word_given;
+            let cell = BrailleCell::from_unicode(self.word[i].letter);
+            let one_column = cell.and_then(Column::of);
+            if let (Some(grid), Some(cell), Some(_)) = (&self.cfg.cell_grid, cell, one_column) {
+                if i + 1 == self.word.len() && !all {
+                    return;
+                }
+                let n = self.grid_history.len();
+                let mut marks = Vec::with_capacity(n + self.word_marks.len());
+                marks.extend_from_slice(&self.grid_history);
+                marks.extend_from_slice(&self.word_marks);
+                if let Some(column) = grid.column_at(&marks, n + i) {
+                    let c = &mut self.word[i];
+                    c.letter = column.holding(cell).unicode();
+                    column.place_probs(&mut c.probs);
+                }
+            }
+            out.push(ReadOutput::Char(self.word[self.word_given].clone()));
+            self.word_given += 1;
+        }
+    }
+
     fn end_word(&mut self, out: &mut Vec<ReadOutput>) {
+        self.give_chars(out, true);
+        self.word_given = 0;
+        let two = self.word_marks.drain(..).filter(|m| m.two_columns);
+        self.grid_history.extend(two);
+        let extra = self.grid_history.len().saturating_sub(GRID_HISTORY);
+        self.grid_history.drain(..extra);
         let chars = std::mem::take(&mut self.word);
         let raw: String = chars.iter().map(|c| c.letter).collect();
         let text = self.speller.correct(&chars);
@@ -1035,6 +1109,66 @@ mod tests {
         let u = &words[0].chars[0];
         assert_eq!(u.t_registered_us, u.t_end_us + 70_000, "{u:?}");
         assert!(u.t_registered_us < 400_000, "{u:?}");
+    }
+
+    /// A cell classifier: pooled column 20 reads ⠉ (dots 1 and 4), any other ⠁ (dot 1, a cell of
+    /// one column), with a little probability on ⠈ (dot 4, its twin in the right column).
+    struct Cells;
+    impl WindowClassifier for Cells {
+        type State = ();
+        fn new_state(&self) {}
+        fn classify(&self, _: &mut (), w: &Window) -> Result<Vec<f32>> {
+            let col = w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width);
+            let mut p = vec![0.0; 63];
+            if col == 20 {
+                p[0b001_001 - 1] = 1.0;
+            } else {
+                (p[0], p[0b001_000 - 1]) = (0.75, 0.25);
+            }
+            Ok(p)
+        }
+    }
+
+    #[test]
+    fn a_cell_of_one_column_is_placed_on_the_grid_its_neighbours_draw() {
+        // at 8 mm/s a cell spacing (6 mm) is 750 ms and the columns 2.5 mm (312 ms) apart. A burst
+        // that follows the stream's first 200 ms and precedes more events is detected from 10 ms
+        // after its start until its window has passed: its segment's middle is 150 ms after its
+        // start, and a lone column's mark the labeler's 280 ms before that. A lone column a whole
+        // spacing from ⠉'s right column is ⠈, one a dot spacing short of that ⠁. A burst at 0 ms
+        // and one at 6 s, words of their own, frame the row.
+        let speller = Speller::new(Spell::None);
+        let row = |lone_ms: i64| {
+            let mut ev = burst(23, 0, 100);
+            ev.extend(burst(20, 2_000, 2_100));
+            ev.extend(burst(21, lone_ms, lone_ms + 100));
+            ev.extend(burst(23, 6_000, 6_100));
+            ev
+        };
+        let (right_ms, left_ms) = (2_000 + 280 + 750, 2_000 + 280 + 750 - 312);
+        for (lone_ms, want, p_left, p_right) in [(right_ms, '⠈', 0.0f32, 1.0f32), (left_ms, '⠁', 1.0, 0.0)] {
+            let mut r =
+                StreamReader::new(ReaderConfig::at_speed(8.0), Resolution::DVXPLORER, &Count(1.0), &Cells, &speller)
+                    .unwrap();
+            let mut out = Vec::new();
+            r.push_all(&row(lone_ms), &mut out).unwrap();
+            r.finish(&mut out).unwrap();
+            let chars: String =
+                out.iter().filter_map(|o| if let ReadOutput::Char(c) = o { Some(c.letter) } else { None }).collect();
+            let words: Vec<&ReadWord> =
+                out.iter().filter_map(|o| if let ReadOutput::Word(w) = o { Some(w) } else { None }).collect();
+            // the framing words are lone columns with no two-column neighbour in reach: as read
+            let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
+            assert_eq!(raw, ["⠁", &format!("⠉{want}"), "⠁"], "lone column at {lone_ms} ms");
+            // the characters given out are the words' (placed)
+            assert_eq!(chars, raw.concat());
+            let lone = &words[1].chars[1];
+            assert_eq!((lone.probs[0], lone.probs[7]), (p_left, p_right));
+        }
+        // without the grid the classifier's column stands
+        let cfg = ReaderConfig { cell_grid: None, ..ReaderConfig::at_speed(8.0) };
+        let r = read_all(&row(right_ms), cfg, Resolution::DVXPLORER, &Count(1.0), &Cells, &speller).unwrap();
+        assert_eq!(r.words[1].raw, "⠉⠁");
     }
 
     #[test]

@@ -478,6 +478,37 @@ fn parabola(a: f64, b: f64, c: f64) -> f64 {
     if d < 0.0 { (0.5 * (a - c) / d).clamp(-0.5, 0.5) } else { 0.0 }
 }
 
+/// Every estimate the estimator gives over a whole stream of `events` (in time order), as a
+/// reader running it would have them.
+pub fn estimates_of(
+    events: &[Event],
+    cfg: &SpeedEstimatorConfig,
+    resolution: Resolution,
+) -> Result<Vec<SpeedEstimate>> {
+    let mut est = SpeedEstimator::new(cfg.clone(), resolution)?;
+    let mut given = Vec::new();
+    for e in events {
+        est.push(e);
+        if est.due(e.t_us)
+            && let Some(x) = est.update(e.t_us)
+        {
+            given.push(x);
+        }
+    }
+    Ok(given)
+}
+
+/// The median speed of the estimates given within `half_ms` of `t_us` (`estimates` in time
+/// order); `None` when none was.
+pub fn speed_near(estimates: &[SpeedEstimate], t_us: i64, half_ms: f64) -> Option<f64> {
+    let half_us = (half_ms * 1e3) as i64;
+    let from = estimates.partition_point(|x| x.t_us < t_us - half_us);
+    let to = estimates.partition_point(|x| x.t_us <= t_us + half_us);
+    let mut near: Vec<f64> = estimates[from..to].iter().map(|x| x.speed_mm_s).collect();
+    near.sort_by(f64::total_cmp);
+    near.get(near.len() / 2).copied()
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -603,5 +634,20 @@ pub(crate) mod tests {
             .filter(|e| e.polarity == Polarity::Off)
             .collect::<Vec<_>>());
         assert!(est.is_empty(), "{est:?}");
+    }
+
+    #[test]
+    fn the_speed_near_a_time_is_the_median_of_the_estimates_around_it() {
+        let x = |t_ms: i64, v: f64| SpeedEstimate { t_us: t_ms * 1000, speed_mm_s: v, forward: true, gain: 2.0 };
+        let given = [x(0, 30.0), x(400, 8.0), x(500, 8.5), x(600, 9.0), x(1_500, 16.0)];
+        assert_eq!(speed_near(&given, 500_000, 200.0), Some(8.5));
+        // an outlier among them moves the median little
+        assert_eq!(speed_near(&given, 300_000, 400.0), Some(9.0));
+        assert_eq!(speed_near(&given, 1_000_000, 100.0), None);
+        // a whole stream: the estimator's own estimates
+        let ev = tests::moving(16.0, true, 0.05, 0.7, 1);
+        let est = estimates_of(&ev, &SpeedEstimatorConfig::default(), Resolution::DVXPLORER).unwrap();
+        let v = speed_near(&est, ev[ev.len() / 2].t_us, 500.0).unwrap();
+        assert!((v / 16.0 - 1.0).abs() < 0.05, "{v}");
     }
 }

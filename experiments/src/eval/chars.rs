@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::eval::scoring::Confusion;
 use crate::eval::tactile::{async_capable, snn_accuracy};
 use corpus::windows::{CharSetSpec, ScanId, Task, build, snn_set};
+use encoders::braille::Cell;
 use learn::resnet::ImageSet;
 use learn::snn::{SnnParams, SnnTwin};
 use pipeline::input::CharInput;
@@ -206,6 +207,9 @@ pub struct CharEval {
     pub accuracy_all: f64,
     #[serde(flatten)]
     pub score: Score,
+    /// Cells: what the cell grid changed (the score above is after it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridEffect>,
 }
 
 /// Scores the model at `path` on the windows of `spec`.
@@ -214,13 +218,64 @@ pub fn eval(path: &Path, spec: &CharSetSpec, progress: &dyn Progress) -> Result<
     // the windows labelled as the model's classes are (letters or cells)
     let spec = &CharSetSpec { task: m.task(), ..spec.clone() };
     let (raw, w) = build(spec, &m.input, progress)?;
-    let score = m.score(&raw)?.with_first_trial(&w.origin, &raw.labels);
-    Ok(CharEval::of(&m, path, spec, &w, score))
+    let (score, grid) = on_the_grid(m.score(&raw)?, &w, &raw.labels, spec.task);
+    let score = score.with_first_trial(&w.origin, &raw.labels);
+    Ok(CharEval::of(&m, path, spec, &w, score, grid))
+}
+
+/// What the cell grid did to a cell classifier's reading of labelled windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct GridEffect {
+    /// Windows whose one-column cell the grid moved into the other column.
+    pub moved: usize,
+    /// The classifier's reading before (over the windows found, and over every printed cell).
+    pub accuracy_classifier_alone: f64,
+    pub accuracy_all_classifier_alone: f64,
+}
+
+/// For cells: `score` with each one-column cell read put in the column the cell grid gives it
+/// from its scan's marks (`pipeline::grid`: the labeler's peaks, the speed estimated from the
+/// events), as a reader of print does; the confusion and accuracy recounted. Letters as they are.
+pub fn on_the_grid(
+    mut score: Score,
+    w: &corpus::windows::Windows,
+    labels: &[usize],
+    task: Task,
+) -> (Score, Option<GridEffect>) {
+    if task != Task::Cells || w.marks.len() != score.predictions.len() {
+        return (score, None);
+    }
+    let grid = pipeline::grid::CellGrid::default();
+    let before = (score.accuracy, w.accuracy_all(crate::reports::chars::right(&score)));
+    let mut placed = Vec::with_capacity(score.predictions.len());
+    let mut start = 0;
+    while start < w.origin.len() {
+        // one scan's windows are together, in reading order
+        let end = start + w.origin[start..].iter().take_while(|o| **o == w.origin[start]).count();
+        let cells: Vec<Cell> = score.predictions[start..end].iter().map(|&k| Cell((k + 1) as u8)).collect();
+        placed.extend(grid.place(&cells, &w.marks[start..end]).into_iter().map(|c| usize::from(c.0) - 1));
+        start = end;
+    }
+    let moved = placed.iter().zip(&score.predictions).filter(|(a, b)| a != b).count();
+    let confusion = Confusion::from_pairs(score.confusion.len(), labels.iter().copied().zip(placed.iter().copied()));
+    score.accuracy = confusion.accuracy();
+    score.macro_f1 = confusion.macro_f1();
+    score.confusion = confusion.counts;
+    score.predictions = placed;
+    let effect = GridEffect { moved, accuracy_classifier_alone: before.0, accuracy_all_classifier_alone: before.1 };
+    (score, Some(effect))
 }
 
 impl CharEval {
     /// `score` of model `m` (file `path`) on the windows `w` of `spec`.
-    fn of(m: &CharModel, path: &Path, spec: &CharSetSpec, w: &corpus::windows::Windows, score: Score) -> CharEval {
+    fn of(
+        m: &CharModel,
+        path: &Path,
+        spec: &CharSetSpec,
+        w: &corpus::windows::Windows,
+        score: Score,
+        grid: Option<GridEffect>,
+    ) -> CharEval {
         let right = crate::reports::chars::right(&score);
         CharEval {
             data: "simulated (virtual Evetac)",
@@ -234,6 +289,7 @@ impl CharEval {
             printed: w.printed,
             accuracy_all: w.accuracy_all(right),
             score,
+            grid,
         }
     }
 }
@@ -273,8 +329,9 @@ pub fn eval_chip(
     let mapped = map_model(model, path, choice)?;
     let (s, updates) = chip_accuracy(&mapped.model, &set, choice.run)?;
     // no loss in the chip's arithmetic: its readout is a spike count, not logits
-    let score = Score::spiking(s, f64::NAN, None).with_first_trial(&w.origin, &raw.labels);
-    let eval = CharEval::of(&m, path, spec, &w, score);
+    let (score, grid) = on_the_grid(Score::spiking(s, f64::NAN, None), &w, &raw.labels, spec.task);
+    let score = score.with_first_trial(&w.origin, &raw.labels);
+    let eval = CharEval::of(&m, path, spec, &w, score, grid);
     let trace = if trace {
         let data = format!("{} at {} mm/s, {} mm, seed {}", eval.board, spec.speed_mm_s, spec.depth_mm, spec.seed);
         Some(ChipTrace::of(&mapped.model, model, path, data, "windows", choice, &set, progress)?)
@@ -304,7 +361,7 @@ pub fn eval_recordings(
             rec.role(role).filter(|r| r.speed_mm_s == speed_mm_s && r.depth_mm == depth_mm).collect();
         let mut w = corpus::windows::recorded_windows(rec, &scans, &[&m.input], m.task(), 0.0, false, progress)?;
         let raw = w.sets.remove(0);
-        let score = m.score(&raw)?;
+        let (score, grid) = on_the_grid(m.score(&raw)?, &w, &raw.labels, m.task());
         let right = crate::reports::chars::right(&score);
         out.push(CharEval {
             data: "recorded scans",
@@ -318,6 +375,7 @@ pub fn eval_recordings(
             printed: w.printed,
             accuracy_all: w.accuracy_all(right),
             score,
+            grid,
         });
     }
     Ok(out)
@@ -329,7 +387,7 @@ impl std::fmt::Display for CharEval {
         let s = &self.score;
         writeln!(
             f,
-            "{} {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped), {} printed characters: {} accuracy {:.2}% of the windows, {:.2}% of all printed, macro F1 {:.3}, loss {:.3}{}",
+            "{} {} at {} mm/s, {} mm: {} windows from {} scans ({} skipped), {} printed characters: {} accuracy {:.2}% of the windows, {:.2}% of all printed, macro F1 {:.3}, loss {:.3}{}{}",
             if self.data.starts_with("simulated") { "SIMULATED" } else { "RECORDED" },
             self.board,
             self.speed_mm_s,
@@ -343,7 +401,69 @@ impl std::fmt::Display for CharEval {
             100.0 * self.accuracy_all,
             s.macro_f1,
             s.loss,
-            s.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a))
+            s.accuracy_async.map_or(String::new(), |a| format!(" (async engine {:.2}%)", 100.0 * a)),
+            self.grid.as_ref().map_or(String::new(), |g| format!(
+                "; the cell grid moved {} cells (the classifier alone: {:.2}% of all printed)",
+                g.moved,
+                100.0 * g.accuracy_all_classifier_alone
+            ))
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use corpus::windows::Windows;
+    use pipeline::grid::GridMark;
+
+    #[test]
+    fn cells_read_in_the_wrong_column_are_placed_on_their_scans_grid() {
+        // two scans of ⠉ ⠈ (dots 1-4, then dot 4 alone one cell on) at 8 mm/s: marks at each
+        // cell's last column, 750 ms apart; the classifier read ⠁ (dot 1) for ⠈ in both, and ⠉
+        // right. The second scan's speed is unknown: its ⠁ stands.
+        let (c14, c4, c1) = (0b001_001 - 1, 0b001_000 - 1, 0b000_001 - 1);
+        let mark = |t_ms: i64, two: bool, known: bool| GridMark {
+            t_us: t_ms * 1000,
+            two_columns: two,
+            speed_mm_s: known.then_some(8.0),
+        };
+        let scan = |trial| ScanId { board: "RCB".into(), row: 0, trial };
+        let w = Windows {
+            sets: Vec::new(),
+            origin: vec![scan(0), scan(0), scan(1), scan(1)],
+            marks: vec![mark(0, true, true), mark(750, false, true), mark(0, true, false), mark(750, false, false)],
+            scans: 2,
+            skipped_scans: 0,
+            printed: 4,
+        };
+        let labels = [c14, c4, c14, c4];
+        let predictions = vec![c14, c1, c14, c1];
+        let confusion = Confusion::from_pairs(63, labels.iter().copied().zip(predictions.iter().copied()));
+        let score = Score {
+            n: 4,
+            accuracy: confusion.accuracy(),
+            macro_f1: confusion.macro_f1(),
+            loss: 0.0,
+            confusion: confusion.counts,
+            synops_per_sample: None,
+            spikes_per_sample: None,
+            input_events_per_sample: None,
+            accuracy_async: None,
+            predictions,
+            first_trial: Vec::new(),
+        };
+        let (letters, none) = on_the_grid(score.clone(), &w, &labels, Task::Chars);
+        assert!(none.is_none());
+        assert_eq!(letters.predictions, score.predictions);
+        let (placed, effect) = on_the_grid(score, &w, &labels, Task::Cells);
+        assert_eq!(placed.predictions, [c14, c4, c14, c1]);
+        assert_eq!(placed.accuracy, 0.75);
+        assert_eq!(placed.confusion[c4][c4], 1);
+        let effect = effect.unwrap();
+        assert_eq!(
+            (effect.moved, effect.accuracy_classifier_alone, effect.accuracy_all_classifier_alone),
+            (1, 0.5, 0.5)
+        );
     }
 }

@@ -33,6 +33,9 @@ pub struct UebReportSpec {
     pub depth_mm: f64,
     pub trials: u64,
     pub timing: TimingMode,
+    /// Whether the readers place cells of one dot column on the cell grid (`pipeline::grid`;
+    /// the cell board's table shows the classifier alone beside it either way).
+    pub cell_grid: bool,
     pub seed: u64,
     pub world: corpus::world::World,
 }
@@ -83,7 +86,10 @@ pub fn ueb_report(models: &Path, spec: &UebReportSpec, progress: &dyn Progress) 
             sweep: None,
         };
         r.cells.push(crate::eval::chars::eval(&files.classifier, &cells, progress)?);
-        let readers = ReaderModels::load(&files.segmenter, &files.classifier, SnnRunner::Sliding)?;
+        let mut readers = ReaderModels::load(&files.segmenter, &files.classifier, SnnRunner::Sliding)?;
+        if !spec.cell_grid {
+            readers.cell_grid = None;
+        }
         for &speed_mm_s in &spec.speeds_mm_s {
             let words = WordsSpec {
                 board: sentences.kind.clone(),
@@ -139,30 +145,37 @@ pub fn markdown(r: &UebReport) -> String {
         HeldOut::Validation => ("VCB", "VAL-UEB"),
     };
     let mut md = format!(
-        "# UEB readers (SIMULATED, {})\n\nMade by `braille words-report --braille {} --realism {}{}` ({} sensor builds, seed {}; \
+        "# UEB readers (SIMULATED, {})\n\nMade by `braille words-report --braille {} --realism {}{}{}` ({} sensor builds, seed {}; \
          the cell readers of models/{}/ueb/). Reading times were measured beside whatever else ran; the cost against the \
          letters' reader is [cost.md](cost.md) (`bash scripts/ueb/cost.sh`).\n\n",
         s.world.realism,
         s.code,
         s.world.realism,
         if s.held_out == HeldOut::Validation { " --validation" } else { "" },
+        if s.cell_grid { "" } else { " --no-cell-grid" },
         if s.held_out == HeldOut::Validation { "training" } else { "test" },
         s.seed,
         s.world.realism,
     );
     md += &format!(
         "## Cells: {cell_board}, {} mm/s, {} mm, {} scans a row\n\n\
-         | architecture | printed cells | read right, over every printed cell | over the windows found | scans miscounted |\n\
-         | --- | --- | --- | --- | --- |\n",
+         A cell of one dot column is put in the column the cell grid gives it (`pipeline::grid`: its distance from \
+         its two-column neighbours, at the speed estimated from the scan's events); the classifier's own reading \
+         of the window beside it.\n\n\
+         | architecture | printed cells | read right, over every printed cell | over the windows found | \
+         the classifier alone, over every printed cell | moved by the grid | scans miscounted |\n\
+         | --- | --- | --- | --- | --- | --- | --- |\n",
         s.cell_speed_mm_s, s.cell_depth_mm, s.cell_trials
     );
     for e in &r.cells {
         md += &format!(
-            "| {} | {} | {:.2}% | {:.2}% | {} of {} |\n",
+            "| {} | {} | {:.2}% | {:.2}% | {} | {} | {} of {} |\n",
             e.arch,
             e.printed,
             100.0 * e.accuracy_all,
             100.0 * e.score.accuracy,
+            e.grid.as_ref().map_or("-".into(), |g| format!("{:.2}%", 100.0 * g.accuracy_all_classifier_alone)),
+            e.grid.as_ref().map_or("-".into(), |g| g.moved.to_string()),
             e.skipped_scans,
             e.scans
         );
@@ -266,6 +279,7 @@ mod tests {
             printed: 252,
             accuracy_all: 249.0 / 252.0,
             score,
+            grid: None,
         };
         let rows = cell_rows(&e);
         assert_eq!(rows.len(), 63);
@@ -283,6 +297,7 @@ mod tests {
                 depth_mm: 1.0,
                 trials: 1,
                 timing: TimingMode::Estimated,
+                cell_grid: true,
                 seed: 1,
                 world: corpus::world::World::test(sim::Realism::Nominal),
             },
