@@ -279,7 +279,11 @@ mod tests {
             printed: 252,
             accuracy_all: 249.0 / 252.0,
             score,
-            grid: None,
+            grid: Some(crate::eval::chars::GridEffect {
+                moved: 3,
+                accuracy_classifier_alone: 0.9,
+                accuracy_all_classifier_alone: 0.9,
+            }),
         };
         let rows = cell_rows(&e);
         assert_eq!(rows.len(), 63);
@@ -305,7 +309,8 @@ mod tests {
             sentences: Vec::new(),
         };
         let md = markdown(&r);
-        assert!(md.contains("| snn | 252 | 98.81% | 98.81% | 0 of 4 |"), "{md}");
+        // the cell grid's figures beside the classifier's own
+        assert!(md.contains("| snn | 252 | 98.81% | 98.81% | 90.00% | 3 | 0 of 4 |"), "{md}");
         let worst = md.lines().find(|l| l.starts_with("| snn | ⠈")).unwrap();
         assert_eq!(worst, "| snn | ⠈ | 4 | 25.0% | ⠁ (3) |");
         assert!(md.find("| snn | ⠈").unwrap() < md.find("| snn | ⠁ |").unwrap_or(usize::MAX));
