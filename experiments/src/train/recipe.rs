@@ -379,10 +379,10 @@ impl SnnRecipe {
                 letter_rows: 4,
                 word_rows: 60,
                 center: false,
-                // the cell readers keep the lite crop and the plain sampling they were trained
-                // with (the letters' taller crop and class balance, issue #47, were not chosen
-                // for them)
-                crop_rows: None,
+                // the letters' taller crop (pooled rows 20-100, 9.3 mm) since 2026-11-29, chosen
+                // on VCB and VAL-UEB (docs/log/grid-2026-11-29.md); the plain sampling it was
+                // first trained with (the letters' class balance, issue #47, was not tried)
+                crop_rows: Some([20, 100]),
                 class_balance: 0.0,
                 pair_rows: 0,
                 ..SnnRecipe::preset("words")?
