@@ -150,14 +150,7 @@ impl CellGrid {
     /// into the column the grid puts it in; the others as they are.
     pub fn place(&self, cells: &[Cell], marks: &[GridMark]) -> Vec<Cell> {
         let columns = self.columns(marks);
-        cells
-            .iter()
-            .zip(&columns)
-            .map(|(&cell, column)| match column {
-                Some(c) if Column::of(cell).is_some() => c.holding(cell),
-                _ => cell,
-            })
-            .collect()
+        cells.iter().zip(&columns).map(|(&cell, column)| column.map_or(cell, |c| c.holding(cell))).collect()
     }
 }
 

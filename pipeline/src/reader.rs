@@ -1068,14 +1068,18 @@ mod tests {
             Ok(if n >= self.0 { vec![0.0, 1.0] } else { vec![1.0, 0.0] })
         }
     }
+    /// The pooled column of the newest non-empty bin's first cell (0 for an empty window).
+    fn newest_col(w: &Window) -> usize {
+        w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width)
+    }
+
     struct Column;
     impl WindowClassifier for Column {
         type State = ();
         fn new_state(&self) {}
         fn classify(&self, _: &mut (), w: &Window) -> Result<Vec<f32>> {
-            let col = w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width);
             let mut p = vec![0.0; 26];
-            p[col % 26] = 1.0;
+            p[newest_col(w) % 26] = 1.0;
             Ok(p)
         }
     }
@@ -1118,9 +1122,8 @@ mod tests {
         type State = ();
         fn new_state(&self) {}
         fn classify(&self, _: &mut (), w: &Window) -> Result<Vec<f32>> {
-            let col = w.bins().filter(|b| !b.is_empty()).last().map_or(0, |b| b[0].input as usize % w.width);
             let mut p = vec![0.0; 63];
-            if col == 20 {
+            if newest_col(w) == 20 {
                 p[0b001_001 - 1] = 1.0;
             } else {
                 (p[0], p[0b001_000 - 1]) = (0.75, 0.25);

@@ -80,6 +80,32 @@ impl Score {
         }
     }
 
+    /// A score from the class read for each window (`labels` the true ones) and the loss: no
+    /// spiking work.
+    fn of_reads(classes: usize, labels: &[usize], predictions: Vec<usize>, loss: f64) -> Score {
+        let confusion = Confusion::from_pairs(classes, labels.iter().copied().zip(predictions.iter().copied()));
+        Score {
+            n: predictions.len(),
+            accuracy: confusion.accuracy(),
+            macro_f1: confusion.macro_f1(),
+            loss,
+            confusion: confusion.counts,
+            synops_per_sample: None,
+            spikes_per_sample: None,
+            input_events_per_sample: None,
+            accuracy_async: None,
+            predictions,
+            first_trial: vec![],
+        }
+    }
+
+    /// The score with each window read as `predictions` instead: confusion, accuracy and macro
+    /// F1 recounted, the rest (loss, work, async accuracy) kept.
+    fn with_reads(self, labels: &[usize], predictions: Vec<usize>) -> Score {
+        let r = Score::of_reads(self.confusion.len(), labels, predictions, self.loss);
+        Score { accuracy: r.accuracy, macro_f1: r.macro_f1, confusion: r.confusion, predictions: r.predictions, ..self }
+    }
+
     /// The score with [`Score::first_trial`] filled from the windows' scans (`origin`, one per
     /// window, in the order scored) and the windows' true classes.
     pub fn with_first_trial(mut self, origin: &[ScanId], labels: &[usize]) -> Score {
@@ -145,24 +171,9 @@ impl CharModel {
                     data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
                     labels: raw.labels.clone(),
                 };
-                let (loss, accuracy, predictions) = learn::resnet::evaluate(&m.model, &set, 32);
-                let confusion = Confusion::from_pairs(
-                    self.model.classes().len(),
-                    set.labels.iter().copied().zip(predictions.iter().copied()),
-                );
-                Ok(Score {
-                    n: set.len(),
-                    accuracy,
-                    macro_f1: confusion.macro_f1(),
-                    loss,
-                    confusion: confusion.counts,
-                    synops_per_sample: None,
-                    spikes_per_sample: None,
-                    input_events_per_sample: None,
-                    accuracy_async: None,
-                    predictions,
-                    first_trial: vec![],
-                })
+                // (its accuracy, hits over windows, is the confusion's)
+                let (loss, _, predictions) = learn::resnet::evaluate(&m.model, &set, 32);
+                Ok(Score::of_reads(self.model.classes().len(), &set.labels, predictions, loss))
             }
             Model::Snn(model) => {
                 let set =
@@ -237,7 +248,7 @@ pub struct GridEffect {
 /// from its scan's marks (`pipeline::grid`: the labeler's peaks, the speed estimated from the
 /// events), as a reader of print does; the confusion and accuracy recounted. Letters as they are.
 pub fn on_the_grid(
-    mut score: Score,
+    score: Score,
     w: &corpus::windows::Windows,
     labels: &[usize],
     task: Task,
@@ -248,20 +259,14 @@ pub fn on_the_grid(
     let grid = pipeline::grid::CellGrid::default();
     let before = (score.accuracy, w.accuracy_all(crate::reports::chars::right(&score)));
     let mut placed = Vec::with_capacity(score.predictions.len());
-    let mut start = 0;
-    while start < w.origin.len() {
-        // one scan's windows are together, in reading order
-        let end = start + w.origin[start..].iter().take_while(|o| **o == w.origin[start]).count();
+    // one scan's windows are together, in reading order
+    for scan in w.origin.chunk_by(|a, b| a == b) {
+        let (start, end) = (placed.len(), placed.len() + scan.len());
         let cells: Vec<Cell> = score.predictions[start..end].iter().map(|&k| Cell((k + 1) as u8)).collect();
         placed.extend(grid.place(&cells, &w.marks[start..end]).into_iter().map(|c| usize::from(c.0) - 1));
-        start = end;
     }
     let moved = placed.iter().zip(&score.predictions).filter(|(a, b)| a != b).count();
-    let confusion = Confusion::from_pairs(score.confusion.len(), labels.iter().copied().zip(placed.iter().copied()));
-    score.accuracy = confusion.accuracy();
-    score.macro_f1 = confusion.macro_f1();
-    score.confusion = confusion.counts;
-    score.predictions = placed;
+    let score = score.with_reads(labels, placed);
     let effect = GridEffect { moved, accuracy_classifier_alone: before.0, accuracy_all_classifier_alone: before.1 };
     (score, Some(effect))
 }
@@ -438,21 +443,7 @@ mod tests {
             printed: 4,
         };
         let labels = [c14, c4, c14, c4];
-        let predictions = vec![c14, c1, c14, c1];
-        let confusion = Confusion::from_pairs(63, labels.iter().copied().zip(predictions.iter().copied()));
-        let score = Score {
-            n: 4,
-            accuracy: confusion.accuracy(),
-            macro_f1: confusion.macro_f1(),
-            loss: 0.0,
-            confusion: confusion.counts,
-            synops_per_sample: None,
-            spikes_per_sample: None,
-            input_events_per_sample: None,
-            accuracy_async: None,
-            predictions,
-            first_trial: Vec::new(),
-        };
+        let score = Score::of_reads(63, &labels, vec![c14, c1, c14, c1], 0.0);
         let (letters, none) = on_the_grid(score.clone(), &w, &labels, Task::Chars);
         assert!(none.is_none());
         assert_eq!(letters.predictions, score.predictions);
