@@ -370,13 +370,16 @@ impl SnnRecipe {
                 ..windows
             },
             // models/REALISM/ueb/snn-cells.safetensors: the words recipe on the 63 cells of UEB
-            // (every cell four times in seeded orders, 60 rows of contracted print), windows
+            // (every cell 20 times in seeded orders, 60 rows of contracted print), windows
             // not centred (a cell's dots are told apart by their height in the row: dot 1 from
             // dot 2 from dot 3)
             "cells" => SnnRecipe {
                 task: Task::Cells,
                 cells: Some(pipeline::code::BrailleCode::UebGrade2),
-                letter_rows: 4,
+                // 20 times since 2026-11-30 (four before, then ten): each lone column beside
+                // more kinds of neighbour, chosen on VCB and VAL-UEB
+                // (docs/log/cells-2026-11-30.md); training then peaks at 17.8 GB
+                letter_rows: 20,
                 word_rows: 60,
                 center: false,
                 // the letters' taller crop (pooled rows 20-100, 9.3 mm) since 2026-11-29, chosen
