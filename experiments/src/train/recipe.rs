@@ -378,8 +378,12 @@ impl SnnRecipe {
                 cells: Some(pipeline::code::BrailleCode::UebGrade2),
                 // 20 times since 2026-11-30 (four before, then ten): each lone column beside
                 // more kinds of neighbour, chosen on VCB and VAL-UEB
-                // (docs/log/cells-2026-11-30.md); training then peaks at 17.8 GB
+                // (docs/log/cells-2026-11-30.md); training then peaks at 17.5 GB
                 letter_rows: 20,
+                // 512 hidden neurons since 2026-11-30 (256 before): more of VCB read, as many
+                // VAL-UEB words, 1.12x the letters' reading cost on VAL-UEB
+                // (docs/log/cells-2026-11-30.md, section 9)
+                hidden: vec![512],
                 word_rows: 60,
                 center: false,
                 // the letters' taller crop (pooled rows 20-100, 9.3 mm) since 2026-11-29, chosen
