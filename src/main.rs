@@ -129,8 +129,9 @@ enum Command {
     /// or 2 (contracted) by liblouis's tables; `--spec` checks a code against liblouis's own tests.
     Translate(translate::Args),
     /// Run the built-in demonstration: both readers on SIMULATED scans of the EV board (a sensor
-    /// build no model saw) and of a contracted UEB sentence, then real iCub recordings spelled into a stream, written to AEDAT4,
-    /// read back and classified by the shipped SNN on the event-driven engine.
+    /// build no model saw) and of a contracted UEB sentence, then real iCub recordings spelled
+    /// into a stream, written to AEDAT4, read back and classified by the shipped SNN on the
+    /// event-driven engine.
     Demo(demo::Args),
 }
 

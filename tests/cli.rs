@@ -129,8 +129,12 @@ fn demo_runs_on_its_defaults() {
     assert!(out.contains("snn: 9/9 words right"), "{out}");
     assert!(out.contains("resnet read") && out.contains("of the stream's duration"), "{out}");
     assert!(dir.path().join("ev_row0_16mm_s.aedat4").exists() && dir.path().join("ev_row1_16mm_s.truth.json").exists());
-    // real Braille: a test sentence in contracted UEB, read back to print from its cells by both
-    // cell readers (pinned as read by the classifiers of 2026-11-30)
+    // real Braille: a test sentence in contracted UEB (one of the UEB-SENTENCES board's), read
+    // back to print from its cells by both cell readers (pinned as read by the classifiers of
+    // 2026-11-30)
+    assert!(
+        include_str!("../data/ueb/test_sentences.txt").lines().any(|l| l == "Help is here: call 112 in an emergency.")
+    );
     assert!(out.contains("cells \"⠠⠓⠑⠇⠏ ⠊⠎ ⠐⠓⠒ ⠉⠁⠇⠇ ⠼⠁⠁⠃ ⠔\""), "{out}");
     assert!(out.contains("-> \"Help is here: call 112 in\": 6/6 words right"), "{out}");
     assert!(out.contains("snn: 8/8 words of the sentence right") && out.contains("resnet: 8/8 words"), "{out}");
