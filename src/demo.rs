@@ -161,9 +161,7 @@ fn read_letters(
 /// `nominal` preset with a test sensor build (SIMULATED), each read from its raw events by both
 /// architectures' models trained at `nominal`.
 fn read_words(out: &Path) -> Result<()> {
-    use pipeline::classify::{ReaderModels, SnnRunner};
     use pipeline::reader::{Spell, Speller};
-    use snn::model_file::Arch;
     let kind = BoardKind::Ev;
     let world = corpus::world::World::test(sim::Realism::Nominal);
     let setup = world.setup();
@@ -173,15 +171,7 @@ fn read_words(out: &Path) -> Result<()> {
     println!(
         "Reading Braille words from raw events (SIMULATED: virtual Evetac scans, not recordings).\nThe EV board at {speed} mm/s, {depth} mm deep, on the `nominal` simulator (gel dynamics, print\ntexture, drift, a sensor build no model was trained on). Each scan is read from its events\nalone: the speed is estimated from them, the segmentation network runs on every 10 ms frame\n(scaled with the estimated speed), the character classifier where a character is present,\nthen the temporal filter and the lexicon decoder. Both architectures read identical streams.\n"
     );
-    let models = crate::common::default_models_dir();
-    let readers = [Arch::Resnet, Arch::Snn]
-        .into_iter()
-        .map(|a| {
-            let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
-                pipeline::shipped::reader_in(&models, a);
-            Ok((a, ReaderModels::load(&s, &c, SnnRunner::Sliding)?))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let readers = shipped_readers(pipeline::code::BrailleCode::Grade1Letters)?;
     let speller = Speller::new(Spell::Lexicon);
     let mut right = vec![(0usize, 0usize); readers.len()];
     for row in 0..board.rows.len() {
@@ -189,10 +179,7 @@ fn read_words(out: &Path) -> Result<()> {
         let t = Instant::now();
         let s = sim::simulate(&board, &sensor, &scan)?;
         let sim_s = t.elapsed().as_secs_f64();
-        let path = out.join(format!("ev_row{row}_16mm_s.aedat4"));
-        crate::common::write_events(&path, &s.events, sensor.camera.resolution, true)?;
-        experiments::write_json(&crate::common::truth_path(&path), &s.truth, true)?;
-        let duration = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+        let (path, duration) = write_scan(out.join(format!("ev_row{row}_16mm_s.aedat4")), &s, &sensor)?;
         println!(
             "row {row}: truth {:?}: {} events, {duration:.1} s of stream (simulated in {sim_s:.1} s, written to {})",
             s.truth.row_text,
@@ -240,10 +227,8 @@ fn read_words(out: &Path) -> Result<()> {
 /// as in [`read_words`] and read from its raw events by both architectures' cell readers
 /// (models/nominal/ueb/), each word's cells back-translated to print by liblouis.
 fn read_ueb(out: &Path) -> Result<()> {
-    use pipeline::classify::{ReaderModels, SnnRunner};
     use pipeline::code::BrailleCode;
     use pipeline::reader::{Spell, Speller};
-    use snn::model_file::Arch;
     let code = BrailleCode::UebGrade2;
     let print = "Help is here: call 112 in an emergency.";
     let printed = corpus::boards::parse_print_board(&format!("text:{print}"), code)?;
@@ -257,24 +242,13 @@ fn read_ueb(out: &Path) -> Result<()> {
         board.rows.len(),
         corpus::boards::UEB_ROW_CELLS
     );
-    let models = crate::common::default_models_dir();
-    let readers = [Arch::Resnet, Arch::Snn]
-        .into_iter()
-        .map(|a| {
-            let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
-                pipeline::shipped::reader_for(&models, a, code);
-            Ok((a, ReaderModels::load(&s, &c, SnnRunner::Sliding)?))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let readers = shipped_readers(code)?;
     let speller = Speller::in_code(Spell::Lexicon, code)?;
     let mut right = vec![(0usize, 0usize); readers.len()];
     for (row, row_print) in printed.print_rows.iter().enumerate() {
         let scan = setup.scan(speed, depth, row, world.scan_seed(1, &printed.kind, row, 0, speed, depth));
         let s = sim::simulate(&board, &sensor, &scan)?;
-        let path = out.join(format!("ueb_row{row}_16mm_s.aedat4"));
-        crate::common::write_events(&path, &s.events, sensor.camera.resolution, true)?;
-        experiments::write_json(&crate::common::truth_path(&path), &s.truth, true)?;
-        let duration = s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6);
+        let (path, duration) = write_scan(out.join(format!("ueb_row{row}_16mm_s.aedat4")), &s, &sensor)?;
         println!(
             "row {row}: print {row_print:?}, cells {:?}: {} events, {duration:.1} s of stream (written to {})",
             s.truth.row_text,
@@ -306,4 +280,29 @@ fn read_ueb(out: &Path) -> Result<()> {
         out.join("ueb_row0_16mm_s.aedat4").display()
     );
     Ok(())
+}
+
+/// Both architectures' shipped readers (models/nominal/) for the print in `code`, ResNet first.
+fn shipped_readers(
+    code: pipeline::code::BrailleCode,
+) -> Result<Vec<(snn::model_file::Arch, pipeline::classify::ReaderModels)>> {
+    use pipeline::classify::{ReaderModels, SnnRunner};
+    use snn::model_file::Arch;
+    let models = crate::common::default_models_dir();
+    [Arch::Resnet, Arch::Snn]
+        .into_iter()
+        .map(|a| {
+            let pipeline::shipped::ReaderFiles { segmenter: s, classifier: c } =
+                pipeline::shipped::reader_for(&models, a, code);
+            Ok((a, ReaderModels::load(&s, &c, SnnRunner::Sliding)?))
+        })
+        .collect()
+}
+
+/// A simulated scan's events written to `path` with its truth beside it; the path back and the
+/// stream's duration in seconds.
+fn write_scan(path: PathBuf, s: &sim::Scan, sensor: &sim::Sensor) -> Result<(PathBuf, f64)> {
+    crate::common::write_events(&path, &s.events, sensor.camera.resolution, true)?;
+    experiments::write_json(&crate::common::truth_path(&path), &s.truth, true)?;
+    Ok((path, s.events.last().map_or(0.0, |e| e.t_us as f64 / 1e6)))
 }
