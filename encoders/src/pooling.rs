@@ -64,4 +64,37 @@ impl PoolMap {
         }
         Some(*self.row_of_y.get(y as usize)? + col)
     }
+
+    /// [`cell`](Self::cell) without a branch on the mask, for scatter loops whose masked pixels
+    /// come at random: the cell, or `u32::MAX` outside the sensor or the mask.
+    #[inline]
+    pub fn cell_or_max(&self, x: u16, y: u16) -> u32 {
+        match (self.col_of_x.get(x as usize), self.row_of_y.get(y as usize)) {
+            // SKIP is u32::MAX, so a masked column saturates to it
+            (Some(&col), Some(&row)) => row.saturating_add(col),
+            _ => u32::MAX,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_branchless_cell_is_the_cell_or_max_for_every_pixel_and_beyond() {
+        let sensor = Resolution::new(37, 23);
+        for (pool, mask) in [(1, None), (4, Some(2..7)), (3, Some(0..1))] {
+            let map = PoolMap::new(sensor, pool, mask.as_ref()).unwrap();
+            for y in 0..sensor.height + 3 {
+                for x in 0..sensor.width + 3 {
+                    assert_eq!(
+                        map.cell_or_max(x, y),
+                        map.cell(x, y).unwrap_or(u32::MAX),
+                        "pixel ({x}, {y}), pool {pool}"
+                    );
+                }
+            }
+        }
+    }
 }

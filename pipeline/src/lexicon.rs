@@ -61,8 +61,9 @@ pub fn one_hot(word: &str, confidence: f32) -> Vec<LetterProbs> {
 
 pub struct LexiconDecoder {
     cfg: LexiconConfig,
-    /// Words (upper case, A-Z only) by length, with log prior.
-    by_len: HashMap<usize, Vec<(Vec<u8>, f64)>>,
+    /// Words (upper case, A-Z only) by length, with log prior and place in the list among the
+    /// words of their length; most probable first (ties in the list's order).
+    by_len: HashMap<usize, Vec<(Vec<u8>, f64, u32)>>,
     /// `confusion[o][t]`: P(read o | printed t), rows normalised.
     confusion: [[f64; 26]; 26],
 }
@@ -79,9 +80,14 @@ impl LexiconDecoder {
             }
         }
         let total: f64 = words.iter().map(|w| w.1).sum::<f64>().max(1.0);
-        let mut by_len: HashMap<usize, Vec<(Vec<u8>, f64)>> = HashMap::new();
+        let mut by_len: HashMap<usize, Vec<(Vec<u8>, f64, u32)>> = HashMap::new();
         for (w, f) in words {
-            by_len.entry(w.len()).or_default().push((w, (f / total).ln()));
+            let list = by_len.entry(w.len()).or_default();
+            let place = list.len() as u32;
+            list.push((w, (f / total).ln(), place));
+        }
+        for list in by_len.values_mut() {
+            list.sort_by(|a, b| b.1.total_cmp(&a.1));
         }
         let dots = |i: usize| cell_of((b'A' + i as u8) as char).map_or(0u8, |c| c.0);
         let mut confusion = [[0.0; 26]; 26];
@@ -110,46 +116,70 @@ impl LexiconDecoder {
         ((1.0 - e) * p[t] as f64 + e * via).max(1e-300).ln()
     }
 
-    /// Best alignment score of `word` against the observations.
-    fn align(&self, obs: &[LetterProbs], word: &[u8], emit: &[[f64; 26]]) -> f64 {
-        let (m, n) = (obs.len(), word.len());
+    /// Best alignment score of `word` against the observations (`prev` and `cur`: rows of the
+    /// table, reused between words).
+    fn align(&self, word: &[u8], emit: &[[f64; 26]], prev: &mut Vec<f64>, cur: &mut Vec<f64>) -> f64 {
+        let n = word.len();
         let (ins, del) = (self.cfg.p_insert.ln(), self.cfg.p_delete.ln());
-        let mut prev = vec![f64::NEG_INFINITY; n + 1];
+        prev.clear();
+        prev.resize(n + 1, f64::NEG_INFINITY);
         prev[0] = 0.0;
         for j in 1..=n {
             prev[j] = prev[j - 1] + del;
         }
-        for i in 1..=m {
-            let mut cur = vec![f64::NEG_INFINITY; n + 1];
+        for e in emit {
+            cur.clear();
+            cur.resize(n + 1, f64::NEG_INFINITY);
             cur[0] = prev[0] + ins;
             for j in 1..=n {
                 let t = (word[j - 1] - b'A') as usize;
-                cur[j] = (prev[j - 1] + emit[i - 1][t]).max(prev[j] + ins).max(cur[j - 1] + del);
+                cur[j] = (prev[j - 1] + e[t]).max(prev[j] + ins).max(cur[j - 1] + del);
             }
-            prev = cur;
+            std::mem::swap(prev, cur);
         }
         prev[n]
     }
 
-    /// The most probable word for the observations, upper case, and its score.
-    pub fn decode(&self, obs: &[LetterProbs]) -> (String, f64) {
+    /// Each observation's emissions, and the string outside the lexicon (the classifier's own
+    /// best letters) with its score: where a decoding starts.
+    fn start(&self, obs: &[LetterProbs]) -> (Vec<[f64; 26]>, (String, f64)) {
         let emit: Vec<[f64; 26]> = obs.iter().map(|p| std::array::from_fn(|t| self.emit(p, t))).collect();
-        // Outside the lexicon: the classifier's own best letters.
         let raw: String = obs
             .iter()
             .map(|p| (b'A' + (0..26).max_by(|&a, &b| p[a].total_cmp(&p[b])).unwrap_or(0) as u8) as char)
             .collect();
-        let mut best = (
-            raw,
-            self.cfg.lm_weight * self.cfg.p_oov.ln()
-                + emit.iter().map(|e| e.iter().cloned().fold(f64::NEG_INFINITY, f64::max)).sum::<f64>(),
-        );
+        let score = self.cfg.lm_weight * self.cfg.p_oov.ln()
+            + emit.iter().map(|e| e.iter().cloned().fold(f64::NEG_INFINITY, f64::max)).sum::<f64>();
+        (emit, (raw, score))
+    }
+
+    /// The most probable word for the observations, upper case, and its score.
+    pub fn decode(&self, obs: &[LetterProbs]) -> (String, f64) {
+        let (emit, mut best) = self.start(obs);
+        // The lexicon's words as if tried in the list's order, by length, each taking the lead
+        // only with a higher score (so the string outside the lexicon keeps a tie): the words of
+        // a length are tried most probable first, and the rest are left once even a perfect
+        // alignment could not reach the lead. An alignment scores each observation as a letter
+        // (at most its best emission) or an insertion, and each letter not matched as a
+        // deletion, of which there are at least `len - m`.
         let m = obs.len();
+        let (ins, del) = (self.cfg.p_insert.ln(), self.cfg.p_delete.ln());
+        let reach: f64 = emit.iter().map(|e| e.iter().cloned().fold(ins, f64::max)).sum();
+        let (mut prev, mut cur) = (Vec::new(), Vec::new());
+        let mut lead: Option<(usize, u32)> = None;
         for len in m.saturating_sub(self.cfg.max_length_change).max(1)..=m + self.cfg.max_length_change {
-            for (w, prior) in self.by_len.get(&len).map(Vec::as_slice).unwrap_or(&[]) {
-                let s = self.cfg.lm_weight * prior + self.align(obs, w, &emit);
-                if s > best.1 {
+            let ceiling = reach + len.saturating_sub(m) as f64 * del;
+            for (w, prior, place) in self.by_len.get(&len).map(Vec::as_slice).unwrap_or(&[]) {
+                let bound = self.cfg.lm_weight * prior + ceiling;
+                // (a margin for the rounding of sums taken in another order)
+                if bound + 1e-9 * (1.0 + bound.abs()) < best.1 {
+                    break;
+                }
+                let s = self.cfg.lm_weight * prior + self.align(w, &emit, &mut prev, &mut cur);
+                let earlier = lead.is_some_and(|l| (len, *place) < l);
+                if s > best.1 || (s == best.1 && earlier) {
                     best = (String::from_utf8_lossy(w).into_owned(), s);
+                    lead = Some((len, *place));
                 }
             }
         }
@@ -188,6 +218,57 @@ mod tests {
         obs[1][0] = 0.52;
         obs[1][4] = 0.48;
         assert_eq!(d.decode(&obs).0, "LEFT");
+    }
+
+    /// Every word of the lexicon tried in the list's order, as the decoder did before it left
+    /// the words that cannot take the lead.
+    fn decode_every_word(d: &LexiconDecoder, obs: &[LetterProbs]) -> (String, f64) {
+        let (emit, mut best) = d.start(obs);
+        let (mut prev, mut cur) = (Vec::new(), Vec::new());
+        let m = obs.len();
+        for len in m.saturating_sub(d.cfg.max_length_change).max(1)..=m + d.cfg.max_length_change {
+            let mut list: Vec<_> = d.by_len.get(&len).cloned().unwrap_or_default();
+            list.sort_by_key(|w| w.2);
+            for (w, prior, _) in &list {
+                let s = d.cfg.lm_weight * prior + d.align(w, &emit, &mut prev, &mut cur);
+                if s > best.1 {
+                    best = (String::from_utf8_lossy(w).into_owned(), s);
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn leaving_the_words_that_cannot_lead_chooses_as_trying_every_word() {
+        use rand::{Rng, SeedableRng};
+        let d = decoder();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let words = ["LEFT", "RIGHT", "WATER", "UNIVERSITY", "QZXW", "A", "EXIT", "OPEN", "THE", "BRAILLE"];
+        for k in 0..120 {
+            // a word read with noise (a letter now and then swapped, dropped or doubled), or
+            // random letters, at several confidences
+            let w = words[k % words.len()];
+            let mut letters: Vec<u8> = w.bytes().collect();
+            if k % 3 == 1 {
+                let j = rng.random_range(0..letters.len());
+                letters[j] = b'A' + rng.random_range(0..26u8);
+            }
+            if k % 5 == 2 && letters.len() > 1 {
+                letters.remove(rng.random_range(0..letters.len()));
+            }
+            if k % 7 == 3 {
+                letters = (0..rng.random_range(1..9)).map(|_| b'A' + rng.random_range(0..26u8)).collect();
+            }
+            let confidence = [0.4, 0.7, 0.95, 0.999][k % 4];
+            let mut obs = one_hot(std::str::from_utf8(&letters).unwrap(), confidence);
+            for p in obs.iter_mut().filter(|_| k % 2 == 0) {
+                for q in p.iter_mut() {
+                    *q *= rng.random_range(0.5..1.5);
+                }
+            }
+            assert_eq!(d.decode(&obs), decode_every_word(&d, &obs), "observations {k} ({w})");
+        }
     }
 
     #[test]

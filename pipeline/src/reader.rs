@@ -547,10 +547,10 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
     ring_end_us: Vec<i64>,
     head: usize,
     /// The bin being filled: dense counts (16 bits: half the cache lines of a float, and no cell
-    /// of a bin nears 65 535 events; they saturate there), and the cells touched, the first
-    /// `touched_len` of `touched`, which has room for every cell and one more: each event writes
-    /// its cell at `touched_len` and moves it on only when the cell was empty, so that the
-    /// scattered events take no branch on their cell's count.
+    /// of a bin nears 65 535 events; they saturate there) and a sink for masked events after
+    /// them, and the cells touched, the first `touched_len` of `touched`, which has room for
+    /// every cell and one more: each event writes its cell at `touched_len` and moves it on only
+    /// when the cell was empty, so that the scattered events take no branch ([`scatter`]).
     acc: Vec<u16>,
     touched: Vec<u32>,
     touched_len: usize,
@@ -578,6 +578,30 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
 
 /// Two-column marks kept from earlier words for the cell grid (it looks at the nearest two).
 const GRID_HISTORY: usize = 4;
+
+/// One event into the bin being filled (`acc`, `2 * cells` counts and a sink after them, and the
+/// first `touched_len` of `touched`); whether the event fell outside the sensor or the mask. No
+/// branch depends on the event: a masked event (about half of them, at random) adds to the sink,
+/// which is never read, and a cell's first event moves `touched_len` on (at most every cell is
+/// touched, so it stays inside `touched`, which has room for one more).
+#[inline(always)]
+fn scatter(
+    map: &PoolMap,
+    cells: u32,
+    acc: &mut [u16],
+    touched: &mut [u32],
+    touched_len: &mut usize,
+    e: &Event,
+) -> bool {
+    let sink = 2 * cells;
+    let i = (e.polarity.index() as u32 * cells).saturating_add(map.cell_or_max(e.x, e.y)).min(sink);
+    let masked = i == sink;
+    let a = acc[i as usize];
+    touched[*touched_len] = i;
+    *touched_len += usize::from((a == 0) & !masked);
+    acc[i as usize] = a.saturating_add(1);
+    masked
+}
 
 impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     pub fn new(
@@ -612,7 +636,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             ring: Vec::with_capacity(frames),
             ring_end_us: Vec::with_capacity(frames),
             head: 0,
-            acc: vec![0; 2 * cells],
+            acc: vec![0; 2 * cells + 1],
             touched: vec![0; 2 * cells + 1],
             touched_len: 0,
             bin_start: None,
@@ -754,15 +778,8 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         if e.t_us >= start + self.bin_us {
             self.advance_to(e.t_us, out)?;
         }
-        let Some(cell) = self.map.cell(e.x, e.y) else {
-            self.stats.events_masked += 1;
-            return Ok(());
-        };
-        let i = e.polarity.index() as u32 * self.cells as u32 + cell;
-        self.touched[self.touched_len] = i;
-        let a = &mut self.acc[i as usize];
-        self.touched_len += usize::from(*a == 0);
-        *a = a.saturating_add(1);
+        let masked = scatter(&self.map, self.cells as u32, &mut self.acc, &mut self.touched, &mut self.touched_len, e);
+        self.stats.events_masked += u64::from(masked);
         Ok(())
     }
 
@@ -792,18 +809,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
                 if let Some(s) = est.as_deref_mut() {
                     s.push(e);
                 }
-                match map.cell(e.x, e.y) {
-                    Some(cell) => {
-                        let i = (e.polarity.index() as u32 * cells + cell) as usize;
-                        if let Some(a) = acc.get_mut(i) {
-                            // (at most every cell is touched, so `n_touched` stays inside)
-                            touched[n_touched] = i as u32;
-                            n_touched += usize::from(*a == 0);
-                            *a = a.saturating_add(1);
-                        }
-                    }
-                    None => masked += 1,
-                }
+                masked += u64::from(scatter(map, cells, acc, touched, &mut n_touched, e));
                 k += 1;
             }
             self.last_t = last;

@@ -114,7 +114,7 @@ impl SpeedEstimatorConfig {
             && self.local_half_width >= 1
             && self.global_every_ms >= 0.0
             && self.retry_ms >= 0.0
-            && self.max_events >= 1
+            && (1..=u16::MAX as usize).contains(&self.max_events)
             && self.min_gain >= 1.0
             && self.bin_x_px >= 1
             && self.bin_y_px >= 1;
@@ -184,10 +184,11 @@ pub struct SpeedEstimator {
     /// Candidate image speeds of the whole-range search, pixels per microsecond.
     speeds_px_us: Vec<f64>,
     /// The image of moved events: columns wide enough for the fastest candidate's shift either
-    /// way (`max_shift_px` each side), rows of y bins times two polarities.
+    /// way (`max_shift_px` each side), rows of y bins times two polarities; counts in 16 bits
+    /// (an update samples at most `max_events`, at most 65 535: half the cache lines of 32).
     max_shift_px: f64,
     cols: usize,
-    hist: Vec<u32>,
+    hist: Vec<u16>,
     /// Each sampled event's image bin under one candidate (to count and clear them).
     filled: Vec<u32>,
     /// The events of one update: x, time before the update and the row's offset in the image.
@@ -324,7 +325,8 @@ impl SpeedEstimator {
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
         self.events.capacity() * std::mem::size_of::<Kept>()
-            + (self.hist.capacity() + self.filled.capacity()) * 4
+            + self.hist.capacity() * 2
+            + self.filled.capacity() * 4
             + self.sample.capacity() * std::mem::size_of::<(f32, f32, u32)>()
     }
 

@@ -17,9 +17,64 @@ use crate::neuron::{NeuronKind, Reset};
 #[derive(Debug, Clone)]
 pub struct Sliding {
     net: Network,
-    /// Per layer: a dense layer's weights by input (`[n_in][n_out]`), so an input's fan-out is
-    /// contiguous; `None` for other ops (their own fan-out is used).
-    by_input: Vec<Option<Vec<f32>>>,
+    /// Per layer: a dense layer's weights by input, each input's fan-out contiguous and padded
+    /// with zeros to a multiple of [`BLOCK`] (`[n_in][stride]`); `None` for other ops (their own
+    /// fan-out is used).
+    by_input: Vec<Option<ByInput>>,
+}
+
+/// Outputs summed together in registers by [`ByInput::sum`].
+const BLOCK: usize = 16;
+/// Layers wider than this add each input's row to the outputs in memory instead: their rows are
+/// read once, front to back (a wide first layer's weights do not fit the caches).
+const ROW_WISE_ABOVE: usize = 64;
+
+#[derive(Debug, Clone)]
+struct ByInput {
+    weight: Vec<f32>,
+    stride: usize,
+}
+
+impl ByInput {
+    fn new(n_in: usize, n_out: usize, weight: &[f32]) -> ByInput {
+        let stride = n_out.div_ceil(BLOCK) * BLOCK;
+        let mut t = vec![0f32; n_in * stride];
+        for o in 0..n_out {
+            for i in 0..n_in {
+                t[i * stride + o] = weight[o * n_in + i];
+            }
+        }
+        ByInput { weight: t, stride }
+    }
+
+    /// `out[o] = 0 + x_1 w_(i_1, o) + x_2 w_(i_2, o) + ...` over `inputs` in their order: the
+    /// same products added in the same order per output as [`Op::accumulate`] input by input,
+    /// so the same floats, with [`BLOCK`] outputs held in registers through the inputs instead of
+    /// loaded and stored for each (a store and a load per input and output, and, with few
+    /// outputs, each add waiting on the last one's store). `inputs` must be inside `0..n_in`.
+    fn sum(&self, inputs: &[(u32, f32)], out: &mut [f32]) {
+        if out.len() > ROW_WISE_ABOVE {
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx") {
+                // SAFETY: the CPU has AVX (checked just above).
+                unsafe { rows_avx(&self.weight, self.stride, inputs, out) };
+                return;
+            }
+            rows(&self.weight, self.stride, inputs, out);
+            return;
+        }
+        for (c, chunk) in out.chunks_mut(BLOCK).enumerate() {
+            let mut a = [0f32; BLOCK];
+            for &(i, x) in inputs {
+                let at = i as usize * self.stride + c * BLOCK;
+                let w: &[f32; BLOCK] = self.weight[at..at + BLOCK].try_into().expect("a padded row");
+                for (a, w) in a.iter_mut().zip(w) {
+                    *a += x * w;
+                }
+            }
+            chunk.copy_from_slice(&a[..chunk.len()]);
+        }
+    }
 }
 
 /// One window's outcome.
@@ -34,6 +89,30 @@ pub struct WindowOutput {
     pub synops: u64,
 }
 
+/// `out = 0 + x_1 w_(i_1) + x_2 w_(i_2) + ...`, each input's row added to the outputs in memory,
+/// front to back.
+#[inline(always)]
+fn rows(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
+    out.fill(0.0);
+    for &(i, x) in inputs {
+        let at = i as usize * stride;
+        for (o, w) in out.iter_mut().zip(&weight[at..at + stride]) {
+            *o += x * w;
+        }
+    }
+}
+
+/// [`rows`] in AVX registers, eight outputs at a time: the same multiplies and adds per output
+/// (no fused multiply-add), so the same floats.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn rows_avx(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
+    rows(weight, stride, inputs, out)
+}
+
 impl Sliding {
     /// The first layer must not be recurrent (its current would depend on the past window).
     pub fn new(net: &Network) -> Result<Sliding> {
@@ -45,34 +124,26 @@ impl Sliding {
             .layers
             .iter()
             .map(|l| match &l.op {
-                Op::Dense { n_in, n_out, weight, .. } => {
-                    let mut t = vec![0f32; weight.len()];
-                    for o in 0..*n_out {
-                        for i in 0..*n_in {
-                            t[i * n_out + o] = weight[o * n_in + i];
-                        }
-                    }
-                    Some(t)
-                }
+                Op::Dense { n_in, n_out, weight, .. } => Some(ByInput::new(*n_in, *n_out, weight)),
                 _ => None,
             })
             .collect();
         Ok(Sliding { net: net.clone(), by_input })
     }
 
-    /// Adds input `i`'s contribution to layer `k`'s outputs (the same products and order per
-    /// output as [`Op::accumulate`]); the synaptic operations.
-    #[inline]
-    fn accumulate(&self, k: usize, i: usize, x: f32, out: &mut [f32]) -> u64 {
+    /// Layer `k`'s outputs from its active inputs `(input, value)` (ascending): `out` is set to
+    /// their weighted sum (the same floats as [`Op::accumulate`] input by input from zero); the
+    /// synaptic operations.
+    fn sum(&self, k: usize, inputs: &[(u32, f32)], out: &mut [f32]) -> u64 {
         match &self.by_input[k] {
             Some(t) => {
-                let n = out.len();
-                for (o, w) in out.iter_mut().zip(&t[i * n..(i + 1) * n]) {
-                    *o += x * w;
-                }
-                n as u64
+                t.sum(inputs, out);
+                (inputs.len() * out.len()) as u64
             }
-            None => self.net.layers[k].op.accumulate(i, x, out) as u64,
+            None => {
+                out.fill(0.0);
+                inputs.iter().map(|&(i, x)| self.net.layers[k].op.accumulate(i as usize, x, out) as u64).sum()
+            }
         }
     }
 
@@ -87,13 +158,10 @@ impl Sliding {
         let op = &self.net.layers[0].op;
         out.clear();
         out.resize(op.n_out(), 0.0);
-        let mut synops = 0u64;
-        for &(i, x) in inputs {
-            if i as usize >= self.net.n_inputs() {
-                return Err(Error::input(format!("input {i} outside 0..{}", self.net.n_inputs())));
-            }
-            synops += self.accumulate(0, i as usize, x, out);
+        if let Some(&(i, _)) = inputs.iter().find(|&&(i, _)| i as usize >= self.net.n_inputs()) {
+            return Err(Error::input(format!("input {i} outside 0..{}", self.net.n_inputs())));
         }
+        let synops = self.sum(0, inputs, out);
         add_bias(op, out);
         Ok(synops)
     }
@@ -107,7 +175,7 @@ impl Sliding {
     pub fn run_with(&self, steps: &[&[f32]], scratch: &mut RunScratch) -> WindowOutput {
         let layers = &self.net.layers;
         let last = layers.len() - 1;
-        let RunScratch { v, cur, x, acc } = scratch;
+        let RunScratch { v, cur, x, nz, acc } = scratch;
         v.resize(layers.len(), Vec::new());
         cur.resize(layers.len(), Vec::new());
         for (k, l) in layers.iter().enumerate() {
@@ -130,29 +198,27 @@ impl Sliding {
                 } else {
                     acc.clear();
                     acc.resize(n, 0.0);
-                    // zero inputs add nothing: summing only the non-zero ones gives the same floats
-                    for (i, &xi) in x.iter().enumerate() {
-                        if xi != 0.0 {
-                            out.synops += self.accumulate(k, i, xi, acc);
-                        }
-                    }
+                    // zero inputs add nothing: summing only the non-zero ones (in ascending
+                    // order) gives the same floats
+                    out.synops += self.sum(k, nz, acc);
                     add_bias(&layer.op, acc);
                     acc
                 };
                 match &layer.neurons {
                     None => {
-                        let next = input.to_vec();
-                        *x = next;
+                        x.clear();
+                        x.extend_from_slice(input);
+                        nz.clear();
+                        nz.extend(x.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(j, &v)| (j as u32, v)));
                     }
                     Some(p) => {
-                        let mut fired = std::mem::take(x);
-                        fired.clear();
-                        fired.resize(n, 0.0);
+                        x.clear();
+                        x.resize(n, 0.0);
                         let (vk, ck) = (&mut v[k], &mut cur[k]);
                         if p.kind == NeuronKind::CubaLif {
                             for j in 0..n {
                                 if p.step(&mut ck[j], &mut vk[j], input[j]) {
-                                    fired[j] = 1.0;
+                                    x[j] = 1.0;
                                 }
                             }
                         } else {
@@ -161,7 +227,7 @@ impl Sliding {
                             // the spike (which neurons fire varies, so it would mispredict)
                             let (beta, leak, th) = (p.beta, p.leak_term(), p.threshold());
                             let (subtract, v_reset, v_th) = (p.reset == Reset::Subtract, p.v_reset, p.v_th);
-                            for ((vj, &u), f) in vk.iter_mut().zip(input).zip(fired.iter_mut()) {
+                            for ((vj, &u), f) in vk.iter_mut().zip(input).zip(x.iter_mut()) {
                                 let v_new = beta * *vj + leak + u;
                                 let spike = v_new > th;
                                 let after = if subtract { v_new - v_th } else { v_reset };
@@ -169,9 +235,20 @@ impl Sliding {
                                 *f = if spike { 1.0 } else { 0.0 };
                             }
                         }
+                        // the neurons that fired, in ascending order, listed without a branch on
+                        // the spike (a separate pass, so that the update above stays vectorised):
+                        // each neuron is written at the list's end, which moves on when it fired
+                        nz.clear();
+                        nz.resize(n, (0, 1.0));
+                        let mut fired = 0usize;
+                        for (j, &f) in x.iter().enumerate() {
+                            nz[fired].0 = j as u32;
+                            fired += usize::from(f != 0.0);
+                        }
+                        nz.truncate(fired);
                         if k == last {
-                            for (c, &f) in out.counts.iter_mut().zip(&fired) {
-                                *c += (f != 0.0) as u32;
+                            for &(j, _) in nz.iter() {
+                                out.counts[j as usize] += 1;
                             }
                         }
                         if k == last && li {
@@ -179,7 +256,6 @@ impl Sliding {
                                 *m = m.max(vj);
                             }
                         }
-                        *x = fired;
                     }
                 }
             }
@@ -193,7 +269,9 @@ impl Sliding {
 pub struct RunScratch {
     v: Vec<Vec<f32>>,
     cur: Vec<Vec<f32>>,
+    /// The last layer's outputs, and the non-zero ones (ascending, with their values).
     x: Vec<f32>,
+    nz: Vec<(u32, f32)>,
     acc: Vec<f32>,
 }
 
@@ -214,9 +292,15 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     fn net(seed: u64, li: bool) -> Network {
+        net_of(seed, li, 16)
+    }
+
+    /// `h` hidden neurons: up to [`ROW_WISE_ABOVE`] their currents are summed in registers,
+    /// beyond it row by row.
+    fn net_of(seed: u64, li: bool, h: usize) -> Network {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let mut w = |n: usize, s: f32| (0..n).map(|_| rng.random_range(-s..s)).collect::<Vec<f32>>();
-        let (i, h, o) = (40, 16, 5);
+        let (i, o) = (40, 5);
         let l0 = Layer {
             op: Op::Dense { n_in: i, n_out: h, weight: w(i * h, 0.6), bias: Some(w(h, 0.1)) },
             neurons: Some(NeuronParams::lif(0.8)),
@@ -235,8 +319,8 @@ mod tests {
 
     #[test]
     fn every_window_of_a_stream_equals_the_time_stepped_network() {
-        for li in [true, false] {
-            let net = net(3, li);
+        for (li, h) in [(true, 16), (false, 16), (true, 90), (false, 70)] {
+            let net = net_of(3, li, h);
             let s = Sliding::new(&net).unwrap();
             let (steps, window) = (60, 12);
             let input = random_input(9, steps, 40, 0.2);
