@@ -60,6 +60,11 @@ fn layer(op: Op, p: Option<NeuronParams>) -> Layer {
     Layer { op, neurons: p, recurrent: None, recurrent_bias: None }
 }
 
+/// A dense layer without bias of random weights (`dense_w`) and neurons `p`.
+fn dense_layer(n_in: usize, n_out: usize, seed: u64, scale: f32, p: NeuronParams) -> Layer {
+    layer(Op::Dense { n_in, n_out, weight: dense_w(n_in, n_out, seed, scale), bias: None }, Some(p))
+}
+
 fn dense_w(n_in: usize, n_out: usize, seed: u64, scale: f32) -> Vec<f32> {
     random_input(seed, 1, n_in * n_out, 0.5)
         .iter()
@@ -310,14 +315,8 @@ fn leaky_integrator_readout_equals_dense_in_both_modes() {
     let ff = Network::new(
         vec![30],
         vec![
-            layer(
-                Op::Dense { n_in: 30, n_out: 16, weight: dense_w(30, 16, 11, 1.4), bias: None },
-                Some(NeuronParams::lif(0.9)),
-            ),
-            layer(
-                Op::Dense { n_in: 16, n_out: 6, weight: dense_w(16, 6, 13, 2.0), bias: None },
-                Some(NeuronParams::leaky_integrator(0.95)),
-            ),
+            dense_layer(30, 16, 11, 1.4, NeuronParams::lif(0.9)),
+            dense_layer(16, 6, 13, 2.0, NeuronParams::leaky_integrator(0.95)),
         ],
     )
     .unwrap();
@@ -408,4 +407,28 @@ fn every_neuron_of_eight_and_sixteen_channel_convolutions_firing_at_once_is_kept
     assert!(reference.spikes[0].iter().all(|s| s.len() == 8 * 36), "every layer-0 neuron fires every step");
     assert!(reference.spikes[1].iter().all(|s| s.len() == 16 * 36), "every layer-1 neuron fires every step");
     assert_eq!(st.stats.spikes[0], (steps * 8 * 36) as u64);
+}
+
+#[test]
+fn stepped_equals_dense_with_wide_and_narrow_dense_layers() {
+    // a step's spikes into a dense layer: up to 64 outputs summed in registers 16 at a time (one
+    // block and a part, two and a part), beyond that row by row
+    let net = Network::new(
+        vec![30],
+        vec![
+            dense_layer(30, 90, 41, 1.6, NeuronParams::lif(0.8)),
+            dense_layer(90, 70, 42, 1.2, NeuronParams::lif(0.85)),
+            dense_layer(70, 37, 43, 1.0, NeuronParams::lif(0.9).with_reset(Reset::Subtract)),
+            dense_layer(37, 21, 44, 1.0, NeuronParams::lif(0.9)),
+        ],
+    )
+    .unwrap();
+    for seed in 0..4 {
+        let input = random_input(200 + seed, 30, net.n_inputs(), 0.3);
+        let (reference, _) = assert_same_output(&net, &input, 30);
+        for k in 0..3 {
+            let fired: usize = reference.spikes[k].iter().map(Vec::len).sum();
+            assert!(fired > 0, "layer {k} must fire (seed {seed})");
+        }
+    }
 }

@@ -7,12 +7,18 @@ use crate::error::{Error, Result};
 use crate::network::{Layer, Op, PoolKind};
 use crate::neuron::{NeuronKind, NeuronParams};
 
+/// A dense layer's outputs summed in registers together by a step's spikes
+/// ([`super::fanout::fan_in_spikes`]), and the padding of its weight rows.
+pub(super) const DENSE_BLOCK: usize = 16;
+
 /// A linear operation laid out for fan-out.
 #[derive(Debug, Clone)]
 pub(super) enum Fan {
-    /// Weights `[in][out]`.
+    /// Weights `[in][stride]`: each input's `n_out` weights, padded with zeros to `stride`, a
+    /// multiple of [`DENSE_BLOCK`].
     Dense {
         n_out: usize,
+        stride: usize,
         wt: Vec<f32>,
     },
     /// Weights `[in_c][ky][kx][out_c]`; accumulators `[pos][out_c]`; `map`: the targets of each
@@ -69,13 +75,14 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
     let n_out = l.op.n_out();
     let fan = match &l.op {
         Op::Dense { n_in, n_out, weight, .. } => {
-            let mut wt = vec![0.0; n_in * n_out];
+            let stride = n_out.div_ceil(DENSE_BLOCK) * DENSE_BLOCK;
+            let mut wt = vec![0.0; n_in * stride];
             for o in 0..*n_out {
                 for i in 0..*n_in {
-                    wt[i * n_out + o] = weight[o * n_in + i];
+                    wt[i * stride + o] = weight[o * n_in + i];
                 }
             }
-            Fan::Dense { n_out: *n_out, wt }
+            Fan::Dense { n_out: *n_out, stride, wt }
         }
         Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, .. } => {
             let [ic, h, w] = *in_shape;

@@ -2,7 +2,7 @@
 //! bucketed by channel, per-pixel target lists, and the fan-in of a step's inputs and spikes.
 
 use super::LayerState;
-use super::compile::{Compiled, Fan, conv_positions, pool_targets};
+use super::compile::{Compiled, DENSE_BLOCK, Fan, conv_positions, pool_targets};
 
 /// A fixed-size set of indices, iterated in ascending order.
 #[derive(Debug, Clone, Default)]
@@ -161,8 +161,8 @@ fn plane_recip(n: usize, d: usize) -> Option<u64> {
 #[inline]
 pub(super) fn fan_out(fan: &Fan, i: usize, mut f: impl FnMut(usize, f32)) {
     match fan {
-        Fan::Dense { n_out, wt } => {
-            for (o, &w) in wt[i * n_out..(i + 1) * n_out].iter().enumerate() {
+        Fan::Dense { n_out, stride, wt } => {
+            for (o, &w) in wt[i * stride..i * stride + n_out].iter().enumerate() {
                 f(o, w);
             }
         }
@@ -187,8 +187,8 @@ pub(super) fn fan_out(fan: &Fan, i: usize, mut f: impl FnMut(usize, f32)) {
 #[inline]
 pub(super) fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 {
     match &c.fan {
-        Fan::Dense { n_out, wt } => {
-            for (a, &w) in s.acc.iter_mut().zip(&wt[i * n_out..(i + 1) * n_out]) {
+        Fan::Dense { n_out, stride, wt } => {
+            for (a, &w) in s.acc.iter_mut().zip(&wt[i * stride..i * stride + n_out]) {
                 *a += x * w;
             }
             s.touched.insert(0);
@@ -226,6 +226,9 @@ pub(super) fn fan_in(c: &Compiled, s: &mut LayerState, i: usize, x: f32) -> u64 
     }
 }
 
+/// Dense layers of at most this many outputs keep them in registers through a step's spikes.
+const DENSE_IN_REGISTERS: usize = 64;
+
 /// Stepped: [`fan_in`] of spikes (value 1) at the inputs `spikes`, in order; returns synops.
 /// Adding a weight itself is the same number as adding `1 * w`.
 #[inline(always)]
@@ -234,12 +237,31 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
         return 0;
     }
     match &c.fan {
-        Fan::Dense { n_out, wt } => {
+        Fan::Dense { n_out, stride, wt } => {
             let n = *n_out;
-            for &i in spikes {
-                let i = i as usize;
-                for (a, &w) in s.acc.iter_mut().zip(&wt[i * n..(i + 1) * n]) {
-                    *a += w;
+            if n <= DENSE_IN_REGISTERS {
+                // the outputs held in registers, `DENSE_BLOCK` at a time, through the step's
+                // spikes: the same adds in the same order per output as adding each spike's row
+                // to them in memory, without a store and a load per spike (with a readout of a
+                // few dozen outputs each add would wait on the last one's store)
+                for (c, chunk) in s.acc[..n].chunks_mut(DENSE_BLOCK).enumerate() {
+                    let mut a = [0f32; DENSE_BLOCK];
+                    a[..chunk.len()].copy_from_slice(chunk);
+                    for &i in spikes {
+                        let at = i as usize * stride + c * DENSE_BLOCK;
+                        let w: &[f32; DENSE_BLOCK] = wt[at..at + DENSE_BLOCK].try_into().expect("a padded row");
+                        for (a, &w) in a.iter_mut().zip(w) {
+                            *a += w;
+                        }
+                    }
+                    chunk.copy_from_slice(&a[..chunk.len()]);
+                }
+            } else {
+                for &i in spikes {
+                    let i = i as usize;
+                    for (a, &w) in s.acc.iter_mut().zip(&wt[i * stride..i * stride + n]) {
+                        *a += w;
+                    }
                 }
             }
             s.touched.insert(0);
