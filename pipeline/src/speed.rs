@@ -58,6 +58,7 @@ pub struct SpeedEstimatorConfig {
     pub retry_ms: f64,
     /// At most this many events (every k-th of the window) are moved per candidate. Events are
     /// thinned as they come in (one in a power of two) to about twice this many per window.
+    /// At most 65 535 (the moved image counts in 16 bits).
     pub max_events: usize,
     /// Fewer events in the window than this give no estimate.
     pub min_events: usize,
@@ -124,7 +125,7 @@ impl SpeedEstimatorConfig {
             Err(Error::Setting {
                 name: "speed estimator configuration",
                 value: format!("{self:?}"),
-                expected: "positive windows, thresholds and bounds",
+                expected: "positive windows, thresholds and bounds, and max_events in 1..=65535",
             })
         }
     }
@@ -627,6 +628,14 @@ pub(crate) mod tests {
                 assert_eq!(x.forward, forward, "phase {phase}: {x:?}");
             }
         }
+    }
+
+    #[test]
+    fn more_sampled_events_than_the_image_can_count_are_refused() {
+        let cfg = |max_events| SpeedEstimatorConfig { max_events, ..SpeedEstimatorConfig::default() };
+        assert!(SpeedEstimator::new(cfg(65_535), Resolution::DVXPLORER).is_ok());
+        let e = SpeedEstimator::new(cfg(65_536), Resolution::DVXPLORER).unwrap_err().to_string();
+        assert!(e.contains("max_events in 1..=65535"), "{e}");
     }
 
     #[test]
