@@ -171,8 +171,9 @@ impl LexiconDecoder {
             let ceiling = reach + len.saturating_sub(m) as f64 * del;
             for (w, prior, place) in self.by_len.get(&len).map(Vec::as_slice).unwrap_or(&[]) {
                 let bound = self.cfg.lm_weight * prior + ceiling;
-                // (a margin for the rounding of sums taken in another order)
-                if bound + 1e-9 * (1.0 + bound.abs()) < best.1 {
+                // (a margin for the rounding of sums taken in another order; with a negative
+                // language-model weight the most probable words score least: nothing is left)
+                if self.cfg.lm_weight >= 0.0 && bound + 1e-9 * (1.0 + bound.abs()) < best.1 {
                     break;
                 }
                 let s = self.cfg.lm_weight * prior + self.align(w, &emit, &mut prev, &mut cur);
@@ -243,6 +244,9 @@ mod tests {
     fn leaving_the_words_that_cannot_lead_chooses_as_trying_every_word() {
         use rand::{Rng, SeedableRng};
         let d = decoder();
+        // a negative language-model weight: the most probable words score least
+        let rare_first =
+            LexiconDecoder::textblob(LexiconConfig { lm_weight: -0.3, p_oov: 1e-3, ..LexiconConfig::default() });
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let words = ["LEFT", "RIGHT", "WATER", "UNIVERSITY", "QZXW", "A", "EXIT", "OPEN", "THE", "BRAILLE"];
         for k in 0..120 {
@@ -268,6 +272,13 @@ mod tests {
                 }
             }
             assert_eq!(d.decode(&obs), decode_every_word(&d, &obs), "observations {k} ({w})");
+            if k % 10 == 0 {
+                assert_eq!(
+                    rare_first.decode(&obs),
+                    decode_every_word(&rare_first, &obs),
+                    "observations {k}, weight -0.3"
+                );
+            }
         }
     }
 
