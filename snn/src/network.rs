@@ -301,6 +301,20 @@ impl Record {
     }
 }
 
+/// A dense layer's weights (`[n_out][n_in]`, as [`Op::Dense`] holds them) by input: each input's
+/// `n_out` weights contiguous and padded with zeros to `stride`, the next multiple of `block`, so
+/// that a run of `block` outputs can be read from any row; returns the weights and the stride.
+pub(crate) fn dense_by_input(n_in: usize, n_out: usize, weight: &[f32], block: usize) -> (Vec<f32>, usize) {
+    let stride = n_out.div_ceil(block) * block;
+    let mut t = vec![0f32; n_in * stride];
+    for o in 0..n_out {
+        for i in 0..n_in {
+            t[i * stride + o] = weight[o * n_in + i];
+        }
+    }
+    (t, stride)
+}
+
 /// The time-stepped reference: every neuron, every step, dense sums over all inputs (in ascending
 /// input order). `input` holds `steps` rows of `n_inputs` values.
 pub fn forward_dense(net: &Network, input: &[f32], steps: usize) -> Result<Record> {

@@ -37,14 +37,8 @@ struct ByInput {
 
 impl ByInput {
     fn new(n_in: usize, n_out: usize, weight: &[f32]) -> ByInput {
-        let stride = n_out.div_ceil(BLOCK) * BLOCK;
-        let mut t = vec![0f32; n_in * stride];
-        for o in 0..n_out {
-            for i in 0..n_in {
-                t[i * stride + o] = weight[o * n_in + i];
-            }
-        }
-        ByInput { weight: t, stride }
+        let (weight, stride) = crate::network::dense_by_input(n_in, n_out, weight, BLOCK);
+        ByInput { weight, stride }
     }
 
     /// `out[o] = 0 + x_1 w_(i_1, o) + x_2 w_(i_2, o) + ...` over `inputs` in their order: the

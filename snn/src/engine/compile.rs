@@ -75,13 +75,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
     let n_out = l.op.n_out();
     let fan = match &l.op {
         Op::Dense { n_in, n_out, weight, .. } => {
-            let stride = n_out.div_ceil(DENSE_BLOCK) * DENSE_BLOCK;
-            let mut wt = vec![0.0; n_in * stride];
-            for o in 0..*n_out {
-                for i in 0..*n_in {
-                    wt[i * stride + o] = weight[o * n_in + i];
-                }
-            }
+            let (wt, stride) = crate::network::dense_by_input(*n_in, *n_out, weight, DENSE_BLOCK);
             Fan::Dense { n_out: *n_out, stride, wt }
         }
         Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, .. } => {
