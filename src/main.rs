@@ -24,6 +24,7 @@ mod replay;
 mod report;
 mod robustness;
 mod run;
+mod set_band;
 mod sim_check;
 mod sim_dataset;
 mod simulate;
@@ -109,6 +110,9 @@ enum Command {
     /// Choose a segmentation network's operating point (threshold, shortest segment) on the
     /// SIMULATED validation words, never a test board; `--write` records it in the model file.
     CalibrateReader(calibrate_reader::Args),
+    /// Centre a character classifier's windows in a band of rows wider than its crop from now on,
+    /// its weights unchanged (a row the board's yaw moves past the crop is centred back whole).
+    SetBand(set_band::Args),
     /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
     /// PNG); `--quick` for a fast check that it all runs.
     Report(report::Args),
@@ -169,6 +173,7 @@ fn main() -> ExitCode {
         Command::WordsReport(a) => words_report::run(a),
         Command::LettersReport(a) => letters_report::run(a),
         Command::CalibrateReader(a) => calibrate_reader::run(a),
+        Command::SetBand(a) => set_band::run(a),
         Command::Export(a) => nir_cli::export(a),
         Command::Import(a) => nir_cli::import(a),
         Command::Ensemble(a) => ensemble::run(a),

@@ -146,6 +146,12 @@ pub struct Args {
     /// 120 kept in the crop, first and last plus one [default: 28,92].
     #[arg(long, value_delimiter = ',')]
     crop_rows: Option<Vec<usize>>,
+    /// Simulated windows, with a centring input (the SNN's `--center true`, the ResNet's `norm` and
+    /// `normaug`): the pooled rows the vertical centring looks in, first and last plus one, wider
+    /// than the crop's, so that a row the board's yaw moves past the crop is centred back whole
+    /// [default: the crop's rows].
+    #[arg(long, value_delimiter = ',')]
+    band_rows: Option<Vec<usize>>,
     /// SNN on simulated windows: centre each window vertically.
     #[arg(long)]
     center: Option<bool>,
@@ -328,6 +334,11 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("--crop-rows {rows:?}"))?;
         r.crop_rows = Some([first, end]);
     }
+    if let Some(rows) = &a.band_rows {
+        let [first, end] = rows[..] else { bail!("--band-rows {rows:?}: two pooled rows, first and last plus one") };
+        experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("--band-rows {rows:?}"))?;
+        r.band_rows = Some([first, end]);
+    }
     match a.braille {
         Some(pipeline::code::BrailleCode::Grade1Letters) => {
             r.cells = None;
@@ -415,6 +426,7 @@ pub fn run(args: Args) -> Result<()> {
                 blank_cells: r.blank_cells,
                 pool: args.pool.unwrap_or(1),
                 crop_rows: r.crop_rows,
+                band_rows: r.band_rows,
                 trials: r.trials,
                 word_rows: r.word_rows,
                 letter_rows: r.letter_rows,
@@ -443,8 +455,10 @@ pub fn run(args: Args) -> Result<()> {
             experiments::train::fit::train_windows(&r, rec.as_ref(), args.init.as_deref(), &mut epochs, &bar)?
         }
         (Arch::Snn, Some(_)) => {
-            if args.crop_rows.is_some() {
-                bail!("--crop-rows crops simulated windows; a dataset folder's taxels are the input as they are");
+            if args.crop_rows.is_some() || args.band_rows.is_some() {
+                bail!(
+                    "--crop-rows and --band-rows crop simulated windows; a dataset folder's taxels are the input as they are"
+                );
             }
             let dataset = dataset.as_ref().expect("loaded above for the SNN");
             if args.recipe.is_none()

@@ -968,9 +968,9 @@ fn train_prints_its_boards_with_every_letter_pair_when_asked() {
 
 /// The crop's rows on simulated windows: recorded in the SNN's recipe, refused out of the
 /// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
-/// divide them.
+/// divide them; likewise the centring band's, refused where it cannot centre the crop.
 #[test]
-fn train_takes_the_crop_rows_and_refuses_bad_ones() {
+fn train_takes_the_crop_and_band_rows_and_refuses_bad_ones() {
     // the words preset's own crop (2026-11-29), and the flag's in its place
     for (flag, rows) in [(&[][..], [20, 100]), (&["--crop-rows", "12,108"][..], [12, 108])] {
         let o = braille(&[&["train", "--arch", "snn", "--recipe", "words", "--print-recipe"][..], flag].concat());
@@ -984,6 +984,9 @@ fn train_takes_the_crop_rows_and_refuses_bad_ones() {
     let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--class-balance", "0", "--print-recipe"]);
     let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
     assert!(recipe.get("class_balance").is_none(), "{recipe}");
+    let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--band-rows", "4,116", "--print-recipe"]);
+    let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
+    assert_eq!(recipe["band_rows"], serde_json::json!([4, 116]));
     for bad in ["90,20", "0,121", "20"] {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
         assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
@@ -1001,9 +1004,55 @@ fn train_takes_the_crop_rows_and_refuses_bad_ones() {
         (&["--crop-rows", "20,100", "--arch", "resnet", "--preset", "paper"], "crop_rows"),
         (&["--crop-rows", "20,99", "--arch", "resnet", "--preset", "lite", "--pool", "2"], "pool"),
         (&["--crop-rows", "20,98", "--arch", "snn", "--recipe", "words", "--pool", "4"], "pool"),
+        // a centring band that does not hold the crop, or without centring, or on taxels
+        (&["--band-rows", "30,116", "--arch", "snn", "--recipe", "words"], "band"),
+        (&["--band-rows", "4,116", "--arch", "resnet", "--aug", "aug"], "centring preprocess"),
+        (&["--band-rows", "4,116", "--data", data.to_str().unwrap()], "--band-rows"),
     ] {
         let o = braille(&[&["train", "--out", out.to_str().unwrap()][..], args].concat());
         assert!(!o.status.success() && text(&o).1.contains(says), "{args:?}: {}", text(&o).1);
     }
     assert!(!out.exists(), "nothing written");
+}
+
+/// `set-band` records a centring band in a model file and takes it out again, its weights
+/// unchanged; a band that cannot centre the crop, or a model without a centring input, is refused
+/// and the file left as it was.
+#[test]
+fn set_band_records_a_band_and_refuses_what_cannot_centre() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let m = dir.path().join("snn-segment.safetensors");
+    std::fs::copy(root.join("models/clean/snn-segment.safetensors"), &m).unwrap();
+    let original = std::fs::read(&m).unwrap();
+    let input = |p: &Path| {
+        let model = pipeline::models::load(p).unwrap();
+        (model.char_input(p).unwrap(), model.provenance().clone())
+    };
+    let o = braille(&["set-band", m.to_str().unwrap(), "--rows", "12,100"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (banded, provenance) = input(&m);
+    assert_eq!(banded.band, Some(12..100));
+    assert_eq!(provenance["input_changes"][0]["band_rows"], serde_json::json!([12, 100]));
+    let o = braille(&["set-band", m.to_str().unwrap(), "--rows", "none"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (plain, provenance) = input(&m);
+    assert_eq!(plain, pipeline::input::CharInput { band: None, ..banded });
+    assert_eq!(provenance["input_changes"].as_array().map(Vec::len), Some(2));
+    let weights = |bytes: &[u8]| bytes[8 + u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize..].to_vec();
+    assert_eq!(weights(&std::fs::read(&m).unwrap()), weights(&original), "the weights unchanged");
+    // the crop is rows 28..92: a band must hold it; a ResNet segmentation network without centring
+    let r = dir.path().join("resnet-tiny-segment.safetensors");
+    std::fs::copy(root.join("models/clean/resnet-tiny-segment.safetensors"), &r).unwrap();
+    let before = [std::fs::read(&m).unwrap(), std::fs::read(&r).unwrap()];
+    for (model, rows, says) in [
+        (&m, "30,100", "hold the crop"),
+        (&m, "12,99", "multiple of the pooling"),
+        (&m, "12", "two pooled rows"),
+        (&r, "12,100", "centring preprocess"),
+    ] {
+        let o = braille(&["set-band", model.to_str().unwrap(), "--rows", rows]);
+        assert!(!o.status.success() && text(&o).1.contains(says), "{rows}: {}", text(&o).1);
+    }
+    assert_eq!([std::fs::read(&m).unwrap(), std::fs::read(&r).unwrap()], before, "nothing written");
 }

@@ -78,19 +78,7 @@ impl Default for AugmentConfig {
 /// Moves the rows so that the centre of mass of all events sits on the middle row (zero fill).
 pub fn center_vertically(map: &mut Heatmap) {
     let (h, w) = (map.height, map.width);
-    let (mut mass, mut moment) = (0.0f64, 0.0f64);
-    for plane in map.counts.chunks_exact(h * w) {
-        for (r, row) in plane.chunks_exact(w).enumerate() {
-            // the cells that are +0.0 add nothing (a window's heat map is mostly empty)
-            let s: f64 = row.iter().filter(|v| v.to_bits() != 0).map(|&v| v as f64).sum();
-            mass += s;
-            moment += s * r as f64;
-        }
-    }
-    if mass <= 0.0 {
-        return;
-    }
-    let shift = ((h as f64 - 1.0) / 2.0 - moment / mass).round() as i64;
+    let shift = centring_shift(&map.counts, h, w, h);
     if shift == 0 {
         return;
     }
@@ -105,6 +93,27 @@ pub fn center_vertically(map: &mut Heatmap) {
             plane[h * w - k..].fill(0.0);
         }
     }
+}
+
+/// The rows to move planes of `h` rows of `w` (`counts`, plane after plane) so that the centre
+/// of mass of all events sits on the middle row of `h_out` rows: `round((h_out - 1) / 2 - mean
+/// row)`, 0 for no events.
+pub fn centring_shift(counts: &[f32], h: usize, w: usize, h_out: usize) -> i64 {
+    let (mut mass, mut moment) = (0.0f64, 0.0f64);
+    for plane in counts.chunks_exact(h * w) {
+        for (r, row) in plane.chunks_exact(w).enumerate() {
+            // the cells that are +0.0 add nothing (a window's heat map is mostly empty)
+            let s: f64 = row.iter().filter(|v| v.to_bits() != 0).map(|&v| v as f64).sum();
+            mass += s;
+            moment += s * r as f64;
+        }
+    }
+    shift_of(mass, moment, h_out)
+}
+
+/// [`centring_shift`] from the events' count and their sum of rows.
+pub fn shift_of(mass: f64, moment: f64, h_out: usize) -> i64 {
+    if mass > 0.0 { ((h_out as f64 - 1.0) / 2.0 - moment / mass).round() as i64 } else { 0 }
 }
 
 /// `ln(1 + c)` scaled so the sample's largest value is 1 (an empty sample stays zero). Cells at
@@ -184,8 +193,20 @@ pub fn augment(map: &Heatmap, cfg: &AugmentConfig, rng: &mut impl Rng) -> Heatma
 /// Prepares one sample: centring and normalisation for `Norm`/`NormAug`, then (in training, when
 /// `rng` is given) augmentation for `Aug`/`NormAug`.
 pub fn prepare(map: &Heatmap, mode: Preprocess, cfg: &AugmentConfig, rng: Option<&mut dyn rand::RngCore>) -> Heatmap {
+    prepare_centred(map, mode, mode.normalises(), cfg, rng)
+}
+
+/// [`prepare`] with the vertical centring as `centre` says, whatever `mode` says of it: `false`
+/// for a crop the band has centred already ([`crate::input::CharInput::band`]).
+pub fn prepare_centred(
+    map: &Heatmap,
+    mode: Preprocess,
+    centre: bool,
+    cfg: &AugmentConfig,
+    rng: Option<&mut dyn rand::RngCore>,
+) -> Heatmap {
     let mut m = map.clone();
-    center_and_normalise(&mut m, mode);
+    centre_and_scale(&mut m, mode, centre);
     match (mode.augments(), rng) {
         (true, Some(rng)) => augment(&m, cfg, &mut RngRef(rng)),
         _ => m,
@@ -194,7 +215,12 @@ pub fn prepare(map: &Heatmap, mode: Preprocess, cfg: &AugmentConfig, rng: Option
 
 /// The preparation without augmentation, in place: centring and normalisation as `mode` says.
 pub fn center_and_normalise(map: &mut Heatmap, mode: Preprocess) {
-    if mode.normalises() {
+    centre_and_scale(map, mode, mode.normalises());
+}
+
+/// Centring as `centre` says, normalisation as `mode` says.
+pub fn centre_and_scale(map: &mut Heatmap, mode: Preprocess, centre: bool) {
+    if centre {
         center_vertically(map);
     }
     if mode.scales() {

@@ -62,7 +62,7 @@ impl CropCache {
     /// The window's crop, as [`CharInput::crop_window`] gives it.
     fn window(&mut self, input: &CharInput, w: &Window) -> Result<Vec<f32>> {
         input.check_window(w)?;
-        let [planes, h, wd] = input.shape();
+        let [planes, h, wd] = input.source_shape();
         let ends: Vec<i64> = w.bin_ends_us().collect();
         let kept = keep_window_bins(&mut self.bins, &ends, |b| b.0);
         for (cells, &t) in w.bins().zip(&ends).skip(kept) {
@@ -74,7 +74,7 @@ impl CropCache {
                 plane[(pol * h + r) * wd + col] = v;
             }
         }
-        Ok(out)
+        Ok(input.centre_band(out))
     }
 }
 
@@ -246,6 +246,7 @@ impl WindowModel {
     pub fn from_model(model: Model, path: &Path, runner: SnnRunner) -> Result<WindowModel> {
         let input = model.char_input(path)?;
         let bad = |what: String| Error::Model { path: path.to_path_buf(), what };
+        input.check_band().map_err(|e| bad(e.to_string()))?;
         let operating_point = match model.operating_point() {
             Some(v) => {
                 let p: crate::reader::OperatingPoint =
@@ -363,7 +364,7 @@ impl BinCropper {
         height: usize,
         width: usize,
     ) -> Vec<CroppedCell> {
-        let [_, h, w] = input.shape();
+        let [_, h, w] = input.source_shape();
         if self.grid != Some((height, width)) {
             self.grid = Some((height, width));
             self.cell_of = (0..2 * height * width)
@@ -417,10 +418,11 @@ impl WindowModel {
                 cells.iter().fold((0f64, 0f64), |(m, r), &(_, row, _, c)| (m + c as f64, r + c as f64 * row as f64));
             bins.push_back(BinCache { t_end_us: t, cells, mass, moment, currents: Vec::new() });
         }
-        // the vertical centring of the whole window, as `CharInput::spikes` does it
+        // the vertical centring of the whole window (of its band's rows, when the input has a
+        // band), as `CharInput::spikes` (or `crop_window`'s band) does it
         let shift = if input.preprocess.normalises() {
             let (mass, moment) = bins.iter().fold((0f64, 0f64), |(m, r), b| (m + b.mass, r + b.moment));
-            if mass > 0.0 { ((h as f64 - 1.0) / 2.0 - moment / mass).round() as i64 } else { 0 }
+            crate::augment::shift_of(mass, moment, h)
         } else {
             0
         };
@@ -605,8 +607,12 @@ mod tests {
             ev.extend(part.into_iter().map(|e| encoders::Event { t_us: e.t_us + k as i64 * 700_000, ..e }));
         }
         let speller = crate::reader::Speller::new(crate::reader::Spell::None);
-        let run = |runner: SnnRunner| {
-            let m = WindowModel::load(&seg, runner).unwrap();
+        let run = |runner: SnnRunner, band: Option<std::ops::Range<usize>>| {
+            let model = crate::models::load(&seg).unwrap();
+            let mut input = model.char_input(&seg).unwrap();
+            input.band = band;
+            let crate::models::Model::Snn(snn) = model else { panic!("an SNN") };
+            let m = WindowModel::snn(snn, input, runner).unwrap();
             let cfg = crate::reader::ReaderConfig {
                 labeler: m.input().labeler.clone(),
                 ..crate::reader::ReaderConfig::new(crate::reader::Timing::ESTIMATED)
@@ -614,13 +620,16 @@ mod tests {
             let r = crate::reader::read_all(&ev, cfg, encoders::Resolution::DVXPLORER, &m, &m, &speller).unwrap();
             (r.words, r.stats)
         };
-        let (sliding, stats) = run(SnnRunner::Sliding);
-        assert!(stats.speed_changes >= 5 && stats.segmenter_calls > 100, "{stats:?}");
-        let s = stats.speed_mm_s.unwrap();
-        assert!((s / 32.0 - 1.0).abs() < 0.06, "read at {s} mm/s at the end");
-        let (engine, engine_stats) = run(SnnRunner::Engine);
-        assert_eq!(sliding, engine);
-        assert_eq!(stats.segmenter_calls, engine_stats.segmenter_calls);
+        // and again with the vertical centring in a band of rows wider than the crop's
+        for band in [None, Some(4..116)] {
+            let (sliding, stats) = run(SnnRunner::Sliding, band.clone());
+            assert!(stats.speed_changes >= 5 && stats.segmenter_calls > 100, "{stats:?}");
+            let s = stats.speed_mm_s.unwrap();
+            assert!((s / 32.0 - 1.0).abs() < 0.06, "read at {s} mm/s at the end");
+            let (engine, engine_stats) = run(SnnRunner::Engine, band.clone());
+            assert_eq!(sliding, engine, "band {band:?}");
+            assert_eq!(stats.segmenter_calls, engine_stats.segmenter_calls);
+        }
     }
 
     /// A classifier that checks each window's cached crop against `crop_window`'s.
@@ -650,14 +659,19 @@ mod tests {
             let part = crate::speed::tests::moving(speed, true, 0.05, 0.5, k as u64);
             ev.extend(part.into_iter().map(|e| encoders::Event { t_us: e.t_us + k as i64 * 500_000, ..e }));
         }
-        let check = SameCrops(m.input().clone());
-        let cfg = crate::reader::ReaderConfig {
-            labeler: m.input().labeler.clone(),
-            ..crate::reader::ReaderConfig::new(crate::reader::Timing::ESTIMATED)
-        };
-        let speller = crate::reader::Speller::new(crate::reader::Spell::None);
-        let r = crate::reader::read_all(&ev, cfg, encoders::Resolution::DVXPLORER, &check, &m, &speller).unwrap();
-        assert!(r.stats.speed_changes >= 3 && r.stats.segmenter_calls > 100, "{:?}", r.stats);
+        // its input as it is, and centred in a band of rows wider than its crop
+        let banded =
+            CharInput { preprocess: crate::augment::Preprocess::Norm, band: Some(4..116), ..m.input().clone() };
+        for input in [m.input().clone(), banded] {
+            let check = SameCrops(input);
+            let cfg = crate::reader::ReaderConfig {
+                labeler: m.input().labeler.clone(),
+                ..crate::reader::ReaderConfig::new(crate::reader::Timing::ESTIMATED)
+            };
+            let speller = crate::reader::Speller::new(crate::reader::Spell::None);
+            let r = crate::reader::read_all(&ev, cfg, encoders::Resolution::DVXPLORER, &check, &m, &speller).unwrap();
+            assert!(r.stats.speed_changes >= 3 && r.stats.segmenter_calls > 100, "{:?}", r.stats);
+        }
     }
 
     #[test]

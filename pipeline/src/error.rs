@@ -25,6 +25,8 @@ pub enum Error {
         cols: std::ops::Range<usize>,
         frames: usize,
     },
+    #[error("the model's input band (rows {band:?}) does not fit its crop (rows {rows:?}): {reason}")]
+    Band { band: std::ops::Range<usize>, rows: std::ops::Range<usize>, reason: &'static str },
     /// Boxed, as the other large sources: a small `Result` on every path.
     #[error(transparent)]
     Encoders(Box<encoders::Error>),

@@ -183,6 +183,41 @@ impl Model {
         }
     }
 
+    /// Reads the model's character windows centred in `band` (`None`: in its crop's rows) from
+    /// now on, its weights unchanged ([`CharInput::band`]; `braille set-band`). The provenance
+    /// records the change beside how the weights were trained (`input_changes`). `path` names
+    /// the file in errors.
+    pub fn set_band(&mut self, band: Option<std::ops::Range<usize>>, path: &Path) -> Result<()> {
+        let mut input = self.char_input(path)?;
+        let before = input.band.clone();
+        input.band = band.clone();
+        input.check_band().map_err(|e| bad(path, e.to_string()))?;
+        let provenance = match self {
+            Model::Resnet(m) => {
+                m.input = input;
+                &mut m.provenance
+            }
+            Model::Snn(m) => {
+                m.preprocess = serde_json::to_value(&input).map_err(|e| bad(path, e.to_string()))?;
+                &mut m.provenance
+            }
+        };
+        let change = serde_json::json!({
+            "band_rows": band.map(|b| [b.start, b.end]),
+            "before": before.map(|b| [b.start, b.end]),
+            "weights": "unchanged: trained on windows made as `before` says",
+        });
+        if let Some(o) = provenance.as_object_mut() {
+            match o.get_mut("input_changes").and_then(|v| v.as_array_mut()) {
+                Some(list) => list.push(change),
+                None => {
+                    o.insert("input_changes".into(), serde_json::json!([change]));
+                }
+            }
+        }
+        Ok(())
+    }
+
     pub fn provenance(&self) -> &serde_json::Value {
         match self {
             Model::Resnet(m) => &m.provenance,

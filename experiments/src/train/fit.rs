@@ -375,7 +375,9 @@ pub fn train_windows(
         pool,
         preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
         augment: pipeline::augment::AugmentConfig::default(),
+        band: r.band_rows.map(|[first, end]| first..end),
     };
+    input.check_band()?;
     let world = corpus::world::World::train(r.realism);
     let (tw, data) = match recordings {
         Some(rec) => (

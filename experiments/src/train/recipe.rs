@@ -126,6 +126,10 @@ pub struct SnnRecipe {
     /// and last plus one (None: `pipeline::input::LITE_ROWS`, 28..92).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop_rows: Option<[usize; 2]>,
+    /// Simulated windows: the pooled rows the vertical centring looks in, wider than the crop,
+    /// first and last plus one (None: the crop's rows; `pipeline::input::CharInput::band`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_rows: Option<[usize; 2]>,
     /// Centre each window vertically.
     pub center: bool,
     // The network.
@@ -238,6 +242,7 @@ impl Default for SnnRecipe {
             train_depths_mm: Vec::new(),
             pool: 2,
             crop_rows: None,
+            band_rows: None,
             center: true,
             dt_us: 10_000,
             conv: Vec::new(),

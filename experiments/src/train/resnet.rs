@@ -65,6 +65,10 @@ pub struct ResnetTraining {
     /// Lite and tiny: the crop's pooled rows, first and last plus one (`None`: [`LITE_ROWS`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub crop_rows: Option<[usize; 2]>,
+    /// The pooled rows the vertical centring looks in, wider than the crop (`None`: the crop's;
+    /// [`CharInput::band`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band_rows: Option<[usize; 2]>,
     pub trials: u64,
     pub word_rows: usize,
     /// Rows that hold every letter at every place this many times (0: none).
@@ -143,7 +147,9 @@ pub fn train_resnet(
         Task::Cells => AugmentConfig { translation: 0.04, ..AugmentConfig::default() },
         _ => AugmentConfig::default(),
     };
-    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment };
+    let band = t.band_rows.map(|[first, end]| first..end);
+    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment, band };
+    input.check_band()?;
     let world = corpus::world::World::train(t.realism);
     let tw = match recordings {
         Some(rec) => {
