@@ -64,6 +64,11 @@ if [[ "$realism" == clean ]]; then word_trials=(--trials 5); else word_trials=()
 if [[ "${1:-}" != "--report-only" ]]; then
   $b train --trainer "$trainer" --arch snn --recipe words "${word_trials[@]}" "${r[@]}" --out "$models/snn-words.safetensors" \
     --history "$out/snn_words_history.json" --force --quiet
+  # Since 2026-11-30 (issue #47) the `nominal` SNN classifier centres each window in pooled rows
+  # 12..100 instead of its crop's 20..100 (weights as trained): a row yawed by more than about
+  # 1.3 degrees took its first cell's top dots out of the crop (docs/log/letters-2026-11-30.md,
+  # chosen on VAL-LETTERS with the validation builds 51-60).
+  if [[ "$realism" == nominal ]]; then $b set-band "$models/snn-words.safetensors" --rows 12,100; fi
   $b train --arch resnet --preset lite --aug normaug --pool 2 --words 0 --letter-rows 3 \
     --train-speeds 8,16,32,48 --train-depths 1.5,1.0,0.6 --trials 5 --jitter-ms 40 --crop-rows 20,100 \
     --epochs 15 --lr 1e-3 --seed 1 "${r[@]}" --out "$models/resnet-lite-normaug-words.safetensors" \
