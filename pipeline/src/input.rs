@@ -115,7 +115,7 @@ impl CharInput {
                 bins: map.bins,
                 height: map.height,
                 width: map.width,
-                rows: self.rows.clone(),
+                rows: rows.clone(),
                 cols: self.cols.clone(),
                 frames: self.labeler.frames,
             });
@@ -162,7 +162,7 @@ impl CharInput {
                 bins: w.n_bins(),
                 height: w.height,
                 width: w.width,
-                rows: self.rows.clone(),
+                rows: self.source_rows(),
                 cols: self.cols.clone(),
                 frames: self.labeler.frames,
             });
