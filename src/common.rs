@@ -7,6 +7,16 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 /// A file of the repository: from the working directory, else from where the binary was built.
+/// A flag's two pooled rows of the labeler's grid, first and last plus one (`--crop-rows`,
+/// `--band-rows`, `set-band --rows`), checked by the library's rule (within the grid, first below
+/// last) with the flag named in the error.
+pub fn pooled_rows(flag: &str, rows: &[usize]) -> anyhow::Result<[usize; 2]> {
+    use anyhow::Context;
+    let [first, end] = rows[..] else { anyhow::bail!("{flag} {rows:?}: two pooled rows, first and last plus one") };
+    experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("{flag} {rows:?}"))?;
+    Ok([first, end])
+}
+
 pub fn repo_path(rel: &str) -> PathBuf {
     let local = PathBuf::from(rel);
     if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }

@@ -328,16 +328,12 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     }
     // refused before any window is simulated (the trainers refuse it too)
     learn::train::check_class_balance(r.class_balance).context("--class-balance")?;
+    // the library's rule (within the labeler's grid, first below last), checked here already
     if let Some(rows) = &a.crop_rows {
-        let [first, end] = rows[..] else { bail!("--crop-rows {rows:?}: two pooled rows, first and last plus one") };
-        // the library's rule (within the labeler's grid, first below last), checked here already
-        experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("--crop-rows {rows:?}"))?;
-        r.crop_rows = Some([first, end]);
+        r.crop_rows = Some(crate::common::pooled_rows("--crop-rows", rows)?);
     }
     if let Some(rows) = &a.band_rows {
-        let [first, end] = rows[..] else { bail!("--band-rows {rows:?}: two pooled rows, first and last plus one") };
-        experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("--band-rows {rows:?}"))?;
-        r.band_rows = Some([first, end]);
+        r.band_rows = Some(crate::common::pooled_rows("--band-rows", rows)?);
     }
     match a.braille {
         Some(pipeline::code::BrailleCode::Grade1Letters) => {

@@ -213,12 +213,8 @@ pub fn prepare_centred(
     }
 }
 
-/// The preparation without augmentation, in place: centring and normalisation as `mode` says.
-pub fn center_and_normalise(map: &mut Heatmap, mode: Preprocess) {
-    centre_and_scale(map, mode, mode.normalises());
-}
-
-/// Centring as `centre` says, normalisation as `mode` says.
+/// The preparation without augmentation, in place: centring as `centre` says (what `mode` says,
+/// unless a band has centred the crop already), normalisation as `mode` says.
 pub fn centre_and_scale(map: &mut Heatmap, mode: Preprocess, centre: bool) {
     if centre {
         center_vertically(map);
