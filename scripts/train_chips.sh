@@ -7,8 +7,10 @@
 #   (Speck: IF neurons, convolutions, sum pooling, nine cores' memory).
 # - qat/speck-chars-seed{1,2,3}: speck-chars fine-tuned for Speck (quantisation-aware, `--chip speck` on the
 #   dense trainer: every forward pass Sinabs's model of the chip in float units, 8-bit weights at one scale per
-#   core, the threshold at that scale, several spikes per step), 15 epochs (half the recipe's, as for Xylo, not
-#   tuned), one per fine-tuning seed (the validation hold-out stays the float model's, seed 1); about 6 minutes each.
+#   core, the threshold at that scale, several spikes per step), 15 epochs (half the recipe's, as for Xylo), one
+#   per fine-tuning seed (the validation hold-out stays the float model's, seed 1); since 2026-11-30 on training
+#   scans from sensor builds 1-24 at a tenth of the recipe's learning rate (chosen on held-out builds 53-60,
+#   docs/log/chips-2026-11-30.md; `clean` has one build and keeps the recipe's); about 5 minutes each.
 # - qat/xylo-braille7-seed{1,2,3}: xylo-braille7 fine-tuned for Xylo (quantisation-aware, `--chip xylo`:
 #   Xylo's decays and reset, every forward pass in Xylo's arithmetic), 30 epochs (half the recipe's, not
 #   tuned), one per fine-tuning seed (the shuffling; the validation hold-out stays the float model's, seed 2);
@@ -61,9 +63,11 @@ if [[ "${1:-}" != "--speck-qat-only" ]]; then
     --history "$hist/speck_chars_history.json" --force --quiet
 fi
 mkdir -p "$sim/qat"
+more_builds=(--train-builds 1-24 --lr 2e-4)
+[[ "$realism" == clean ]] && more_builds=()
 for seed in 1 2 3; do
   $b train --trainer dense --arch snn --recipe speck --realism "$realism" --chip speck --init "$sim/speck-chars.safetensors" \
-    --epochs 15 --seed "$seed" --val-seed 1 --out "$sim/qat/speck-chars-seed$seed.safetensors" \
+    --epochs 15 --seed "$seed" --val-seed 1 "${more_builds[@]}" --out "$sim/qat/speck-chars-seed$seed.safetensors" \
     --history "$hist/qat_speck_chars_seed${seed}_history.json" --force --quiet
 done
 if [[ "${1:-}" != "--no-report" && "${2:-}" != "--no-report" ]]; then

@@ -288,6 +288,11 @@ pub struct Args {
     /// neither trained nor tested on) or `training` [default: the hold-out].
     #[arg(long, value_enum)]
     val_builds: Option<crate::common::SensorBuilds>,
+    /// Simulated windows: the sensor builds the training scans are made with, numbers and ranges
+    /// (`1-24`), trial t by the (t mod n)-th; never 51-60 (validation) or 101-102 (test)
+    /// [default: the training builds 1-4].
+    #[arg(long)]
+    train_builds: Option<String>,
     /// Model file to write.
     #[arg(long, required_unless_present_any = ["print_recipe", "print_boards"])]
     out: Option<PathBuf>,
@@ -360,6 +365,12 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     if a.val_seed.is_some() {
         r.val_seed = a.val_seed;
     }
+    if let Some(builds) = &a.train_builds {
+        let builds = corpus::world::parse_builds(builds).context("--train-builds")?;
+        // the library's rule (no validation or test build), checked before any window is made
+        corpus::World::train_on(r.realism, &builds).context("--train-builds")?;
+        r.train_builds = Some(builds);
+    }
     if a.val_builds.is_some() {
         r.val_builds = a.val_builds;
     }
@@ -414,6 +425,9 @@ pub fn run(args: Args) -> Result<()> {
             if args.trainer.is_some() || args.gradient_cutoff.is_some() {
                 bail!("--trainer and --gradient-cutoff choose how an SNN is trained; the ResNet trains on burn");
             }
+            if args.train_builds.is_some() {
+                bail!("--train-builds: the ResNet trains on the training builds (1-4)");
+            }
             let t = ResnetTraining {
                 preset: args.preset,
                 preprocess: args.aug,
@@ -455,6 +469,9 @@ pub fn run(args: Args) -> Result<()> {
                 bail!(
                     "--crop-rows and --band-rows crop simulated windows; a dataset folder's taxels are the input as they are"
                 );
+            }
+            if args.train_builds.is_some() {
+                bail!("--train-builds chooses the sensors of simulated scans; a dataset folder is recorded data");
             }
             let dataset = dataset.as_ref().expect("loaded above for the SNN");
             if args.recipe.is_none()

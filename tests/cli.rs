@@ -970,7 +970,7 @@ fn train_prints_its_boards_with_every_letter_pair_when_asked() {
 /// labeler's grid, backwards, for the paper ResNet's whole frame, or where the pooling does not
 /// divide them; likewise the centring band's, refused where it cannot centre the crop.
 #[test]
-fn train_takes_the_crop_and_band_rows_and_refuses_bad_ones() {
+fn train_takes_crop_band_and_training_builds_and_refuses_bad_ones() {
     // the words preset's own crop (2026-11-29), and the flag's in its place
     for (flag, rows) in [(&[][..], [20, 100]), (&["--crop-rows", "12,108"][..], [12, 108])] {
         let o = braille(&[&["train", "--arch", "snn", "--recipe", "words", "--print-recipe"][..], flag].concat());
@@ -987,6 +987,9 @@ fn train_takes_the_crop_and_band_rows_and_refuses_bad_ones() {
     let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--band-rows", "4,116", "--print-recipe"]);
     let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
     assert_eq!(recipe["band_rows"], serde_json::json!([4, 116]));
+    let o = braille(&["train", "--arch", "snn", "--recipe", "speck", "--train-builds", "1-4,20-21", "--print-recipe"]);
+    let recipe: serde_json::Value = serde_json::from_str(&text(&o).0).expect("the recipe as JSON");
+    assert_eq!(recipe["train_builds"], serde_json::json!([1, 2, 3, 4, 20, 21]));
     for bad in ["90,20", "0,121", "20"] {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
         assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
@@ -1008,6 +1011,13 @@ fn train_takes_the_crop_and_band_rows_and_refuses_bad_ones() {
         (&["--band-rows", "30,116", "--arch", "snn", "--recipe", "words"], "band"),
         (&["--band-rows", "4,116", "--arch", "resnet", "--aug", "aug"], "centring preprocess"),
         (&["--band-rows", "4,116", "--data", data.to_str().unwrap()], "--band-rows"),
+        // more sensor builds for training: never a validation or test build, never on recorded data
+        (&["--train-builds", "1-4,51", "--arch", "snn", "--recipe", "speck"], "they never train"),
+        (&["--train-builds", "99-102", "--arch", "snn", "--recipe", "speck"], "they never train"),
+        (&["--train-builds", "4-1", "--arch", "snn", "--recipe", "speck"], "numbers and ranges"),
+        (&["--train-builds", "1-8", "--arch", "snn", "--recipe", "speck", "--realism", "clean"], "`clean` has one"),
+        (&["--train-builds", "1-8", "--data", data.to_str().unwrap()], "recorded data"),
+        (&["--train-builds", "1-8", "--arch", "resnet"], "--train-builds"),
     ] {
         let o = braille(&[&["train", "--out", out.to_str().unwrap()][..], args].concat());
         assert!(!o.status.success() && text(&o).1.contains(says), "{args:?}: {}", text(&o).1);

@@ -21,6 +21,49 @@ pub const TEST_SENSORS: [u64; 2] = [101, 102];
 /// Sensor builds neither trained nor tested on: with a validation board, a choice that must hold
 /// on a new sensor (as the test builds ask) is made without the test builds.
 pub const VALIDATION_SENSORS: [u64; 2] = [51, 52];
+/// Builds kept for reads that choose or diagnose: 51 and 52 the `validation` world, 53-60 read
+/// build by build (`row_start`, `speck_builds`). Never trained on, like the test builds.
+pub const HELD_OUT_BUILDS: std::ops::RangeInclusive<u64> = 51..=60;
+
+/// A list of sensor builds as a command line gives it: numbers and inclusive ranges, `1-4,7,20-24`,
+/// in that order. What it may hold is [`World::train_on`]'s to say.
+pub fn parse_builds(text: &str) -> Result<Vec<u64>> {
+    let bad = || crate::Error::Setting {
+        name: "sensor builds",
+        value: text.to_string(),
+        expected: "numbers and ranges separated by commas, e.g. 1-4,7,20-24",
+    };
+    let mut builds = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let number = |s: &str| s.trim().parse::<u64>().map_err(|_| bad());
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (number(a)?, number(b)?);
+                if a > b {
+                    return Err(bad());
+                }
+                builds.extend(a..=b);
+            }
+            None => builds.push(number(part)?),
+        }
+    }
+    Ok(builds)
+}
+
+/// A list of sensor builds as [`parse_builds`] reads it, runs written as ranges: `1-4,7,20-24`.
+pub fn format_builds(builds: &[u64]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < builds.len() {
+        let mut j = i;
+        while j + 1 < builds.len() && builds[j + 1] == builds[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j > i { format!("{}-{}", builds[i], builds[j]) } else { builds[i].to_string() });
+        i = j + 1;
+    }
+    parts.join(",")
+}
 
 /// The simulated world a protocol's scans come from: a realism preset (the print of the boards,
 /// the gel, the camera, the kinematics) and the builds of the sensor, trial `t` being scanned by
@@ -81,6 +124,24 @@ impl World {
             Realism::Clean => World::clean(),
             _ => World { realism, sensors: TRAIN_SENSORS.to_vec(), mount_compliance_um_per_n: None },
         }
+    }
+
+    /// Training scans at `realism` made by `builds` in place of the training builds (a model
+    /// that must hold on new sensors trained on more of them). Refuses an empty list, a build
+    /// kept for validation ([`HELD_OUT_BUILDS`]) or test ([`TEST_SENSORS`]), and `clean` (one
+    /// build by definition).
+    pub fn train_on(realism: Realism, builds: &[u64]) -> Result<World> {
+        let setting = |expected| crate::Error::Setting { name: "train_builds", value: format!("{builds:?}"), expected };
+        if builds.is_empty() {
+            return Err(setting("at least one sensor build"));
+        }
+        if builds.iter().any(|b| HELD_OUT_BUILDS.contains(b) || TEST_SENSORS.contains(b)) {
+            return Err(setting("builds outside 51-60 (validation) and 101-102 (test): they never train"));
+        }
+        if realism == Realism::Clean {
+            return Err(setting("a realism with sensor builds: `clean` has one"));
+        }
+        Ok(World { realism, sensors: builds.to_vec(), mount_compliance_um_per_n: None })
     }
 
     /// Validation scans on builds never trained or tested on ([`VALIDATION_SENSORS`]; `clean` has
@@ -200,5 +261,36 @@ mod tests {
         );
         assert_ne!(base, val.scan_seed(5, &BoardKind::Rab, 1, 2, 8.0, 1.5));
         assert_eq!(World::train(Realism::Clean), World::test(Realism::Clean));
+    }
+
+    #[test]
+    fn build_lists_read_numbers_and_ranges() {
+        assert_eq!(parse_builds("1-4,7, 20-22").expect("a list"), [1, 2, 3, 4, 7, 20, 21, 22]);
+        assert_eq!(parse_builds("9").expect("one"), [9]);
+        for list in [&[1, 2, 3, 4, 7, 20, 21, 22][..], &[9], &[5, 3, 4], &[]] {
+            let text = format_builds(list);
+            if !list.is_empty() {
+                assert_eq!(parse_builds(&text).expect("its own format"), list, "{text}");
+            }
+        }
+        assert_eq!(format_builds(&[1, 2, 3, 4, 7, 20, 21, 22]), "1-4,7,20-22");
+        for bad in ["", "4-1", "a", "1-", "1,,2", "-3"] {
+            assert!(parse_builds(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn more_training_builds_never_take_a_held_out_one() {
+        let w = World::train_on(Realism::Nominal, &[1, 2, 5, 24]).expect("unused builds train");
+        assert_eq!((0..4).map(|t| w.sensor_seed(t)).collect::<Vec<_>>(), [1, 2, 5, 24]);
+        // the same trial on another build is another scan
+        let base = World::train(Realism::Nominal);
+        assert_ne!(w.scan_seed(5, &BoardKind::Sab, 0, 2, 8.0, 1.5), base.scan_seed(5, &BoardKind::Sab, 0, 2, 8.0, 1.5));
+        for bad in [&[1, 51][..], &[60], &[101], &[102, 3], &[]] {
+            let e = World::train_on(Realism::Nominal, bad).expect_err("held out or empty");
+            assert!(e.to_string().contains("train_builds"), "{e}");
+        }
+        assert!(World::train_on(Realism::Clean, &[1, 2]).is_err());
+        assert!(World::train_on(Realism::Nominal, &[50, 61, 100, 103]).is_ok());
     }
 }

@@ -1,14 +1,18 @@
 //! What Speck's arithmetic costs a character model on sensor builds never trained or tested on, one
 //! build at a time (SIMULATED, `nominal`): the VAL board (validation text, never a test board)
-//! scanned by each of builds 51-60 (training uses 1-4, the test 101 and 102), the float model
+//! scanned by each of builds 51-60 (training uses 1-4, and 1-24 for the fine-tuning shipped since
+//! 2026-11-30; the test 101 and 102), the float model
 //! against the same windows in Speck's arithmetic, plainly quantised and after each
 //! quantisation-aware fine-tuning. Of all printed characters (a scan the labeler miscounts costs
 //! its characters). Nothing is chosen on it; it says how much the chip's cost varies from one
 //! sensor build to the next.
 //!
 //! `cargo run --release -p experiments --example speck_builds -- [TRIALS] [FIRST_BUILD LAST_BUILD]
-//! [QAT_DIR]` (defaults 10, 51 60 and the shipped `models/nominal/chip/qat`, whose
-//! `speck-chars-seed{1,2,3}.safetensors` are the fine-tuned models; under two minutes on two cores)
+//! [QAT_DIR] [--control FLOAT_MODEL]` (defaults 10, 51 60 and the shipped `models/nominal/chip/qat`,
+//! whose `speck-chars-seed{1,2,3}.safetensors` are the fine-tuned models; under two minutes on two
+//! cores). `--control`: a float model fine-tuned as the fine-tuned models were but in floating
+//! point (the same data), read on the float engine beside them: what the fine-tuning's data give
+//! without the chip.
 
 use corpus::windows::{CharSetSpec, Task, build, snn_set};
 use corpus::world::{VALIDATION_SEED, World};
@@ -25,6 +29,15 @@ use std::path::{Path, PathBuf};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let control_path = match args.iter().position(|a| a == "--control") {
+        Some(i) if i + 1 < args.len() => {
+            let p = PathBuf::from(args.remove(i + 1));
+            args.remove(i);
+            Some(p)
+        }
+        Some(_) => return Err("--control needs a model file".into()),
+        None => None,
+    };
     let qat_dir = match args.len() {
         2 | 4 => PathBuf::from(args.pop().expect("an argument")),
         _ => root.join("models/nominal/chip/qat"),
@@ -34,10 +47,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         [] => (10, 51..=60),
         [t] => (t, 51..=60),
         [t, a, b] => (t, a..=b),
-        _ => return Err("usage: speck_builds [TRIALS] [FIRST_BUILD LAST_BUILD] [QAT_DIR]".into()),
+        _ => {
+            return Err(
+                "usage: speck_builds [TRIALS] [FIRST_BUILD LAST_BUILD] [QAT_DIR] [--control FLOAT_MODEL]".into()
+            );
+        }
     };
-    if builds.clone().any(|b| corpus::world::TRAIN_SENSORS.contains(&b) || corpus::world::TEST_SENSORS.contains(&b)) {
-        return Err("the builds must be neither training nor test builds".into());
+    // the shipped fine-tuning trains on builds 1-24 (since 2026-11-30): only the held-out builds
+    if builds.clone().any(|b| !corpus::world::HELD_OUT_BUILDS.contains(&b)) {
+        return Err("the builds must be held-out builds (51-60): never trained or tested on".into());
     }
     let float_path = root.join("models/nominal/chip/speck-chars.safetensors");
     let qat: Vec<PathBuf> = (1..=3).map(|s| qat_dir.join(format!("speck-chars-seed{s}.safetensors"))).collect();
@@ -53,16 +71,38 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         tuned.push(map_model(&m, p, choice)?.model);
     }
+    let control = match &control_path {
+        Some(p) => {
+            let m = pipeline::models::load_snn(p)?;
+            if m.preprocess != model.preprocess || m.config.dt_us != model.config.dt_us {
+                return Err(format!("{}: not the float model's input", p.display()).into());
+            }
+            Some(m)
+        }
+        None => None,
+    };
     println!(
         "SIMULATED, `nominal`, VAL board at 8 mm/s and 1.5 mm, {trials} scans per row and build, validation seed; \
          of all printed characters; fine-tuned models: {}\n",
         qat_dir.strip_prefix(&root).unwrap_or(&qat_dir).display()
     );
+    if let Some(p) = &control_path {
+        println!(
+            "float control (fine-tuned in floating point on the same data): {}\n",
+            p.strip_prefix(&root).unwrap_or(p).display()
+        );
+    }
+    let (head, rule) = if control.is_some() {
+        (" float control | fine-tuned (mean) - control | control - float |", " --- | --- | --- |")
+    } else {
+        ("", "")
+    };
     println!(
-        "| build | printed | float | Speck, plain | Speck, fine-tuned (seeds 1-3) | plain - float | fine-tuned (mean) - float |"
+        "| build | printed | float | Speck, plain | Speck, fine-tuned (seeds 1-3) | plain - float | fine-tuned (mean) - float |{head}"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- |");
-    let (mut gaps_plain, mut gaps_tuned) = (Vec::new(), Vec::new());
+    println!("| --- | --- | --- | --- | --- | --- | --- |{rule}");
+    let (mut gaps_plain, mut gaps_tuned, mut gaps_control, mut gains_control) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for b in builds {
         let spec = CharSetSpec {
             boards: vec![BoardKind::Val],
@@ -88,8 +128,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let tm = t.iter().sum::<f64>() / t.len() as f64;
         gaps_plain.push(p - f);
         gaps_tuned.push(tm - f);
+        let tail = match &control {
+            Some(c) => {
+                let fc = of_all(snn_accuracy(&c.network, &c.config, &set, Mode::Stepped)?.correct);
+                gaps_control.push(tm - fc);
+                gains_control.push(fc - f);
+                format!(" {fc:.2}% | {:+.2} | {:+.2} |", tm - fc, fc - f)
+            }
+            None => String::new(),
+        };
         println!(
-            "| {b} | {} | {f:.2}% | {p:.2}% | {} | {:+.2} | {:+.2} |",
+            "| {b} | {} | {f:.2}% | {p:.2}% | {} | {:+.2} | {:+.2} |{tail}",
             w.printed,
             t.iter().map(|x| format!("{x:.2}%")).collect::<Vec<_>>().join(", "),
             p - f,
@@ -104,5 +153,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     println!("\nplain - float over the builds: {}", stats(&gaps_plain));
     println!("fine-tuned (mean of 3) - float over the builds: {}", stats(&gaps_tuned));
+    if control.is_some() {
+        println!("fine-tuned (mean of 3) - float control over the builds: {}", stats(&gaps_control));
+        println!("float control - float over the builds: {}", stats(&gains_control));
+    }
     Ok(())
 }

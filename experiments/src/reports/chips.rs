@@ -38,6 +38,10 @@ pub struct FaithfulRow {
     pub difference: f64,
     /// The same with the conditional metric beside it, where there is one.
     pub detail: String,
+    /// Where the twin's recipe differs from the shipped model's in more than the reset (a
+    /// shipped model retrained after its twin): the fields, or why the recipes could not be
+    /// compared; empty for a like-for-like pair.
+    pub recipe_differences: Vec<String>,
 }
 
 /// What a target's check said.
@@ -107,6 +111,9 @@ pub struct QatScores {
     /// On the float engine, per model (its neurons are the chip's, single spikes per step).
     pub float: Vec<f64>,
     pub synops_per_sample: Vec<f64>,
+    /// How they were fine-tuned, from their recipes (epochs, learning rate, the training scans'
+    /// sensor builds when not the usual ones); one entry per distinct recipe apart from the seed.
+    pub fine_tuning: Vec<String>,
 }
 
 impl QatScores {
@@ -254,6 +261,8 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         let a = score_model(&spec.path(Variant::Trained, name)?, spec, progress)?;
         let b = score_model(&spec.path(Variant::NirTwin, name)?, spec, progress)?;
         progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
+        let recipe_differences =
+            recipe_differences(&spec.path(Variant::Trained, name)?, &spec.path(Variant::NirTwin, name)?)?;
         faithful.push(FaithfulRow {
             model: name.into(),
             test: a.reads.clone(),
@@ -262,6 +271,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
             zero: b.accuracy,
             difference: 100.0 * (b.accuracy - a.accuracy),
             detail: format!("subtract {}; zero {}", a.detail, b.detail),
+            recipe_differences,
         });
     }
     // the reading pair (segmentation and classifier SNNs) on the EV board, the same scans for both
@@ -284,6 +294,14 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
         .into_iter()
         .collect::<Result<Vec<_>>>()?;
     let lines = read_scans(&words, &readers.iter().collect::<Vec<_>>(), &[TimingMode::Estimated], progress)?;
+    // the pair's two networks, each against its twin
+    let mut pair_differences = Vec::new();
+    for name in ["snn-segment", "snn-words"] {
+        let (trained, twin) = (spec.path(Variant::Trained, name)?, spec.path(Variant::NirTwin, name)?);
+        for d in recipe_differences(&trained, &twin)? {
+            pair_differences.push(format!("{name}: {d}"));
+        }
+    }
     let acc = |k: usize, spell: Spell| {
         let s = score(Arch::Snn, TimingMode::Estimated, k, &lines, words.condition());
         s.by_spell.iter().find(|b| b.spell == spell).map_or(0.0, |b| b.word_accuracy)
@@ -298,6 +316,7 @@ pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
             zero: b,
             difference: 100.0 * (b - a),
             detail: format!("{} scans", lines.len()),
+            recipe_differences: pair_differences.clone(),
         });
     }
     let mut chips = Vec::new();
@@ -426,6 +445,7 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                     chip: Vec::new(),
                     float: Vec::new(),
                     synops_per_sample: Vec::new(),
+                    fine_tuning: Vec::new(),
                 };
                 for m in &tuned {
                     let InChip { accuracy: acc, synops, .. } = run(m, Quantisation::Global)?;
@@ -438,6 +458,10 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                     q.chip.push(acc);
                     q.float.push(f);
                     q.synops_per_sample.push(synops);
+                    let how = fine_tuning(&pipeline::models::load_snn(m)?.provenance["recipe"]);
+                    if !q.fine_tuning.contains(&how) {
+                        q.fine_tuning.push(how);
+                    }
                 }
                 Some(q)
             };
@@ -463,6 +487,59 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
     Ok(rows)
 }
 
+/// The fields in which two models' recipes differ, the reset apart (a twin's one change), and a
+/// centring band either was given after training (`braille set-band`). Each recipe is read as a
+/// recipe first, so that a field an older model left out counts as its default; a model that
+/// records no recipe is named instead.
+fn recipe_differences(trained: &Path, twin: &Path) -> Result<Vec<String>> {
+    let mut out = Vec::new();
+    for (p, which) in [(trained, "shipped"), (twin, "twin")] {
+        let changes = pipeline::models::load_snn(p)?.provenance["input_changes"].clone();
+        if let Some(last) = changes.as_array().and_then(|c| c.last()) {
+            out.push(format!("the {which} model's input after training (band {})", last["band_rows"]));
+        }
+    }
+    out.extend(recipe_fields_differing(trained, twin)?);
+    Ok(out)
+}
+
+fn recipe_fields_differing(trained: &Path, twin: &Path) -> Result<Vec<String>> {
+    let read = |p: &Path| -> Result<Option<serde_json::Value>> {
+        let raw = pipeline::models::load_snn(p)?.provenance["recipe"].clone();
+        if raw.is_null() {
+            return Ok(None);
+        }
+        let normal = serde_json::from_value::<crate::train::recipe::SnnRecipe>(raw.clone())
+            .ok()
+            .and_then(|r| serde_json::to_value(r).ok());
+        Ok(Some(normal.unwrap_or(raw)))
+    };
+    let (a, b) = match (read(trained)?, read(twin)?) {
+        (Some(a), Some(b)) => (a, b),
+        (a, _) => {
+            let which = if a.is_none() { trained } else { twin };
+            return Ok(vec![format!("recipes not compared: {} records none", which.display())]);
+        }
+    };
+    let empty = serde_json::Map::new();
+    let (a, b) = (a.as_object().unwrap_or(&empty), b.as_object().unwrap_or(&empty));
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).filter(|k| k.as_str() != "reset").collect();
+    keys.sort();
+    keys.dedup();
+    Ok(keys.into_iter().filter(|k| a.get(*k) != b.get(*k)).cloned().collect())
+}
+
+/// A fine-tuning recipe in a few words: epochs, learning rate, and the sensor builds of its
+/// training scans when they are not the training builds.
+fn fine_tuning(recipe: &serde_json::Value) -> String {
+    let mut s = format!("{} epochs, lr {}", recipe["epochs"], recipe["lr"]);
+    if let Some(builds) = recipe["train_builds"].as_array() {
+        let builds: Vec<u64> = builds.iter().filter_map(|b| b.as_u64()).collect();
+        s.push_str(&format!(", scans from sensor builds {}", corpus::world::format_builds(&builds)));
+    }
+    s
+}
+
 /// The report as Markdown.
 pub fn markdown(r: &ChipReport) -> String {
     let mut s = String::new();
@@ -475,7 +552,7 @@ pub fn markdown(r: &ChipReport) -> String {
     let _ = writeln!(s, "## What the faithful export costs\n");
     let _ = writeln!(
         s,
-        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into a `nir/` folder beside it (`models/icub/nir/`, `models/REALISM/nir/`); nothing else was chosen. Accuracy on the same test:\n"
+        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into a `nir/` folder beside it (`models/icub/nir/`, `models/REALISM/nir/`); nothing else was chosen. Accuracy on the same test. Where a shipped model was retrained or given a centring band (`braille set-band`) after its twin was made, the pair differs in more than the reset, and the row says in what (the recipes' fields and the bands, read from the models' files): such a row is not the reset's cost.\n"
     );
     let _ = writeln!(
         s,
@@ -483,6 +560,17 @@ pub fn markdown(r: &ChipReport) -> String {
     );
     let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- | --- |");
     for f in &r.faithful {
+        let (unknown, differ): (Vec<&String>, Vec<&String>) =
+            f.recipe_differences.iter().partition(|d| d.starts_with("recipes not compared"));
+        let mut detail = if differ.is_empty() {
+            f.detail.clone()
+        } else {
+            let differ: Vec<&str> = differ.iter().map(|d| d.as_str()).collect();
+            format!("**not like for like**: besides the reset the pair differs in {}; {}", differ.join(", "), f.detail)
+        };
+        for u in unknown {
+            detail.push_str(&format!("; {u}"));
+        }
         let _ = writeln!(
             s,
             "| {} | {} | {} | {:.2}% | {:.2}% | {:+.2} | {} |",
@@ -492,7 +580,7 @@ pub fn markdown(r: &ChipReport) -> String {
             100.0 * f.subtract,
             100.0 * f.zero,
             f.difference,
-            f.detail
+            detail
         );
     }
     let _ = writeln!(s, "\n## Chip table\n");
@@ -568,9 +656,9 @@ pub fn markdown(r: &ChipReport) -> String {
             );
             let _ = writeln!(
                 s,
-                "| model | chip | test | float (as trained) | plain quantisation (global) | quantisation-aware, mean of seeds | spread (min-max, points) | per seed | fine-tuned on the float engine | SynOps |"
+                "| model | chip | test | float (as trained) | plain quantisation (global) | quantisation-aware, mean of seeds | spread (min-max, points) | per seed | fine-tuned on the float engine | SynOps | fine-tuning |"
             );
-            let _ = writeln!(s, "|{}", " --- |".repeat(10));
+            let _ = writeln!(s, "|{}", " --- |".repeat(11));
             for a in tuned {
                 let q = a.qat.as_ref().expect("filtered");
                 let pct = |v: &[f64]| v.iter().map(|x| format!("{:.2}%", 100.0 * x)).collect::<Vec<_>>().join(", ");
@@ -579,7 +667,7 @@ pub fn markdown(r: &ChipReport) -> String {
                 let synops = q.synops_per_sample.iter().sum::<f64>() / q.synops_per_sample.len().max(1) as f64;
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | {} | {:.2}% (n = {}) | {:.2}% | **{:.2}%** ({} seeds) | {:.2} | {} | {} | {:.0} |",
+                    "| `{}` | {} | {} | {:.2}% (n = {}) | {:.2}% | **{:.2}%** ({} seeds) | {:.2} | {} | {} | {:.0} | {} |",
                     a.model,
                     a.chip,
                     a.test,
@@ -591,7 +679,8 @@ pub fn markdown(r: &ChipReport) -> String {
                     100.0 * (hi - lo),
                     pct(&q.chip),
                     pct(&q.float),
-                    synops
+                    synops,
+                    q.fine_tuning.join("; ")
                 );
             }
         }

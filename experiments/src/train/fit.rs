@@ -368,6 +368,13 @@ pub fn train_windows(
         }
         _ => {}
     }
+    if let (Some(builds), Some(_)) = (&r.train_builds, recordings) {
+        return Err(Error::Setting {
+            name: "train_builds",
+            value: format!("{builds:?}"),
+            expected: "none with a recordings folder (its `train` scans are the training windows)",
+        });
+    }
     let input = CharInput {
         labeler: pipeline::labeling::LabelerConfig::default(),
         rows,
@@ -378,7 +385,7 @@ pub fn train_windows(
         band: r.band_rows.map(|[first, end]| first..end),
     };
     input.check_band()?;
-    let world = corpus::world::World::train(r.realism);
+    let world = r.training_world()?;
     let (tw, data) = match recordings {
         Some(rec) => (
             corpus::windows::recorded_training_windows(rec, &input, r.task, r.jitter_ms, r.blank_cells, progress)?,

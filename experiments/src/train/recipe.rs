@@ -217,6 +217,11 @@ pub struct SnnRecipe {
     /// hold-out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub val_builds: Option<corpus::world::SensorBuilds>,
+    /// Simulated windows: the sensor builds the training scans are made with, trial `t` by build
+    /// `t mod n` (never a validation or test build: [`corpus::World::train_on`]). None: the
+    /// training builds, [`corpus::world::TRAIN_SENSORS`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub train_builds: Option<Vec<u64>>,
 }
 
 impl Default for SnnRecipe {
@@ -284,6 +289,7 @@ impl Default for SnnRecipe {
             seed: 1,
             val_seed: None,
             val_builds: None,
+            train_builds: None,
         }
     }
 }
@@ -474,6 +480,15 @@ impl SnnRecipe {
             sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm),
             cells: self.cells,
         }
+    }
+
+    /// The world the simulated training scans come from: the recipe's realism, scanned by
+    /// `train_builds` or the training builds.
+    pub fn training_world(&self) -> Result<corpus::World> {
+        Ok(match &self.train_builds {
+            Some(builds) => corpus::World::train_on(self.realism, builds)?,
+            None => corpus::World::train(self.realism),
+        })
     }
 
     /// The training loop's configuration.
