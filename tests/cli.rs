@@ -575,11 +575,15 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
         "validation",
         "--out",
         held.to_str().unwrap(),
+        // training scans from builds that scanned nothing else
+        "--train-builds",
+        "5-6",
     ];
     let o = braille(&held_out);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("checkpoints chosen on VAL scanned by the validation sensor builds [51, 52]"), "{err}");
+    assert!(err.contains("sensor builds [5, 6]"), "{err}");
     let mut on_test = held_out.to_vec();
     on_test[13] = "test";
     let never = dir.path().join("never.safetensors");
