@@ -3,7 +3,7 @@
 # builds (1-24) instead of the four that trained it (SIMULATED, `nominal`; docs/chips.md, "On more
 # sensor builds"; docs/log/chips-2026-11-30.md):
 # A. as shipped (15 epochs, the recipe's learning rate), seeds 1-3 -> models/nominal/chip/qat-more-builds/,
-#    and the float control (the same fine-tuning without the chip, seed 1);
+#    and the float controls (the same fine-tunings as A and B without the chip, seed 1);
 # B. the same at a tenth of the learning rate (2e-4) -> models/nominal/chip/qat/ (shipped since 2026-11-30,
 #    chosen by this read; scripts/train_chips.sh makes the same models);
 # C. B's learning rate on the training builds 1-4 alone (attribution only) -> models/nominal/chip/qat-lr2e-4/;
@@ -33,6 +33,8 @@ if [[ "${1:-}" != "--tables-only" ]]; then
     train --chip speck --seed "$seed" --lr 2e-4 --out "$b/speck-chars-seed$seed.safetensors" \
       --history "$out/qat_speck_chars_seed${seed}_history.json"
   done
+  train --seed 1 --lr 2e-4 --out "$a/float-control-lr2e-4-seed1.safetensors" \
+    --history "$out/more_builds_float_control_lr2e-4_seed1_history.json"
   for seed in 1 2 3; do
     train --chip speck --seed "$seed" --lr 2e-4 --train-builds 1-4 --out "$c/speck-chars-seed$seed.safetensors" \
       --history "$out/qat_lr2e-4_speck_chars_seed${seed}_history.json"
@@ -43,3 +45,5 @@ target/release/examples/speck_builds 10 53 60 "$a" --control "$a/float-control-s
 target/release/examples/speck_builds 10 53 60 "$b" --control "$a/float-control-seed1.safetensors" \
   > "$out/speck_builds_qat_more_builds_lr2e-4.md"
 target/release/examples/speck_builds 10 53 60 "$c" > "$out/speck_builds_qat_lr2e-4.md"
+target/release/examples/speck_builds 10 53 60 "$b" --control "$a/float-control-lr2e-4-seed1.safetensors" \
+  > "$out/speck_builds_qat_control_lr2e-4.md"
