@@ -105,6 +105,11 @@ impl Observer for Epochs {
             r.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect::<Vec<_>>(),
             r.seconds
         );
+        if r.undone {
+            eprintln!(
+                "           undone (the training loss jumped): back to the weights before it, the learning rate halved"
+            );
+        }
         if let Some(t) = &r.truncation {
             eprintln!(
                 "epoch {:>3}: truncated against exact gradient over {} batches: cosine mean {:.4}, lowest {:.4}; relative error mean {:.3}",

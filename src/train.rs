@@ -236,6 +236,11 @@ pub struct Args {
     /// per unit of learning rate (0: off; the sparse trainer).
     #[arg(long)]
     anchor_decay: Option<f64>,
+    /// Undo an epoch whose mean training loss is more than F times the lowest of the epochs
+    /// before it, and halve the learning rate for the rest of the run (0: off, the default): a
+    /// guard against a run that collapses halfway (docs/training.md).
+    #[arg(long, value_name = "F")]
+    loss_spike_guard: Option<f64>,
     /// Layers that keep their starting weights, comma separated (0 the first; the sparse
     /// trainer), e.g. `--freeze-layers 0` to fine-tune the readout alone in a one-hidden-layer
     /// network.
@@ -323,7 +328,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
         tau_out_us <- a.tau_out_us, reset <- a.reset, clip_norm <- a.clip_norm, warmup_steps <- a.warmup_steps, readout <- a.readout,
         readout_gradient <- a.readout_gradient, surrogate <- a.surrogate, surrogate_scale <- a.surrogate_scale,
         init_gain <- a.init_gain, epochs <- a.epochs, drop_events <- a.drop_events, stretch <- a.stretch,
-        event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, anchor_decay <- a.anchor_decay,
+        event_jitter_us <- a.event_jitter_us, weight_decay <- a.weight_decay, anchor_decay <- a.anchor_decay, loss_spike_guard <- a.loss_spike_guard,
         frozen_layers <- a.freeze_layers, average_epochs <- a.average_epochs,
         dropout <- a.dropout, class_balance <- a.class_balance, batch_size <- a.batch_size, lr <- a.lr, val_fraction <- a.val_fraction,
         patience <- a.patience, seed <- a.seed, trainer <- a.trainer, gradient_cutoff <- a.gradient_cutoff,
@@ -333,6 +338,7 @@ fn recipe(a: &Args, base: Option<SnnRecipe>) -> Result<SnnRecipe> {
     }
     // refused before any window is simulated (the trainers refuse it too)
     learn::train::check_class_balance(r.class_balance).context("--class-balance")?;
+    learn::train::check_loss_spike_guard(r.loss_spike_guard).context("--loss-spike-guard")?;
     // the library's rule (within the labeler's grid, first below last), checked here already
     if let Some(rows) = &a.crop_rows {
         r.crop_rows = Some(crate::common::pooled_rows("--crop-rows", rows)?);

@@ -1076,6 +1076,13 @@ impl Adam {
         self
     }
 
+    /// Forgets the moments, as a new optimiser would (the anchor and frozen layers kept).
+    pub fn restart(&mut self) {
+        self.m = self.m.zeros_like();
+        self.v = self.v.zeros_like();
+        self.time = 0;
+    }
+
     /// One step of `lr` along `grads`.
     pub fn step(&mut self, params: &mut Params, grads: &Params, lr: f64) {
         const B1: f32 = 0.9;

@@ -45,6 +45,13 @@ pub struct TrainConfig {
     /// (0: off).
     #[serde(default)]
     pub anchor_decay: f64,
+    /// A guard against a training run's collapse (0: off): an epoch whose mean training loss is
+    /// more than this many times the lowest of the epochs before it is undone (the weights of the
+    /// epoch before restored, the optimiser's moments forgotten) and the learning rate halved
+    /// for the rest of the run. It reads the training loss only; a run whose loss never jumps is
+    /// the same with and without it.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub loss_spike_guard: f64,
     /// Layers (by index, 0 the first) that keep their starting weights (the sparse trainer).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub frozen_layers: Vec<usize>,
@@ -181,6 +188,7 @@ impl Default for TrainConfig {
             clip_norm: 0.0,
             weight_decay: 0.0,
             anchor_decay: 0.0,
+            loss_spike_guard: 0.0,
             frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
@@ -208,6 +216,10 @@ pub struct EpochReport {
     /// With [`TrainConfig::check_truncation`], on the first and the last epoch.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truncation: Option<TruncationCheck>,
+    /// Undone by [`TrainConfig::loss_spike_guard`]: its training loss jumped, the weights went
+    /// back to the epoch before's and the learning rate was halved (no validation was run).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub undone: bool,
 }
 
 impl EpochReport {
@@ -231,6 +243,7 @@ impl EpochReport {
             val_spikes_per_sample: Vec::new(),
             seconds: started.elapsed().as_secs_f64(),
             truncation: None,
+            undone: false,
         }
     }
 }
@@ -380,6 +393,8 @@ trait Fitter {
     fn check_truncation(&mut self, _on: bool) -> snn::Result<Vec<(f64, f64)>> {
         Ok(Vec::new())
     }
+    /// Goes back to `weights` with the optimiser's moments forgotten.
+    fn restore(&mut self, weights: &[LayerWeights]) -> snn::Result<()>;
 }
 
 /// burn's autodiff on the dense twin.
@@ -387,6 +402,8 @@ struct DenseFitter<'a> {
     twin: &'a SnnTwin,
     params: Option<SnnParams>,
     optim: burn::optim::ModuleOptimizer,
+    /// To make the optimiser again ([`Fitter::restore`]).
+    cfg: TrainConfig,
     loss_fn: burn::nn::loss::CrossEntropyLoss,
     device: Device,
     dropout: f64,
@@ -408,6 +425,12 @@ impl Fitter for DenseFitter<'_> {
 
     fn weights(&self) -> snn::Result<Vec<LayerWeights>> {
         self.params.as_ref().expect("parameters between steps").valid().weights(&self.twin.spec)
+    }
+
+    fn restore(&mut self, weights: &[LayerWeights]) -> snn::Result<()> {
+        self.params = Some(SnnParams::from_weights(&self.twin.spec, weights, &self.device)?);
+        self.optim = dense_optimiser(&self.cfg);
+        Ok(())
     }
 
     fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)> {
@@ -461,6 +484,12 @@ impl Fitter for SparseFitter {
 
     fn weights(&self) -> snn::Result<Vec<LayerWeights>> {
         self.net.weights(&self.params)
+    }
+
+    fn restore(&mut self, weights: &[LayerWeights]) -> snn::Result<()> {
+        self.params = self.net.params(weights)?;
+        self.adam.restart();
+        Ok(())
     }
 
     fn evaluate(&self, weights: &[LayerWeights], set: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)> {
@@ -520,6 +549,7 @@ pub fn train(
         return Err(snn::Error::input(format!("anchor decay {} must not be negative", cfg.anchor_decay)));
     }
     check_class_balance(cfg.class_balance)?;
+    check_loss_spike_guard(cfg.loss_spike_guard)?;
     if let Some(&l) = cfg.frozen_layers.iter().find(|&&l| l >= init.len()) {
         return Err(snn::Error::input(format!(
             "frozen layer {l}: the network has {} layers (0 to {})",
@@ -564,16 +594,11 @@ pub fn train(
             };
             let device = Device::flex().autodiff();
             device.seed(cfg.seed);
-            let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
-            let optim = if cfg.weight_decay > 0.0 {
-                AdamWConfig::new().with_weight_decay(cfg.weight_decay as f32).with_grad_clipping(clipping).init()
-            } else {
-                AdamConfig::new().with_grad_clipping(clipping).init()
-            };
             let mut fitter = DenseFitter {
                 twin,
                 params: Some(SnnParams::from_weights(&twin.spec, init, &device)?),
-                optim,
+                optim: dense_optimiser(cfg),
+                cfg: cfg.clone(),
                 loss_fn: CrossEntropyLossConfig::new().init(&device),
                 device,
                 dropout: cfg.dropout,
@@ -606,6 +631,16 @@ pub fn train(
     }
 }
 
+/// burn's Adam (AdamW with a weight decay) as `cfg` asks, each tensor's gradient norm clipped.
+fn dense_optimiser(cfg: &TrainConfig) -> burn::optim::ModuleOptimizer {
+    let clipping = (cfg.clip_norm > 0.0).then_some(GradientClippingConfig::Norm(cfg.clip_norm as f32));
+    if cfg.weight_decay > 0.0 {
+        AdamWConfig::new().with_weight_decay(cfg.weight_decay as f32).with_grad_clipping(clipping).init()
+    } else {
+        AdamConfig::new().with_grad_clipping(clipping).init()
+    }
+}
+
 /// The training loop: seeded shuffling, the cosine schedule, the best validation epoch kept,
 /// weight averaging, early stopping.
 fn fit(
@@ -624,9 +659,13 @@ fn fit(
     let mut turns = ClassTurns::new(&train.labels, train.classes.len(), cfg.class_balance);
     let mut sum: Option<(Vec<LayerWeights>, usize)> = None;
     let mut steps = 0usize;
+    // the loss-spike guard: the lowest training loss of the epochs kept, the weights at the end
+    // of the last one (the start before any), and the learning rate's factor
+    let guard = cfg.loss_spike_guard > 0.0;
+    let (mut lowest_loss, mut kept, mut lr_factor) = (f64::INFINITY, guard.then(|| init.to_vec()), 1.0);
     for epoch in 1..=cfg.epochs {
         let start = Instant::now();
-        let lr = cfg.lr_at(epoch);
+        let lr = cfg.lr_at(epoch) * lr_factor;
         epoch_order(&mut order, turns.as_mut(), &mut rng);
         let batches: Vec<&[usize]> = order.chunks(cfg.batch_size).collect();
         observer.epoch_begin(epoch, batches.len());
@@ -640,19 +679,45 @@ fn fit(
             observer.batch(l, h as f64 / idx.len() as f64);
         }
         let truncation = TruncationCheck::of(&fitter.check_truncation(false)?);
+        let train_loss = loss_sum / train.len() as f64;
+        if guard && train_loss > cfg.loss_spike_guard * lowest_loss {
+            // undone: back to the last kept epoch's weights, at half the learning rate
+            fitter.restore(kept.as_deref().expect("kept with the guard"))?;
+            lr_factor *= 0.5;
+            let report = EpochReport {
+                epoch,
+                lr,
+                train_loss,
+                train_accuracy: hits as f64 / train.len() as f64,
+                val_loss: f64::NAN,
+                val_accuracy: f64::NAN,
+                val_spikes_per_sample: Vec::new(),
+                seconds: start.elapsed().as_secs_f64(),
+                truncation,
+                undone: true,
+            };
+            observer.epoch_end(&report);
+            history.push(report);
+            continue;
+        }
+        lowest_loss = lowest_loss.min(train_loss);
         let w = fitter.weights()?;
+        if guard {
+            kept = Some(w.clone());
+        }
         let (val_loss, val_accuracy, val_spikes) =
             if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { fitter.evaluate(&w, val)? };
         let report = EpochReport {
             epoch,
             lr,
-            train_loss: loss_sum / train.len() as f64,
+            train_loss,
             train_accuracy: hits as f64 / train.len() as f64,
             val_loss,
             val_accuracy,
             val_spikes_per_sample: val_spikes,
             seconds: start.elapsed().as_secs_f64(),
             truncation,
+            undone: false,
         };
         observer.epoch_end(&report);
         // The best validation accuracy, ties going to the lower validation loss; without a
@@ -736,6 +801,16 @@ pub fn check_class_balance(balance: f64) -> snn::Result<()> {
     }
 }
 
+/// Checks a loss-spike guard ([`TrainConfig::loss_spike_guard`]): 0 (off) or a factor above 1
+/// (at 1 or below every epoch not the best so far would be undone).
+pub fn check_loss_spike_guard(factor: f64) -> snn::Result<()> {
+    if factor == 0.0 || factor > 1.0 {
+        Ok(())
+    } else {
+        Err(snn::Error::input(format!("loss-spike guard {factor}: 0 (off) or a factor above 1")))
+    }
+}
+
 /// Class-balanced sampling's state ([`TrainConfig::class_balance`]): each class's share of an
 /// epoch and its samples' indices, drawn in shuffled turns that carry over from epoch to epoch.
 #[derive(Debug, Clone)]
@@ -814,6 +889,86 @@ pub fn epoch_order(order: &mut Vec<usize>, turns: Option<&mut ClassTurns>, rng: 
 mod tests {
     use super::*;
     use encoders::spike_train::SpikeTrain;
+
+    /// A fitter whose loss is scripted per step and whose one weight counts its steps.
+    struct Scripted {
+        losses: Vec<f64>,
+        w: f32,
+        lrs: Vec<f64>,
+        restored: Vec<f32>,
+    }
+
+    impl Fitter for Scripted {
+        fn step(&mut self, _: &SpikeSet, _: &[usize], lr: f64, _: &mut ChaCha8Rng) -> snn::Result<(f64, usize)> {
+            self.lrs.push(lr);
+            self.w += 1.0;
+            Ok((self.losses[self.lrs.len() - 1], 0))
+        }
+        fn weights(&self) -> snn::Result<Vec<LayerWeights>> {
+            Ok(vec![LayerWeights { weight: vec![self.w], bias: None, recurrent: None, recurrent_bias: None }])
+        }
+        fn evaluate(&self, _: &[LayerWeights], _: &SpikeSet) -> snn::Result<(f64, f64, Vec<f64>)> {
+            Ok((0.0, 0.0, Vec::new()))
+        }
+        fn restore(&mut self, weights: &[LayerWeights]) -> snn::Result<()> {
+            self.w = weights[0].weight[0];
+            self.restored.push(self.w);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_loss_spike_guard_undoes_a_jump_and_halves_the_rate_and_leaves_other_runs_alone() {
+        let set = SpikeSet {
+            n_inputs: 1,
+            steps: 1,
+            dt_us: 1_000,
+            classes: vec!["a".into()],
+            trains: vec![SpikeTrain {
+                t_start_us: 0,
+                dt_us: 1_000,
+                n_inputs: 1,
+                offsets: vec![0, 0],
+                inputs: vec![],
+                counts: vec![],
+            }],
+            labels: vec![0],
+            dropped_events: 0,
+        };
+        // one sample, one step an epoch: the epoch's loss is the script's
+        let losses = vec![2.0, 1.0, 0.8, 3.0, 0.7, 0.6];
+        let run = |guard: f64| {
+            let cfg = TrainConfig { epochs: 6, lr: 1e-3, loss_spike_guard: guard, ..TrainConfig::default() };
+            let mut f = Scripted { losses: losses.clone(), w: 0.0, lrs: Vec::new(), restored: Vec::new() };
+            let init = f.weights().unwrap();
+            let out = fit(
+                &mut f,
+                &init,
+                &set,
+                &SpikeSet { trains: Vec::new(), labels: Vec::new(), ..set.clone() },
+                &cfg,
+                &mut Silent,
+            )
+            .unwrap();
+            (out, f, cfg)
+        };
+        let (out, f, cfg) = run(2.0);
+        // epoch 4 (3.0 > 2 x 0.8) is undone: back to epoch 3's weight, half the rate from epoch 5
+        assert_eq!(f.restored, [3.0]);
+        assert_eq!(out.history.iter().map(|r| r.undone).collect::<Vec<_>>(), [false, false, false, true, false, false]);
+        assert_eq!(f.lrs[3], cfg.lr_at(4));
+        assert_eq!((f.lrs[4], f.lrs[5]), (cfg.lr_at(5) * 0.5, cfg.lr_at(6) * 0.5));
+        assert_eq!(out.weights[0].weight, [5.0], "the last epoch's weights, after the undone one");
+        // without the guard, or with one the run never reaches, nothing changes
+        for guard in [0.0, 4.0] {
+            let (out, f, cfg) = run(guard);
+            assert!(f.restored.is_empty() && out.history.iter().all(|r| !r.undone), "{guard}");
+            assert_eq!(f.lrs, (1..=6).map(|e| cfg.lr_at(e)).collect::<Vec<_>>());
+            assert_eq!(out.weights[0].weight, [6.0]);
+        }
+        assert!(check_loss_spike_guard(1.0).is_err() && check_loss_spike_guard(-2.0).is_err());
+        assert!(check_loss_spike_guard(0.0).is_ok() && check_loss_spike_guard(1.5).is_ok());
+    }
 
     #[test]
     fn the_warm_up_ramps_the_first_steps_and_then_leaves_the_schedule() {

@@ -192,6 +192,10 @@ pub struct SnnRecipe {
     /// learning rate (0: off; the sparse trainer).
     #[serde(default)]
     pub anchor_decay: f64,
+    /// An epoch whose training loss is more than this many times the lowest before it is undone
+    /// and the learning rate halved (0: off; [`learn::train::TrainConfig::loss_spike_guard`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub loss_spike_guard: f64,
     /// Layers (0 the first) that keep their starting weights (the sparse trainer).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub frozen_layers: Vec<usize>,
@@ -280,6 +284,7 @@ impl Default for SnnRecipe {
             event_jitter_us: 0,
             weight_decay: 0.0,
             anchor_decay: 0.0,
+            loss_spike_guard: 0.0,
             frozen_layers: Vec::new(),
             average_epochs: 0,
             dropout: 0.0,
@@ -508,6 +513,7 @@ impl SnnRecipe {
             warmup_steps: self.warmup_steps,
             weight_decay: self.weight_decay,
             anchor_decay: self.anchor_decay,
+            loss_spike_guard: self.loss_spike_guard,
             frozen_layers: self.frozen_layers.clone(),
             average_epochs: self.average_epochs,
             dropout: self.dropout,
