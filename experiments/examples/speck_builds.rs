@@ -63,24 +63,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let Model::Snn(model) = &float.model else { return Err("the Speck model is an SNN".into()) };
     let choice = ChipChoice { chip: Chip::Speck, quantisation: Quantisation::Global, run: Run::Stepped };
     let plain = map_model(model, &float_path, choice)?.model;
-    let mut tuned = Vec::new();
-    for p in &qat {
+    // a model read on the float model's windows: its input must be the float model's
+    let like_float = |p: &Path| -> Result<_, Box<dyn std::error::Error>> {
         let m = pipeline::models::load_snn(p)?;
         if m.preprocess != model.preprocess || m.config.dt_us != model.config.dt_us {
             return Err(format!("{}: not the float model's input", p.display()).into());
         }
-        tuned.push(map_model(&m, p, choice)?.model);
-    }
-    let control = match &control_path {
-        Some(p) => {
-            let m = pipeline::models::load_snn(p)?;
-            if m.preprocess != model.preprocess || m.config.dt_us != model.config.dt_us {
-                return Err(format!("{}: not the float model's input", p.display()).into());
-            }
-            Some(m)
-        }
-        None => None,
+        Ok(m)
     };
+    let mut tuned = Vec::new();
+    for p in &qat {
+        tuned.push(map_model(&like_float(p)?, p, choice)?.model);
+    }
+    let control = control_path.as_deref().map(like_float).transpose()?;
     println!(
         "SIMULATED, `nominal`, VAL board at 8 mm/s and 1.5 mm, {trials} scans per row and build, validation seed; \
          of all printed characters; fine-tuned models: {}\n",

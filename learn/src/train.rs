@@ -680,33 +680,24 @@ fn fit(
         }
         let truncation = TruncationCheck::of(&fitter.check_truncation(false)?);
         let train_loss = loss_sum / train.len() as f64;
-        if guard && train_loss > cfg.loss_spike_guard * lowest_loss {
-            // undone: back to the last kept epoch's weights, at half the learning rate
+        let undone = guard && train_loss > cfg.loss_spike_guard * lowest_loss;
+        let weights = if undone {
+            // back to the last kept epoch's weights, at half the learning rate
             fitter.restore(kept.as_deref().expect("kept with the guard"))?;
             lr_factor *= 0.5;
-            let report = EpochReport {
-                epoch,
-                lr,
-                train_loss,
-                train_accuracy: hits as f64 / train.len() as f64,
-                val_loss: f64::NAN,
-                val_accuracy: f64::NAN,
-                val_spikes_per_sample: Vec::new(),
-                seconds: start.elapsed().as_secs_f64(),
-                truncation,
-                undone: true,
-            };
-            observer.epoch_end(&report);
-            history.push(report);
-            continue;
-        }
-        lowest_loss = lowest_loss.min(train_loss);
-        let w = fitter.weights()?;
-        if guard {
-            kept = Some(w.clone());
-        }
-        let (val_loss, val_accuracy, val_spikes) =
-            if val.is_empty() { (f64::NAN, f64::NAN, Vec::new()) } else { fitter.evaluate(&w, val)? };
+            None
+        } else {
+            lowest_loss = lowest_loss.min(train_loss);
+            let w = fitter.weights()?;
+            if guard {
+                kept = Some(w.clone());
+            }
+            Some(w)
+        };
+        let (val_loss, val_accuracy, val_spikes) = match &weights {
+            Some(w) if !val.is_empty() => fitter.evaluate(w, val)?,
+            _ => (f64::NAN, f64::NAN, Vec::new()),
+        };
         let report = EpochReport {
             epoch,
             lr,
@@ -717,9 +708,14 @@ fn fit(
             val_spikes_per_sample: val_spikes,
             seconds: start.elapsed().as_secs_f64(),
             truncation,
-            undone: false,
+            undone,
         };
         observer.epoch_end(&report);
+        // an undone epoch is neither chosen nor averaged
+        let Some(w) = weights else {
+            history.push(report);
+            continue;
+        };
         // The best validation accuracy, ties going to the lower validation loss; without a
         // validation set the last epoch is kept.
         let (score, loss) = if val.is_empty() { (epoch as f64, 0.0) } else { (val_accuracy, val_loss) };

@@ -258,11 +258,11 @@ pub const CHIP_MODELS: [&str; 2] = ["speck-chars", "xylo-braille7"];
 pub fn run(spec: &ChipSpec, progress: &dyn Progress) -> Result<ChipReport> {
     let mut faithful = Vec::new();
     for name in SHIPPED {
-        let a = score_model(&spec.path(Variant::Trained, name)?, spec, progress)?;
-        let b = score_model(&spec.path(Variant::NirTwin, name)?, spec, progress)?;
+        let (trained, twin) = (spec.path(Variant::Trained, name)?, spec.path(Variant::NirTwin, name)?);
+        let a = score_model(&trained, spec, progress)?;
+        let b = score_model(&twin, spec, progress)?;
         progress.note(&format!("{name}: subtract {:.2}%, zero {:.2}%", 100.0 * a.accuracy, 100.0 * b.accuracy));
-        let recipe_differences =
-            recipe_differences(&spec.path(Variant::Trained, name)?, &spec.path(Variant::NirTwin, name)?)?;
+        let recipe_differences = recipe_differences(&trained, &twin)?;
         faithful.push(FaithfulRow {
             model: name.into(),
             test: a.reads.clone(),
@@ -430,11 +430,12 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                 Chip::Speck | Chip::Loihi2 => None,
             };
             // the fine-tuned models made for this chip (their recipe names it)
-            let tuned: Vec<PathBuf> = qat_models(path)
+            // each with how it was fine-tuned
+            let tuned: Vec<(PathBuf, String)> = qat_models(path)
                 .into_iter()
-                .filter(|m| {
-                    pipeline::models::load_snn(m)
-                        .is_ok_and(|t| t.provenance["recipe"]["chip"] == serde_json::json!(chip))
+                .filter_map(|m| {
+                    let recipe = pipeline::models::load_snn(&m).ok()?.provenance["recipe"].clone();
+                    (recipe["chip"] == serde_json::json!(chip)).then(|| (m, fine_tuning(&recipe)))
                 })
                 .collect();
             let qat = if tuned.is_empty() {
@@ -447,7 +448,7 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                     synops_per_sample: Vec::new(),
                     fine_tuning: Vec::new(),
                 };
-                for m in &tuned {
+                for (m, how) in &tuned {
                     let InChip { accuracy: acc, synops, .. } = run(m, Quantisation::Global)?;
                     let f = if real {
                         eval_split(m, &dir, SplitChoice::Test, Mode::Stepped)?.0.accuracy
@@ -458,9 +459,8 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
                     q.chip.push(acc);
                     q.float.push(f);
                     q.synops_per_sample.push(synops);
-                    let how = fine_tuning(&pipeline::models::load_snn(m)?.provenance["recipe"]);
-                    if !q.fine_tuning.contains(&how) {
-                        q.fine_tuning.push(how);
+                    if !q.fine_tuning.contains(how) {
+                        q.fine_tuning.push(how.clone());
                     }
                 }
                 Some(q)
@@ -492,33 +492,29 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
 /// recipe first, so that a field an older model left out counts as its default; a model that
 /// records no recipe is named instead.
 fn recipe_differences(trained: &Path, twin: &Path) -> Result<Vec<String>> {
+    let (pa, pb) = (pipeline::models::load_snn(trained)?.provenance, pipeline::models::load_snn(twin)?.provenance);
     let mut out = Vec::new();
-    for (p, which) in [(trained, "shipped"), (twin, "twin")] {
-        let changes = pipeline::models::load_snn(p)?.provenance["input_changes"].clone();
-        if let Some(last) = changes.as_array().and_then(|c| c.last()) {
+    for (p, which) in [(&pa, "shipped"), (&pb, "twin")] {
+        if let Some(last) = p["input_changes"].as_array().and_then(|c| c.last()) {
             out.push(format!("the {which} model's input after training (band {})", last["band_rows"]));
         }
     }
-    out.extend(recipe_fields_differing(trained, twin)?);
-    Ok(out)
-}
-
-fn recipe_fields_differing(trained: &Path, twin: &Path) -> Result<Vec<String>> {
-    let read = |p: &Path| -> Result<Option<serde_json::Value>> {
-        let raw = pipeline::models::load_snn(p)?.provenance["recipe"].clone();
-        if raw.is_null() {
-            return Ok(None);
-        }
-        let normal = serde_json::from_value::<crate::train::recipe::SnnRecipe>(raw.clone())
-            .ok()
-            .and_then(|r| serde_json::to_value(r).ok());
-        Ok(Some(normal.unwrap_or(raw)))
+    // a recipe as its fields read back (defaults for fields an older model left out)
+    let read = |p: &serde_json::Value| {
+        let raw = &p["recipe"];
+        (!raw.is_null()).then(|| {
+            serde_json::from_value::<crate::train::recipe::SnnRecipe>(raw.clone())
+                .ok()
+                .and_then(|r| serde_json::to_value(r).ok())
+                .unwrap_or_else(|| raw.clone())
+        })
     };
-    let (a, b) = match (read(trained)?, read(twin)?) {
+    let (a, b) = match (read(&pa), read(&pb)) {
         (Some(a), Some(b)) => (a, b),
         (a, _) => {
             let which = if a.is_none() { trained } else { twin };
-            return Ok(vec![format!("recipes not compared: {} records none", which.display())]);
+            out.push(format!("recipes not compared: {} records none", which.display()));
+            return Ok(out);
         }
     };
     let empty = serde_json::Map::new();
@@ -526,7 +522,8 @@ fn recipe_fields_differing(trained: &Path, twin: &Path) -> Result<Vec<String>> {
     let mut keys: Vec<&String> = a.keys().chain(b.keys()).filter(|k| k.as_str() != "reset").collect();
     keys.sort();
     keys.dedup();
-    Ok(keys.into_iter().filter(|k| a.get(*k) != b.get(*k)).cloned().collect())
+    out.extend(keys.into_iter().filter(|k| a.get(*k) != b.get(*k)).cloned());
+    Ok(out)
 }
 
 /// A fine-tuning recipe in a few words: epochs, learning rate, and the sensor builds of its
