@@ -20,6 +20,26 @@ impl BitSet {
         self.words[i >> 6] |= 1 << (i & 63);
         self.any = true;
     }
+    /// Empties the set.
+    #[inline]
+    pub(super) fn clear(&mut self) {
+        if self.any {
+            self.words.fill(0);
+            self.any = false;
+        }
+    }
+    /// Moves every member of `other` (of the same size) into this set, a word at a time.
+    #[inline]
+    pub(super) fn take_all(&mut self, other: &mut BitSet) {
+        debug_assert_eq!(self.words.len(), other.words.len(), "sets of one size");
+        if other.any {
+            for (w, o) in self.words.iter_mut().zip(&mut other.words) {
+                *w |= std::mem::take(o);
+            }
+            self.any = true;
+            other.any = false;
+        }
+    }
     /// Calls `f` on every member in ascending order and empties the set.
     #[inline(always)]
     pub(super) fn drain(&mut self, mut f: impl FnMut(usize)) {
@@ -47,9 +67,11 @@ pub(super) struct Buckets {
     pub(super) len: Vec<u32>,
     pub(super) pos: Vec<u32>,
     pub(super) val: Vec<f32>,
-    /// Scratch: the positions that fired this step, with their channels as bits (one slot a
-    /// position).
-    pub(super) fired_at: Vec<(u32, u32)>,
+    /// Scratch: the positions that fired this step (one slot a position, padded to a multiple
+    /// of 8)...
+    pub(super) fired_pos: Vec<u32>,
+    /// ... and their channels that fired, as bits.
+    pub(super) fired_mask: Vec<u32>,
 }
 
 impl Buckets {
@@ -57,9 +79,11 @@ impl Buckets {
         Self {
             plane,
             len: vec![0; channels],
-            pos: vec![0; channels * plane],
+            // eight slots of slack: `simd::avx::push_masks` stores eight lanes at a time
+            pos: vec![0; channels * plane + 8],
             val: vec![0.0; if values { channels * plane } else { 0 }],
-            fired_at: vec![(0, 0); plane],
+            fired_pos: vec![0; plane.next_multiple_of(8)],
+            fired_mask: vec![0; plane.next_multiple_of(8)],
         }
     }
     /// A spike at `pos` of channel `ch`; each position comes at most once per channel and step.
@@ -69,26 +93,29 @@ impl Buckets {
         self.pos[k] = pos;
         self.len[ch] += 1;
     }
-    /// The spikes of positions that fired, `(position, channels as bits)` in ascending order of
-    /// position, channel by channel, without a branch per spike: every position's next slot gets
-    /// the position and only the channels that fired advance. Each position comes at most once,
-    /// so a channel's next slot is always inside its plane: it is full only after the last one.
-    /// Four channels a pass (`N` a multiple of 4), so that their counts advance side by side.
+    /// The spikes of the first `n` positions of `fired_pos` (ascending), whose channels that
+    /// fired are the bits of `fired_mask`, channel by channel, without a branch per spike: every
+    /// position's next slot gets the position and only the channels that fired advance. Each
+    /// position comes at most once, so a channel's next slot is always inside its plane: it is
+    /// full only after the last one. Four channels a pass (`N` a multiple of 4), so that their
+    /// counts advance side by side. [`super::simd::avx::push_masks`] does the same eight
+    /// positions a step.
     #[inline(always)]
-    pub(super) fn push_masks<const N: usize>(&mut self, fired_at: &[(u32, u32)]) {
+    pub(super) fn push_masks<const N: usize>(&mut self, n: usize) {
         const { assert!(N.is_multiple_of(4), "channels in fours") };
         let plane = self.plane;
+        let fired = self.fired_pos[..n].iter().zip(&self.fired_mask[..n]);
         for ch in (0..N).step_by(4) {
             let start: [usize; 4] = std::array::from_fn(|j| (ch + j) * plane + self.len[ch + j] as usize);
-            let mut n = [0usize; 4];
-            for &(pos, fired) in fired_at {
+            let mut k = [0usize; 4];
+            for (&pos, &bits) in fired.clone() {
                 for j in 0..4 {
-                    self.pos[start[j] + n[j]] = pos;
-                    n[j] += ((fired >> (ch + j)) & 1) as usize;
+                    self.pos[start[j] + k[j]] = pos;
+                    k[j] += ((bits >> (ch + j)) & 1) as usize;
                 }
             }
-            for (j, n) in n.iter().enumerate() {
-                self.len[ch + j] += *n as u32;
+            for (j, k) in k.iter().enumerate() {
+                self.len[ch + j] += *k as u32;
             }
         }
     }

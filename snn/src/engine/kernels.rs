@@ -48,17 +48,19 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
             // one `last` per position serves all its channels.
             let plane = out_hw[0] * out_hw[1];
             let oc = *out_c;
-            schedule(s, all, plane, &mut order);
             let mut by_channel = std::mem::take(&mut s.by_channel);
-            // LIF and IF without bias at 8 or 16 channels: one loop compiled for the width.
+            // LIF and IF without bias at 8 or 16 channels: one loop compiled for the width, which
+            // walks the positions to update itself.
             let lanes = c.neurons.filter(|p| p.kind != NeuronKind::CubaLif && c.bias.is_none() && rec.is_none());
             let leak = lanes.is_some_and(|p| p.leak_term().to_bits() != 0);
+            let every = all.then_some(plane);
             match (lanes, oc, leak) {
-                (Some(p), 8, false) => lif_positions::<8, false>(&p, s, &order, t, base, &mut by_channel, stats),
-                (Some(p), 8, true) => lif_positions::<8, true>(&p, s, &order, t, base, &mut by_channel, stats),
-                (Some(p), 16, false) => lif_positions::<16, false>(&p, s, &order, t, base, &mut by_channel, stats),
-                (Some(p), 16, true) => lif_positions::<16, true>(&p, s, &order, t, base, &mut by_channel, stats),
+                (Some(p), 8, false) => lif_positions::<8, false>(&p, s, every, t, base, &mut by_channel, stats),
+                (Some(p), 8, true) => lif_positions::<8, true>(&p, s, every, t, base, &mut by_channel, stats),
+                (Some(p), 16, false) => lif_positions::<16, false>(&p, s, every, t, base, &mut by_channel, stats),
+                (Some(p), 16, true) => lif_positions::<16, true>(&p, s, every, t, base, &mut by_channel, stats),
                 _ => {
+                    schedule(s, all, plane, &mut order);
                     for &pos in &order {
                         update_position(c, s, pos as usize, oc, t, base, rec.as_deref(), &mut by_channel, stats);
                     }
@@ -102,13 +104,12 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
 #[inline]
 pub(super) fn schedule(s: &mut LayerState, everything: bool, count: usize, order: &mut Vec<u32>) {
     if everything {
-        s.touched.drain(|_| {});
-        s.carry.drain(|_| {});
+        s.touched.clear();
+        s.carry.clear();
         order.extend(0..count as u32);
     } else {
-        let touched = &mut s.touched;
-        s.carry.drain(|p| touched.insert(p));
-        touched.drain(|p| order.push(p as u32));
+        s.touched.take_all(&mut s.carry);
+        s.touched.drain(|p| order.push(p as u32));
     }
 }
 
@@ -250,13 +251,14 @@ pub(super) fn above<const N: usize>(x: &[f32; N], th: f32) -> u32 {
 /// with `N` channels: the neuron parameters stay in registers across positions. The positions
 /// that fired are kept as (position, channels as bits), without a branch (which mispredicts
 /// often: whether a position fires varies), and bucketed by channel after the loop
-/// ([`Buckets::push_masks`]). On CPUs with AVX2 the whole loop is compiled for it and a
-/// position's lanes are updated eight to a register.
+/// ([`Buckets::push_masks`]). On CPUs with AVX2 the whole loop is compiled for it, a
+/// position's lanes are updated eight to a register, and the positions are bucketed eight at a
+/// time (`simd::avx::push_masks`).
 #[inline(never)]
 pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
     p: &NeuronParams,
     s: &mut LayerState,
-    order: &[u32],
+    every: Option<usize>,
     t: i64,
     base: i64,
     out: &mut Buckets,
@@ -265,9 +267,9 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
     #[cfg(target_arch = "x86_64")]
     if super::simd::avx2() {
         // SAFETY: this CPU has AVX2 (just checked).
-        return unsafe { lif_positions_avx2::<N, LEAK>(p, s, order, t, base, out, stats) };
+        return unsafe { lif_positions_avx2::<N, LEAK>(p, s, every, t, base, out, stats) };
     }
-    lif_positions_with::<N, LEAK, false>(p, s, order, t, base, out, stats)
+    lif_positions_with::<N, LEAK, false>(p, s, every, t, base, out, stats)
 }
 
 /// [`lif_positions`] compiled for AVX2 (the same operations: nothing is fused or reordered).
@@ -276,13 +278,13 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
 fn lif_positions_avx2<const N: usize, const LEAK: bool>(
     p: &NeuronParams,
     s: &mut LayerState,
-    order: &[u32],
+    every: Option<usize>,
     t: i64,
     base: i64,
     out: &mut Buckets,
     stats: &mut Stats,
 ) {
-    lif_positions_with::<N, LEAK, true>(p, s, order, t, base, out, stats)
+    lif_positions_with::<N, LEAK, true>(p, s, every, t, base, out, stats)
 }
 
 /// `AVX`: the lanes in AVX registers (the caller is compiled for AVX2).
@@ -290,47 +292,87 @@ fn lif_positions_avx2<const N: usize, const LEAK: bool>(
 fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     p: &NeuronParams,
     s: &mut LayerState,
-    order: &[u32],
+    every: Option<usize>,
     t: i64,
     base: i64,
     out: &mut Buckets,
     stats: &mut Stats,
 ) {
-    let LayerState { v, acc, last, carry, .. } = s;
+    let LayerState { v, acc, last, carry, touched, .. } = s;
+    // The positions to update, ascending (as `schedule` gives them): every one, or those
+    // touched this step or carried from the last.
+    if every.is_some() {
+        touched.clear();
+        carry.clear();
+    } else {
+        touched.take_all(carry);
+    }
     let mut steps = 0u64;
-    let mut fired_at = std::mem::take(&mut out.fired_at);
     let mut n_fired = 0;
-    for &pos in order {
-        let k = pos as usize * N;
-        let v: &mut [f32; N] = (&mut v[k..k + N]).try_into().expect("N channels");
-        let acc: &mut [f32; N] = (&mut acc[k..k + N]).try_into().expect("N channels");
-        let l = &mut last[pos as usize];
-        let behind = if *l < base {
-            // fresh since the last reset (a LIF's synaptic current stays unused)
-            v.fill(0.0);
-            fresh_steps(p, t, base)
-        } else {
-            t - *l - 1
-        };
-        *l = t;
-        steps += (behind.max(0) + 1) as u64;
-        #[cfg(target_arch = "x86_64")]
-        let (fired, carried) = if AVX && (N == 8 || N == 16) {
-            // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
-            unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind) }
-        } else {
-            lif_lanes::<N, LEAK>(p, v, acc, behind)
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
-        fired_at[n_fired] = (pos, fired);
-        n_fired += (fired != 0) as usize;
-        if carried {
-            carry.insert(pos as usize);
+    // one position's update (a macro, not a closure: a closure is compiled apart, without the
+    // caller's AVX2)
+    macro_rules! one {
+        ($pos:expr) => {{
+            let pos: u32 = $pos;
+            let k = pos as usize * N;
+            let v: &mut [f32; N] = (&mut v[k..k + N]).try_into().expect("N channels");
+            let acc: &mut [f32; N] = (&mut acc[k..k + N]).try_into().expect("N channels");
+            let l = &mut last[pos as usize];
+            let behind = if *l < base {
+                // fresh since the last reset (a LIF's synaptic current stays unused)
+                v.fill(0.0);
+                fresh_steps(p, t, base)
+            } else {
+                t - *l - 1
+            };
+            *l = t;
+            steps += (behind.max(0) + 1) as u64;
+            #[cfg(target_arch = "x86_64")]
+            let (fired, carried) = if AVX && (N == 8 || N == 16) {
+                // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
+                unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind) }
+            } else {
+                lif_lanes::<N, LEAK>(p, v, acc, behind)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
+            out.fired_pos[n_fired] = pos;
+            out.fired_mask[n_fired] = fired;
+            n_fired += (fired != 0) as usize;
+            if carried {
+                carry.insert(pos as usize);
+            }
+        }};
+    }
+    match every {
+        Some(n) => {
+            for pos in 0..n as u32 {
+                one!(pos)
+            }
+        }
+        None => {
+            // the set walked by hand and emptied
+            if touched.any {
+                for (w, word) in touched.words.iter_mut().enumerate() {
+                    let mut bits = std::mem::take(word);
+                    while bits != 0 {
+                        one!((w * 64) as u32 + bits.trailing_zeros());
+                        bits &= bits - 1;
+                    }
+                }
+                touched.any = false;
+            }
         }
     }
-    out.push_masks::<N>(&fired_at[..n_fired]);
-    out.fired_at = fired_at;
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
+        unsafe { super::simd::avx::push_masks::<N>(out, n_fired) };
+    } else {
+        out.push_masks::<N>(n_fired);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    out.push_masks::<N>(n_fired);
     stats.neuron_updates += steps * N as u64;
 }
 

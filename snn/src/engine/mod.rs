@@ -191,8 +191,8 @@ impl Engine {
         let values = &mut st.inputs;
         st.input_set.drain(|i| values[i] = 0.0);
         for (c, s) in self.layers.iter().zip(st.layers.iter_mut()) {
-            s.touched.drain(|_| {});
-            s.carry.drain(|_| {});
+            s.touched.clear();
+            s.carry.clear();
             s.acc.iter_mut().for_each(|a| *a = 0.0);
             s.rec_pending = false;
             s.prev.clear();

@@ -114,11 +114,13 @@ pub(in crate::engine) mod sse {
 /// [`sse::lif_lanes`] eight lanes a register, for CPUs with AVX2 (the same operations, none fused).
 #[cfg(target_arch = "x86_64")]
 pub(in crate::engine) mod avx {
+    use crate::engine::fanout::Buckets;
     use crate::neuron::NeuronParams;
     use std::arch::x86_64::{
-        __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_blendv_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_loadu_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
-        _mm256_sub_ps,
+        __m256, __m256i, _CMP_GT_OQ, _mm_cvtsi32_si128, _mm256_add_ps, _mm256_blendv_ps, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_movemask_ps, _mm256_mul_ps,
+        _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_sll_epi32,
+        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps,
     };
 
     #[inline(always)]
@@ -211,10 +213,70 @@ pub(in crate::engine) mod avx {
         }
         (fired, carry != 0)
     }
+
+    /// For each set of eight lanes (as bits), the lanes in it in ascending order, then zeros: the
+    /// permutation that packs the chosen lanes to the front of a register.
+    static PACK: [[u32; 8]; 256] = {
+        let mut t = [[0u32; 8]; 256];
+        let mut m = 0;
+        while m < 256 {
+            let (mut j, mut k) = (0, 0);
+            while j < 8 {
+                if (m >> j) & 1 == 1 {
+                    t[m][k] = j as u32;
+                    k += 1;
+                }
+                j += 1;
+            }
+            m += 1;
+        }
+        t
+    };
+
+    /// [`Buckets::push_masks`] eight positions a step: for each channel, the positions whose bit
+    /// is set are packed to the front of a register (a permutation from [`PACK`]) and all eight
+    /// lanes stored at the channel's next slot, which advances by the number packed. The same
+    /// positions in the same order; the lanes past them land in slots not yet filled (the
+    /// buckets' eight slots of slack, or the next channel's, filled after).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(in crate::engine) unsafe fn push_masks<const N: usize>(b: &mut Buckets, n: usize) {
+        const { assert!(N <= 32, "at most 32 channels") };
+        debug_assert!(b.len[..N].iter().all(|&k| k == 0), "lanes past a channel's spikes overwrite the next channel's");
+        let n8 = n.next_multiple_of(8);
+        b.fired_mask[n..n8].fill(0);
+        let plane = b.plane;
+        for ch in 0..N {
+            let mut k = ch * plane;
+            let shift = _mm_cvtsi32_si128(31 - ch as i32);
+            for q in (0..n8).step_by(8) {
+                let masks: &[u32; 8] = b.fired_mask[q..q + 8].try_into().expect("eight lanes");
+                let pos: &[u32; 8] = b.fired_pos[q..q + 8].try_into().expect("eight lanes");
+                let dst: &mut [u32; 8] = (&mut b.pos[k..k + 8]).try_into().expect("eight slots");
+                // SAFETY: the arrays are eight u32s each (unaligned loads and stores are
+                // allowed); AVX2 is present (this function's contract).
+                let chosen = unsafe {
+                    // channel `ch`'s bit moved to each lane's sign
+                    let m = _mm256_sll_epi32(_mm256_loadu_si256(masks.as_ptr().cast::<__m256i>()), shift);
+                    let chosen = _mm256_movemask_ps(_mm256_castsi256_ps(m)) as usize;
+                    let order = _mm256_loadu_si256(PACK[chosen].as_ptr().cast::<__m256i>());
+                    let p = _mm256_loadu_si256(pos.as_ptr().cast::<__m256i>());
+                    _mm256_storeu_si256(dst.as_mut_ptr().cast::<__m256i>(), _mm256_permutevar8x32_epi32(p, order));
+                    chosen
+                };
+                k += chosen.count_ones() as usize;
+            }
+            b.len[ch] = (k - ch * plane) as u32;
+        }
+    }
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
+    use super::super::fanout::Buckets;
     use super::super::kernels::lif_masks;
     use super::sse;
     use crate::neuron::NeuronParams;
@@ -243,6 +305,50 @@ mod tests {
                 assert_eq!(a1.map(f32::to_bits), a3.map(f32::to_bits), "AVX: accumulators emptied");
             }
         }
+    }
+
+    /// Bucketing eight positions a step gives each channel the positions of the portable code,
+    /// in the same order, for any number of positions (padding included) and any masks.
+    fn same_buckets<const N: usize>(rng: &mut rand::rngs::StdRng) {
+        for _ in 0..300 {
+            let plane = rng.random_range(1..90usize);
+            let mut portable = Buckets::new(N, plane, false);
+            let mut positions: Vec<u32> = (0..plane as u32).filter(|_| rng.random_bool(0.6)).collect();
+            positions.retain(|_| rng.random_bool(0.9));
+            let n = positions.len();
+            for (k, &p) in positions.iter().enumerate() {
+                portable.fired_pos[k] = p;
+                // dense, sparse and full masks alike
+                let density = [0.05, 0.3, 1.0][k % 3];
+                portable.fired_mask[k] =
+                    (0..N).fold(1 << rng.random_range(0..N), |m, ch| m | ((rng.random_bool(density) as u32) << ch));
+            }
+            // stale entries past `n`, which neither may read
+            for k in n..portable.fired_mask.len() {
+                portable.fired_pos[k] = u32::MAX;
+                portable.fired_mask[k] = u32::MAX >> (32 - N);
+            }
+            let mut wide = portable.clone();
+            portable.push_masks::<N>(n);
+            if super::avx2() {
+                // SAFETY: this CPU has AVX2 (just checked).
+                unsafe { super::avx::push_masks::<N>(&mut wide, n) };
+                for ch in 0..N {
+                    assert_eq!(portable.positions(ch), wide.positions(ch), "channel {ch} of {N}, {n} positions");
+                }
+            }
+            let spikes: usize = (0..N).map(|ch| portable.positions(ch).len()).sum();
+            let expected: u32 = portable.fired_mask[..n].iter().map(|m| m.count_ones()).sum();
+            assert_eq!(spikes, expected as usize);
+        }
+    }
+
+    #[test]
+    fn buckets_eight_positions_a_step_equal_the_portable_ones() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        same_buckets::<8>(&mut rng);
+        same_buckets::<16>(&mut rng);
+        same_buckets::<32>(&mut rng);
     }
 
     #[test]
