@@ -49,6 +49,14 @@ if [[ "${1:-}" == "--twins" ]]; then
     --out models/search/th10-zero.safetensors --search-dir docs/results/search/th10-zero --quiet --force
   exit 0
 fi
+if [[ "${1:-}" == "--twins-guard" ]]; then
+  # th10's twin search again with the loss-spike guard on every trial, seed and final model
+  # (2026-11-30, #50): the same trials as the 2026-11-28 run, whose budget fitted trials 0-8 and
+  # the combination, fixed by their number here (the budget does not bind); 25 minutes on two cores.
+  $b train --data data/icub_braille/th10 --reset zero --search --search-trials 9 --seeds 3 --budget-min 70 --eval-test \
+    --loss-spike-guard 2 --out models/search/th10-zero-guard.safetensors --search-dir docs/results/search/th10-zero-guard --quiet --force
+  exit 0
+fi
 if [[ "${1:-}" == "--defaults" ]]; then
   $b train --data data/icub_braille/raw1350 --search --search-trials 16 --seeds 3 --eval-test \
     --out models/search/raw1350-warmup.safetensors --search-dir docs/results/search/raw1350-warmup --quiet --force
