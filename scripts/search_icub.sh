@@ -51,10 +51,17 @@ if [[ "${1:-}" == "--twins" ]]; then
 fi
 if [[ "${1:-}" == "--twins-guard" ]]; then
   # th10's twin search again with the loss-spike guard on every trial, seed and final model
-  # (2026-11-30, #50): the same trials as the 2026-11-28 run, whose budget fitted trials 0-8 and
-  # the combination, fixed by their number here (the budget does not bind); 25 minutes on two cores.
+  # (2026-11-30, #50): first the same trials as the 2026-11-28 run, whose budget fitted trials 0-8
+  # and the combination, fixed by their number here (the budget does not bind; 25 minutes on two
+  # cores); then the 12 trials the headline's search ran (`--defaults`), its folder seeded with
+  # the first run's logs of trials 0-8 (the same recipes, not run again; the first run's
+  # combination left out, as trial 9 is another point here): 10 minutes more.
   $b train --data data/icub_braille/th10 --reset zero --search --search-trials 9 --seeds 3 --budget-min 70 --eval-test \
     --loss-spike-guard 2 --out models/search/th10-zero-guard.safetensors --search-dir docs/results/search/th10-zero-guard --quiet --force
+  mkdir -p docs/results/search/th10-zero-guard12
+  head -9 docs/results/search/th10-zero-guard/trials-0-of-1.jsonl > docs/results/search/th10-zero-guard12/trials-0-of-1.jsonl
+  $b train --data data/icub_braille/th10 --reset zero --search --search-trials 12 --seeds 3 --budget-min 70 --eval-test \
+    --loss-spike-guard 2 --out models/search/th10-zero-guard12.safetensors --search-dir docs/results/search/th10-zero-guard12 --quiet --force
   exit 0
 fi
 if [[ "${1:-}" == "--defaults" ]]; then
