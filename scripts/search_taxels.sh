@@ -15,6 +15,9 @@
 # set differs from the one of 2026-11-25): docs/results/search/sim-taxels-2026-11-28, the SNN
 # that `braille tactile-report` puts beside the networks of scripts/baselines.sh on the same
 # samples. It ran beside two of those searches on two cores (about 60 minutes).
+# `--zero` (2026-11-30, #51's first leave-one-dataset-out decision) runs the `--current` search
+# with neurons that reset to zero, its test split not read (docs/results/search/sim-taxels-zero;
+# 16 minutes alone on two cores).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -23,6 +26,7 @@ d=target/sim-taxels
 case "${1:-}" in
   --defaults) name=sim-taxels-warmup warmup=() ;;
   --current) name=sim-taxels-2026-11-28 warmup=() ;;
+  --zero) name=sim-taxels-zero warmup=(--reset zero) ;;
   *) name=sim-taxels warmup=(--warmup-steps 0) ;;
 esac
 l=docs/results/search/$name
@@ -30,6 +34,8 @@ mkdir -p "$l" models/search
 $b sim-dataset --out $d --force
 cp $d/dataset.json $l/dataset.json
 # the floors (with the networks: scripts/baselines.sh)
-[[ "${1:-}" == "--current" ]] || $b baselines --data $d --eval-test > $l/baselines.md
-$b train --data $d "${warmup[@]}" --search --search-trials 16 --seeds 3 --eval-test \
+[[ "${1:-}" == "--current" || "${1:-}" == "--zero" ]] || $b baselines --data $d --eval-test > $l/baselines.md
+test_read=(--eval-test)
+[[ "${1:-}" == "--zero" ]] && test_read=()
+$b train --data $d "${warmup[@]}" --search --search-trials 16 --seeds 3 "${test_read[@]}" \
   --out models/search/$name.safetensors --search-dir $l --quiet --force
