@@ -11,7 +11,7 @@ pub(in crate::engine) fn avx2() -> bool {
 
 /// Missed steps caught up without a branch (see [`sse::lif_lanes`]).
 #[cfg(target_arch = "x86_64")]
-const SURE: usize = 3;
+const SURE: usize = 4;
 
 #[cfg(target_arch = "x86_64")]
 pub(in crate::engine) mod sse {
