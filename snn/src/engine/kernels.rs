@@ -2,7 +2,7 @@
 //! (portable, or in SSE registers by `super::simd`), and one neuron's update.
 
 use super::compile::{Compiled, Fan, bias_index};
-use super::fanout::Buckets;
+use super::fanout::{BitSet, Buckets};
 #[cfg(target_arch = "x86_64")]
 use super::simd::sse;
 use super::{LayerState, Stats};
@@ -103,13 +103,23 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
 /// The slots to update this step, ascending: all `count` of them, or those touched or carried.
 #[inline]
 pub(super) fn schedule(s: &mut LayerState, everything: bool, count: usize, order: &mut Vec<u32>) {
+    pending(&mut s.touched, &mut s.carry, everything);
     if everything {
-        s.touched.clear();
-        s.carry.clear();
         order.extend(0..count as u32);
     } else {
-        s.touched.take_all(&mut s.carry);
         s.touched.drain(|p| order.push(p as u32));
+    }
+}
+
+/// Readies the step's slots to update: with `everything` both sets are emptied (every slot is
+/// updated), else the carried slots join the touched ones, which are then the slots to update.
+#[inline]
+fn pending(touched: &mut BitSet, carry: &mut BitSet, everything: bool) {
+    if everything {
+        touched.clear();
+        carry.clear();
+    } else {
+        touched.take_all(carry);
     }
 }
 
@@ -301,12 +311,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     let LayerState { v, acc, last, carry, touched, .. } = s;
     // The positions to update, ascending (as `schedule` gives them): every one, or those
     // touched this step or carried from the last.
-    if every.is_some() {
-        touched.clear();
-        carry.clear();
-    } else {
-        touched.take_all(carry);
-    }
+    pending(touched, carry, every.is_some());
     let mut steps = 0u64;
     let mut n_fired = 0;
     // one position's update (a macro, not a closure: a closure is compiled apart, without the
