@@ -100,6 +100,14 @@ impl StepEvents {
         (&self.idx[a..b], &self.val[a..b])
     }
 
+    /// No step, no event (the buffers kept).
+    fn clear(&mut self) {
+        self.start.clear();
+        self.start.push(0);
+        self.idx.clear();
+        self.val.clear();
+    }
+
     /// Events in all.
     pub fn len(&self) -> usize {
         self.idx.len()
@@ -225,11 +233,53 @@ struct LayerTape {
     out: StepEvents,
     /// Spikes, for the reset and the recurrence.
     spikes: StepEvents,
-    /// The neurons whose surrogate derivative is kept, with its value.
+    /// The neurons whose surrogate derivative is kept, with its value (empty steps when every
+    /// neuron keeps it: see `surr_all`).
     surr: StepEvents,
+    /// Every neuron's surrogate derivative, `n` a step, when all are kept (the exact gradient of
+    /// the float forward): no index to store or read.
+    surr_all: Vec<f32>,
     /// Leaky-integrator readout: each neuron's step of its highest membrane.
     argmax: Vec<u32>,
     n_spikes: usize,
+}
+
+/// The surrogate derivatives a layer keeps at a step.
+enum Kept<'a> {
+    /// Every neuron's, in order.
+    All(&'a [f32]),
+    /// These neurons', with their values.
+    Listed(&'a [u32], &'a [f32]),
+}
+
+impl LayerTape {
+    /// The surrogate derivatives kept at step `t` of a layer of `n` neurons.
+    #[inline(always)]
+    fn kept(&self, t: usize, n: usize) -> Kept<'_> {
+        if self.surr_all.is_empty() {
+            let (i, v) = self.surr.at(t);
+            Kept::Listed(i, v)
+        } else {
+            Kept::All(&self.surr_all[t * n..][..n])
+        }
+    }
+
+    /// Neuron-steps whose surrogate derivative is kept.
+    fn n_kept(&self) -> usize {
+        self.surr.len() + self.surr_all.len()
+    }
+
+    /// This tape emptied, its buffers kept for the next sample (a sample's tape is some MB: made
+    /// anew each time, its pages would be faulted in again).
+    fn cleared(mut self) -> LayerTape {
+        for e in [&mut self.out, &mut self.spikes, &mut self.surr] {
+            e.clear();
+        }
+        self.surr_all.clear();
+        self.argmax.clear();
+        self.n_spikes = 0;
+        self
+    }
 }
 
 /// One sample's forward pass.
@@ -498,8 +548,53 @@ impl SparseSnn {
     /// One sample forward (internal input layout, [`Self::input_events`]); with `tape`, what
     /// the backward pass needs is kept.
     pub fn forward(&self, params: &Params, input: &StepEvents, masks: &[Option<Vec<f32>>], tape: bool) -> SampleOutput {
+        self.forward_into(params, input, masks, tape, Vec::new())
+    }
+
+    /// [`Self::forward`] into the buffers of `spare`, a previous sample's tape.
+    fn forward_into(
+        &self,
+        params: &Params,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        tape: bool,
+        spare: Vec<LayerTape>,
+    ) -> SampleOutput {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: this CPU has AVX2 (just checked).
+            return unsafe { self.forward_avx2(params, input, masks, tape, spare) };
+        }
+        self.forward_with(params, input, masks, tape, spare)
+    }
+
+    /// [`Self::forward`] compiled for AVX2: the same operations (nothing fused or reordered), in
+    /// wider registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn forward_avx2(
+        &self,
+        params: &Params,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        tape: bool,
+        spare: Vec<LayerTape>,
+    ) -> SampleOutput {
+        self.forward_with(params, input, masks, tape, spare)
+    }
+
+    #[inline(always)]
+    fn forward_with(
+        &self,
+        params: &Params,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        tape: bool,
+        spare: Vec<LayerTape>,
+    ) -> SampleOutput {
         let steps = input.steps();
         let last = self.plans.len() - 1;
+        let mut spare = spare.into_iter();
         let mut layers: Vec<LayerTape> = Vec::with_capacity(self.plans.len());
         let mut v_max = Vec::new();
         for (k, plan) in self.plans.iter().enumerate() {
@@ -507,7 +602,10 @@ impl SparseSnn {
             let w = &params.layers[k];
             let n = plan.n_out;
             let mask = masks.get(k).and_then(Option::as_deref);
-            let mut lt = LayerTape::default();
+            let mut lt = spare.next().map_or_else(LayerTape::default, LayerTape::cleared);
+            if tape && self.x_cut == f32::INFINITY {
+                lt.surr_all.reserve(steps * n);
+            }
             let (mut u, mut v, mut cur) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             let mut near = Vec::new();
             let li = plan.neurons.is_some_and(|p| p.kind == NeuronKind::Li);
@@ -567,26 +665,41 @@ impl SparseSnn {
                         for (v, &drive) in v.iter_mut().zip(&u) {
                             *v = *v * np.beta + leak + drive;
                         }
-                        let low = if tape { np.v_th - self.x_cut } else { np.v_th };
+                        // exact: every neuron's derivative, densely (it vectorises); else those
+                        // of the neurons near threshold, below
+                        let all = tape && self.x_cut == f32::INFINITY;
+                        if all {
+                            let start = lt.surr_all.len();
+                            lt.surr_all.resize(start + n, 0.0);
+                            derivatives(self.surrogate, &v, np.v_th, &mut lt.surr_all[start..]);
+                        }
+                        let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
                         above(&v, low, &mut near);
+                        // the spiking neurons among them, written without a branch
+                        let fired = lt.spikes.idx.len();
+                        lt.spikes.idx.resize(fired + near.len(), 0);
+                        let mut end = fired;
                         for &o in &near {
+                            let d = v[o as usize] - np.v_th;
+                            if tape && !all && d.abs() < self.x_cut {
+                                lt.surr.push(o, self.surrogate.derivative(d));
+                            }
+                            lt.spikes.idx[end] = o;
+                            end += (d > 0.0) as usize;
+                        }
+                        lt.spikes.idx.truncate(end);
+                        lt.spikes.val.resize(end, 1.0);
+                        for &o in &lt.spikes.idx[fired..] {
                             let o = o as usize;
+                            let m = mask.map_or(1.0, |m| m[o]);
+                            if m != 0.0 {
+                                lt.out.push(o as u32, m);
+                            }
                             let v = &mut v[o];
-                            let d = *v - np.v_th;
-                            if tape && d.abs() < self.x_cut {
-                                lt.surr.push(o as u32, self.surrogate.derivative(d));
-                            }
-                            if d > 0.0 {
-                                lt.spikes.push(o as u32, 1.0);
-                                let m = mask.map_or(1.0, |m| m[o]);
-                                if m != 0.0 {
-                                    lt.out.push(o as u32, m);
-                                }
-                                *v = match np.reset {
-                                    Reset::Subtract => *v - np.v_th,
-                                    Reset::Zero => np.v_reset,
-                                };
-                            }
+                            *v = match np.reset {
+                                Reset::Subtract => *v - np.v_th,
+                                Reset::Zero => np.v_reset,
+                            };
                         }
                     }
                 }
@@ -640,6 +753,74 @@ impl SparseSnn {
         g_logits: &[f32],
         grads: &mut Params,
     ) {
+        let by_input = self.weights_by_input(params);
+        self.backward_by(params, &by_input, &mut Vec::new(), input, masks, out, g_logits, grads)
+    }
+
+    /// Each layer's weights laid out for gathering the gradient of all its inputs at once (none
+    /// for the first layer): made once per batch.
+    fn weights_by_input(&self, params: &Params) -> Vec<Option<ByInput>> {
+        self.plans
+            .iter()
+            .zip(&params.layers)
+            .enumerate()
+            .map(|(k, (plan, w))| if k == 0 { None } else { weights_by_input(plan, &w.weight) })
+            .collect()
+    }
+
+    /// [`Self::backward`] with the weights by input made ([`Self::weights_by_input`]), its
+    /// step-by-step gradients in buffers taken from `pool` and given back to it.
+    #[allow(clippy::too_many_arguments)]
+    fn backward_by(
+        &self,
+        params: &Params,
+        by_input: &[Option<ByInput>],
+        pool: &mut Vec<Vec<f32>>,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        out: &SampleOutput,
+        g_logits: &[f32],
+        grads: &mut Params,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: this CPU has AVX2 (just checked).
+            return unsafe { self.backward_avx2(params, by_input, pool, input, masks, out, g_logits, grads) };
+        }
+        self.backward_with(params, by_input, pool, input, masks, out, g_logits, grads)
+    }
+
+    /// [`Self::backward`] compiled for AVX2 (the same operations, as [`Self::forward_avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    fn backward_avx2(
+        &self,
+        params: &Params,
+        by_input: &[Option<ByInput>],
+        pool: &mut Vec<Vec<f32>>,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        out: &SampleOutput,
+        g_logits: &[f32],
+        grads: &mut Params,
+    ) {
+        self.backward_with(params, by_input, pool, input, masks, out, g_logits, grads)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn backward_with(
+        &self,
+        params: &Params,
+        by_input: &[Option<ByInput>],
+        pool: &mut Vec<Vec<f32>>,
+        input: &StepEvents,
+        masks: &[Option<Vec<f32>>],
+        out: &SampleOutput,
+        g_logits: &[f32],
+        grads: &mut Params,
+    ) {
         let steps = input.steps();
         let last = self.plans.len() - 1;
         let tape = &out.tape;
@@ -652,10 +833,13 @@ impl SparseSnn {
             let clamped = self.readout == Readout::MaxMembrane && self.clamped_readout_gradient && out.v_max[o] < 0.0;
             g_read[o] = if clamped { 0.0 } else { g };
         }
-        let mut g_out = match self.readout {
-            Readout::SpikeCount => g_read.repeat(steps),
-            Readout::MaxMembrane => vec![0f32; steps * top.n_out],
-        };
+        // (pool buffers: as many taken as given back)
+        let mut g_out = pool.pop().unwrap_or_default();
+        g_out.clear();
+        match self.readout {
+            Readout::SpikeCount => (0..steps).for_each(|_| g_out.extend_from_slice(&g_read)),
+            Readout::MaxMembrane => g_out.resize(steps * top.n_out, 0.0),
+        }
         for k in (0..=last).rev() {
             let plan = &self.plans[k];
             let (w, gw, lt) = (&params.layers[k], &mut grads.layers[k], &tape[k]);
@@ -666,11 +850,12 @@ impl SparseSnn {
             let mask = masks.get(k).and_then(Option::as_deref);
             let below = k.checked_sub(1).map(|b| (&self.plans[b], &tape[b]));
             let nb = below.map_or(0, |(b, _)| b.n_out);
-            let mut g_below = vec![0f32; steps * nb];
-            // a convolution's weights by (kernel position, output channel, input channel), for
-            // the steps where every input keeps a surrogate (the exact gradient): eight input
-            // channels of a pixel at once
-            let by_input = below.is_some().then(|| conv_weights_by_input(plan, &w.weight)).flatten();
+            let mut g_below = pool.pop().unwrap_or_default();
+            g_below.clear();
+            g_below.resize(steps * nb, 0.0);
+            // the weights laid out by input, for the steps where every input keeps a surrogate
+            // (the exact gradient): eight inputs gathered at once
+            let by_input = by_input[k].as_ref();
             let (mut g_u, mut carry_v, mut carry_i, mut g_rec) =
                 (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             for t in (0..steps).rev() {
@@ -696,11 +881,24 @@ impl SparseSnn {
                                 }
                             }
                             g_u.copy_from_slice(&carry_v);
-                            let (si, sv) = lt.surr.at(t);
-                            for (&o, &s) in si.iter().zip(sv) {
-                                let o = o as usize;
-                                let gz = go[o] * mask.map_or(1.0, |m| m[o]) + g_rec[o];
-                                g_u[o] += gz * s;
+                            match lt.kept(t, n) {
+                                Kept::All(sv) => match mask {
+                                    None => surrogate_all(&mut g_u, sv, go, &g_rec),
+                                    Some(m) => {
+                                        for ((((g, &s), &go), &gr), &m) in
+                                            g_u.iter_mut().zip(sv).zip(go).zip(&g_rec).zip(m)
+                                        {
+                                            *g += (go * m + gr) * s;
+                                        }
+                                    }
+                                },
+                                Kept::Listed(si, sv) => {
+                                    for (&o, &s) in si.iter().zip(sv) {
+                                        let o = o as usize;
+                                        let gz = go[o] * mask.map_or(1.0, |m| m[o]) + g_rec[o];
+                                        g_u[o] += gz * s;
+                                    }
+                                }
                             }
                         }
                         for (c, g) in carry_v.iter_mut().zip(&g_u) {
@@ -733,20 +931,33 @@ impl SparseSnn {
                         for (&j, &s) in ji.iter().zip(jv) {
                             axpy(&mut gw.recurrent[j as usize * n..][..n], &g_u, s);
                         }
-                        for &j in lt.surr.at(t - 1).0 {
-                            g_rec[j as usize] = dot(&w.recurrent[j as usize * n..][..n], &g_u);
+                        match lt.kept(t - 1, n) {
+                            Kept::All(_) => {
+                                for (j, g) in g_rec.iter_mut().enumerate() {
+                                    *g = dot(&w.recurrent[j * n..][..n], &g_u);
+                                }
+                            }
+                            Kept::Listed(ji, _) => {
+                                for &j in ji {
+                                    g_rec[j as usize] = dot(&w.recurrent[j as usize * n..][..n], &g_u);
+                                }
+                            }
                         }
                     }
                 }
                 if let (Some((b, bt)), Some(ts)) = (below, src) {
                     let gb = &mut g_below[ts * nb..][..nb];
+                    // the inputs whose gradient is needed: those keeping a surrogate, or all
                     let kept = match b.neurons {
-                        Some(bn) if bn.kind != NeuronKind::Li => Some(bt.surr.at(ts).0),
+                        Some(bn) if bn.kind != NeuronKind::Li => match bt.kept(ts, nb) {
+                            Kept::Listed(kept, _) if kept.len() < nb => Some(kept),
+                            _ => None,
+                        },
                         _ => None,
                     };
-                    match (kept, &by_input) {
-                        (Some(kept), Some(wt)) if kept.len() == nb => gather_all_conv(plan, wt, &g_u, gb),
-                        (None, Some(wt)) => gather_all_conv(plan, wt, &g_u, gb),
+                    match (kept, by_input) {
+                        (None, Some(ByInput::Conv(wt))) => gather_all_conv(plan, wt, &g_u, gb),
+                        (None, Some(ByInput::Dense(wt))) => gather_all_dense(wt, n, &g_u, gb),
                         (Some(kept), _) => {
                             for &i in kept {
                                 gb[i as usize] = gather(plan, &w.weight, i as usize, &g_u);
@@ -760,8 +971,9 @@ impl SparseSnn {
                     }
                 }
             }
-            g_out = g_below;
+            pool.push(std::mem::replace(&mut g_out, g_below));
         }
+        pool.push(g_out);
     }
 
     /// The gradient of the mean cross-entropy over a batch of `(input events, label)`, with a
@@ -772,7 +984,9 @@ impl SparseSnn {
         samples: &[(&StepEvents, usize)],
         masks: &[Vec<Option<Vec<f32>>>],
     ) -> BatchGradient {
-        let forward = |x: &StepEvents, m: &[Option<Vec<f32>>]| Ok(self.forward(params, x, m, true));
+        let forward = |x: &StepEvents, m: &[Option<Vec<f32>>], spare: Vec<LayerTape>| {
+            Ok(self.forward_into(params, x, m, true, spare))
+        };
         let Ok(g) = self.gradient_with::<std::convert::Infallible>(params, samples, masks, forward);
         g
     }
@@ -784,7 +998,7 @@ impl SparseSnn {
         params: &Params,
         samples: &[(&StepEvents, usize)],
         masks: &[Vec<Option<Vec<f32>>>],
-        forward: impl Fn(&StepEvents, &[Option<Vec<f32>>]) -> Result<SampleOutput, E> + Sync,
+        forward: impl Fn(&StepEvents, &[Option<Vec<f32>>], Vec<LayerTape>) -> Result<SampleOutput, E> + Sync,
     ) -> Result<BatchGradient, E> {
         let b = samples.len().max(1);
         let chunk = b.div_ceil(CHUNKS);
@@ -795,24 +1009,31 @@ impl SparseSnn {
             spikes: Vec::new(),
             kept_surrogates: 0,
         };
+        let by_input = self.weights_by_input(params);
         let parts: Vec<BatchGradient> = samples
             .par_chunks(chunk)
             .enumerate()
-            .map(|(c, part)| {
-                let mut acc = empty();
-                for (j, &(input, label)) in part.iter().enumerate() {
-                    let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
-                    let out = forward(input, m)?;
-                    let (loss, mut g, hit) = cross_entropy(&out.logits, label);
-                    g.iter_mut().for_each(|g| *g /= b as f32);
-                    self.backward(params, input, m, &out, &g, &mut acc.grads);
-                    acc.loss_sum += loss;
-                    acc.kept_surrogates += out.tape.iter().map(|l| l.surr.len()).sum::<usize>();
-                    acc.hits += hit as usize;
-                    add_spikes(&mut acc.spikes, out.spikes.iter().map(|&s| s as f64));
-                }
-                Ok(acc)
-            })
+            // each worker's buffers (a tape, the backward's step-by-step gradients) reused from
+            // sample to sample: results do not depend on them
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(spare, pool), (c, part)| {
+                    let mut acc = empty();
+                    for (j, &(input, label)) in part.iter().enumerate() {
+                        let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
+                        let out = forward(input, m, std::mem::take(spare))?;
+                        let (loss, mut g, hit) = cross_entropy(&out.logits, label);
+                        g.iter_mut().for_each(|g| *g /= b as f32);
+                        self.backward_by(params, &by_input, pool, input, m, &out, &g, &mut acc.grads);
+                        acc.loss_sum += loss;
+                        acc.kept_surrogates += out.tape.iter().map(LayerTape::n_kept).sum::<usize>();
+                        acc.hits += hit as usize;
+                        add_spikes(&mut acc.spikes, out.spikes.iter().map(|&s| s as f64));
+                        *spare = out.tape;
+                    }
+                    Ok(acc)
+                },
+            )
             .collect::<Result<_, E>>()?;
         let mut parts = parts.into_iter();
         let mut total = parts.next().unwrap_or_else(empty);
@@ -869,31 +1090,75 @@ fn truncation_width(surrogate: Surrogate, cutoff: f32) -> f32 {
     }
 }
 
-/// The indices of `v` above `low`, ascending, into `out`: compared 16 at a time into a bit mask
-/// (it vectorises), so that the few neurons near threshold cost a branch per 16.
-#[inline(never)]
+/// The indices of `v` above `low`, ascending, into `out`, without a branch per index: four
+/// membranes compared at once into a 4-bit mask, whose set lanes' offsets come packed from a
+/// table ([`PACK4`]) and are stored four at a time, the end advancing by their count.
+#[inline(always)]
 fn above(v: &[f32], low: f32, out: &mut Vec<u32>) {
     out.clear();
-    for (c, chunk) in v.chunks(16).enumerate() {
-        let mut mask = 0u32;
-        for (j, &x) in chunk.iter().enumerate() {
-            mask |= ((x > low) as u32) << j;
+    out.resize(v.len() + 4, 0);
+    let mut k = 0;
+    let quads = v.len() / 4;
+    for (q, x) in v.chunks_exact(4).enumerate() {
+        let mask = lanes_above(x.try_into().expect("four lanes"), low);
+        let (offsets, count) = PACK4[mask];
+        let base = (4 * q) as u32;
+        let slot: &mut [u32; 4] = (&mut out[k..k + 4]).try_into().expect("four slots");
+        for (s, o) in slot.iter_mut().zip(offsets) {
+            *s = base + o;
         }
-        while mask != 0 {
-            out.push((c * 16) as u32 + mask.trailing_zeros());
-            mask &= mask - 1;
-        }
+        k += count;
+    }
+    for (j, &x) in v.iter().enumerate().skip(4 * quads) {
+        out[k] = j as u32;
+        k += (x > low) as usize;
+    }
+    out.truncate(k);
+}
+
+/// Which of four lanes are above `low`, as a 4-bit mask (lane 0 the lowest bit).
+#[inline(always)]
+fn lanes_above(x: &[f32; 4], low: f32) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cmpgt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_set1_ps};
+        // SAFETY: SSE is part of x86-64; `x` is four readable f32s (unaligned loads allowed).
+        unsafe { _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(x.as_ptr()), _mm_set1_ps(low))) as usize }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        x.iter().enumerate().fold(0, |m, (j, &x)| m | (usize::from(x > low) << j))
     }
 }
 
-#[inline]
+/// For each 4-bit mask, the offsets of its set bits packed to the front, and their count.
+const PACK4: [([u32; 4], usize); 16] = {
+    let mut t = [([0u32; 4], 0usize); 16];
+    let mut m = 0;
+    while m < 16 {
+        let mut k = 0;
+        let mut j = 0;
+        while j < 4 {
+            if m & (1 << j) != 0 {
+                t[m].0[k] = j as u32;
+                k += 1;
+            }
+            j += 1;
+        }
+        t[m].1 = k;
+        m += 1;
+    }
+    t
+};
+
+#[inline(always)]
 fn axpy(y: &mut [f32], x: &[f32], a: f32) {
     for (y, x) in y.iter_mut().zip(x) {
         *y += a * x;
     }
 }
 
-#[inline]
+#[inline(always)]
 fn dot(a: &[f32], b: &[f32]) -> f32 {
     // four partial sums, so that the compiler vectorises it
     let mut s = [0f32; 4];
@@ -904,12 +1169,15 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
             s[l] += x[l] * y[l];
         }
     }
-    let tail: f32 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    let mut tail = -0.0f32;
+    for (x, y) in ra.iter().zip(rb) {
+        tail += x * y;
+    }
     (s[0] + s[1]) + (s[2] + s[3]) + tail
 }
 
 /// Adds input `i`'s fan-out, times `x`, into `u`.
-#[inline]
+#[inline(always)]
 fn scatter(plan: &Plan, w: &[f32], i: usize, x: f32, u: &mut [f32]) {
     let n = plan.n_out;
     match &plan.kernel {
@@ -930,7 +1198,7 @@ fn scatter(plan: &Plan, w: &[f32], i: usize, x: f32, u: &mut [f32]) {
 }
 
 /// Adds `x` times the gradient `g` of input `i`'s targets into its weights' gradient.
-#[inline]
+#[inline(always)]
 fn weight_grad(plan: &Plan, gw: &mut [f32], i: usize, x: f32, g: &[f32]) {
     let n = plan.n_out;
     match &plan.kernel {
@@ -946,31 +1214,57 @@ fn weight_grad(plan: &Plan, gw: &mut [f32], i: usize, x: f32, g: &[f32]) {
 }
 
 /// The gradient by input `i`: its weights to its targets against their gradient `g`.
-#[inline]
+#[inline(always)]
 fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
     let n = plan.n_out;
     match &plan.kernel {
         Kernel::Dense => dot(&w[i * n..][..n], g),
+        // sums from -0.0, as `Iterator::sum`, in loops rather than closures (which would not be
+        // compiled for the caller's AVX2)
         Kernel::Conv { ic, oc, kk, offsets, targets } => {
             let (p, c) = (i / ic, i % ic);
-            targets[offsets[p] as usize..offsets[p + 1] as usize]
-                .iter()
-                .map(|&(q, k)| dot(&w[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc]))
-                .sum()
+            let mut sum = -0.0;
+            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
+                sum += dot(&w[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc]);
+            }
+            sum
         }
         Kernel::Pool { c, weight, offsets, targets } => {
             let (p, ch) = (i / c, i % c);
-            targets[offsets[p] as usize..offsets[p + 1] as usize].iter().map(|&q| weight * g[q as usize * c + ch]).sum()
+            let mut sum = -0.0;
+            for &q in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
+                sum += weight * g[q as usize * c + ch];
+            }
+            sum
         }
     }
 }
 
-/// Lanes of [`gather_all_conv`]: input channels of one pixel at once.
+/// Lanes of [`gather_all_conv`] and [`gather_all_dense`]: inputs gathered at once.
 const GATHER_LANES: usize = 8;
 
-/// A convolution's weights `[in_c][k][out_c]` as `[k][out_c][in_c]`, when its input channels
-/// come in whole [`GATHER_LANES`] (else `None`: [`gather`] input by input).
-fn conv_weights_by_input(plan: &Plan, w: &[f32]) -> Option<Vec<f32>> {
+/// A layer's weights laid out for gathering [`GATHER_LANES`] inputs at once.
+enum ByInput {
+    /// A convolution's, `[k][out_c][in_c]` ([`gather_all_conv`]).
+    Conv(Vec<f32>),
+    /// A dense layer's, `[out][in]` ([`gather_all_dense`]).
+    Dense(Vec<f32>),
+}
+
+/// `w` laid out by input ([`ByInput`]): a dense layer's, and a convolution's when its input
+/// channels come in whole [`GATHER_LANES`] (else `None`: [`gather`] input by input).
+fn weights_by_input(plan: &Plan, w: &[f32]) -> Option<ByInput> {
+    if let Kernel::Dense = plan.kernel {
+        let n = plan.n_out;
+        let n_in = w.len().checked_div(n).unwrap_or(0);
+        let mut t = vec![0f32; w.len()];
+        for i in 0..n_in {
+            for o in 0..n {
+                t[o * n_in + i] = w[i * n + o];
+            }
+        }
+        return Some(ByInput::Dense(t));
+    }
     let Kernel::Conv { ic, oc, kk, .. } = plan.kernel else {
         return None;
     };
@@ -985,13 +1279,97 @@ fn conv_weights_by_input(plan: &Plan, w: &[f32]) -> Option<Vec<f32>> {
             }
         }
     }
-    Some(t)
+    Some(ByInput::Conv(t))
+}
+
+/// [`gather`] for every input of a dense layer of `n` outputs (`g_in[i]`, all of them),
+/// [`GATHER_LANES`] inputs at a time from `wt` (`[out][in]`). Each lane does the very operations
+/// of [`dot`] in its order (four running sums and a tail from -0.0), so the result is the same to
+/// the bit (tested).
+#[inline(always)]
+fn gather_all_dense(wt: &[f32], n: usize, g: &[f32], g_in: &mut [f32]) {
+    const L: usize = GATHER_LANES;
+    let n_in = g_in.len();
+    let full = n / 4 * 4;
+    let lanes_end = n_in / L * L;
+    let (head, rest) = g_in.split_at_mut(lanes_end);
+    for (c0, out) in head.chunks_exact_mut(L).enumerate() {
+        let i0 = c0 * L;
+        let lanes = |o: usize| -> &[f32; L] { wt[o * n_in + i0..][..L].try_into().expect("L lanes") };
+        let mut sums = [[0f32; L]; 4];
+        for j in (0..full).step_by(4) {
+            for (l, sum) in sums.iter_mut().enumerate() {
+                let (w, y) = (lanes(j + l), g[j + l]);
+                for c in 0..L {
+                    sum[c] += w[c] * y;
+                }
+            }
+        }
+        let mut tail = [-0.0f32; L];
+        for (o, &y) in g.iter().enumerate().take(n).skip(full) {
+            let w = lanes(o);
+            for c in 0..L {
+                tail[c] += w[c] * y;
+            }
+        }
+        for c in 0..L {
+            out[c] = (sums[0][c] + sums[1][c]) + (sums[2][c] + sums[3][c]) + tail[c];
+        }
+    }
+    // the last inputs one by one, as `dot` over their row
+    let mut row = vec![0f32; n];
+    for (j, out) in rest.iter_mut().enumerate() {
+        let i = lanes_end + j;
+        for (o, r) in row.iter_mut().enumerate() {
+            *r = wt[o * n_in + i];
+        }
+        *out = dot(&row, &g[..n]);
+    }
+}
+
+/// `g_u += (g_out + g_rec) sigma'` over every neuron, eight at a time (the operations of the
+/// listed neurons' update, `g_out * 1 + g_rec` being `g_out + g_rec`).
+#[inline(always)]
+fn surrogate_all(g_u: &mut [f32], sv: &[f32], go: &[f32], gr: &[f32]) {
+    const L: usize = 8;
+    let n = g_u.len();
+    let (sv, go, gr) = (&sv[..n], &go[..n], &gr[..n]);
+    let full = n / L * L;
+    for (((g, s), go), gr) in
+        g_u.chunks_exact_mut(L).zip(sv.chunks_exact(L)).zip(go.chunks_exact(L)).zip(gr.chunks_exact(L))
+    {
+        for c in 0..L {
+            g[c] += (go[c] + gr[c]) * s[c];
+        }
+    }
+    for o in full..n {
+        g_u[o] += (go[o] + gr[o]) * sv[o];
+    }
+}
+
+/// The surrogate derivative `sigma'(v - v_th)` of every membrane in `v`, into `out` (one arm per
+/// surrogate, so that each loop vectorises).
+#[inline(always)]
+fn derivatives(surrogate: Surrogate, v: &[f32], v_th: f32, out: &mut [f32]) {
+    macro_rules! each {
+        ($s:expr) => {
+            for (o, &v) in out.iter_mut().zip(v) {
+                *o = $s.derivative(v - v_th);
+            }
+        };
+    }
+    match surrogate {
+        Surrogate::FastSigmoid { slope } => each!(Surrogate::FastSigmoid { slope }),
+        Surrogate::Arctan { alpha } => each!(Surrogate::Arctan { alpha }),
+        Surrogate::Triangle { width } => each!(Surrogate::Triangle { width }),
+    }
 }
 
 /// [`gather`] for every input of a convolution (`g_in[i]`, all of them), a pixel's input channels
-/// [`GATHER_LANES`] at a time from `wt` ([`conv_weights_by_input`]). Each lane does the very
+/// [`GATHER_LANES`] at a time from `wt` ([`weights_by_input`]). Each lane does the very
 /// operations of [`gather`] in its order (the products of [`dot`] in four running sums and a tail,
 /// the targets summed from -0.0), so the result is the same to the bit (tested).
+#[inline(always)]
 fn gather_all_conv(plan: &Plan, wt: &[f32], g: &[f32], g_in: &mut [f32]) {
     const L: usize = GATHER_LANES;
     let Kernel::Conv { ic, oc, offsets, targets, .. } = &plan.kernel else {
@@ -1305,18 +1683,32 @@ mod tests {
             let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
             let want = flat(&burn_gradient(&spec, readout, &weights, &batch, &labels, steps));
             let surrogate = Surrogate::FastSigmoid { slope: 5.0 };
-            let grad = |cutoff: f32| {
+            let grad_masked = |cutoff: f32, dropout: f64| {
                 let net = SparseSnn::new(spec.clone(), surrogate, readout, cutoff).unwrap();
                 let params = net.params(&weights).unwrap();
                 let events: Vec<StepEvents> =
                     batch.iter().map(|e| net.input_events(StepEvents::from_entries(steps, &mut e.clone()))).collect();
                 let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
-                let g = net.batch_gradient(&params, &samples, &[]);
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+                let masks: Vec<_> = if dropout > 0.0 {
+                    samples.iter().map(|_| net.dropout_masks(dropout, &mut rng)).collect()
+                } else {
+                    Vec::new()
+                };
+                let g = net.batch_gradient(&params, &samples, &masks);
                 // every spiking layer spiked, so every path of the gradient was taken
                 assert!(g.spikes.iter().all(|&s| s > 0.0), "case {case}: spikes per layer {:?}", g.spikes);
                 flat(&net.weights(&g.grads).unwrap())
             };
+            let grad = |cutoff: f32| grad_masked(cutoff, 0.0);
             let exact = grad(0.0);
+            // exact, every surrogate kept in a dense tape, equals a truncation so far out that it
+            // keeps them all in a list, to the bit (with and without dropout)
+            let bits = |g: Vec<f32>| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for dropout in [0.0, 0.3] {
+                let (dense, listed) = (grad_masked(0.0, dropout), grad_masked(1e-30, dropout));
+                assert_eq!(bits(dense), bits(listed), "case {case}, dropout {dropout}");
+            }
             let scale = want.iter().fold(0f32, |m, g| m.max(g.abs()));
             assert!(scale > 0.0);
             for (k, (a, b)) in exact.iter().zip(&want).enumerate() {
@@ -1366,33 +1758,51 @@ mod tests {
         }
     }
 
-    /// The batched gather of a convolution's every input equals [`gather`] input by input, to
-    /// the bit (zeros included), so the exact trainer's gradients are unchanged by it.
+    /// The batched gathers of a convolution's and a dense layer's every input equal [`gather`]
+    /// input by input, to the bit (zeros included), so the exact trainer's gradients are
+    /// unchanged by them.
     #[test]
-    fn batched_convolution_gather_equals_gather_to_the_bit() {
+    fn batched_gathers_equal_gather_to_the_bit() {
         let net = snn::network::peers_conv(1, snn::network::PEER_GAIN);
         let trainer = SparseSnn::new(net.spec(), Surrogate::FastSigmoid { slope: 25.0 }, Readout::SpikeCount, 0.0)
             .expect("the peer network trains");
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let params = trainer.params(&net.weights()).expect("its own weights");
         let mut checked = 0;
-        for plan in &trainer.plans {
-            let Kernel::Conv { ic, oc, kk, offsets, .. } = &plan.kernel else {
-                continue;
-            };
-            let n_in = (offsets.len() - 1) * ic;
-            let w: Vec<f32> = (0..ic * kk * oc).map(|_| rng.random_range(-1.0..1.0)).collect();
+        for (plan, p) in trainer.plans.iter().zip(&params.layers) {
             let g: Vec<f32> =
                 (0..plan.n_out).map(|_| if rng.random_bool(0.3) { 0.0 } else { rng.random_range(-1.0..1.0) }).collect();
-            let Some(wt) = conv_weights_by_input(plan, &w) else {
-                continue;
+            // a dense layer's inputs: all of its own (a multiple of the lanes), and 13 (lanes
+            // and a rest)
+            let sizes: Vec<usize> = match &plan.kernel {
+                Kernel::Conv { ic, kk, oc, .. } => vec![ic * kk * oc],
+                Kernel::Dense => vec![p.weight.len(), 13 * plan.n_out],
+                Kernel::Pool { .. } => continue,
             };
-            let mut batched = vec![f32::NAN; n_in];
-            gather_all_conv(plan, &wt, &g, &mut batched);
-            for (i, b) in batched.iter().enumerate() {
-                assert_eq!(b.to_bits(), gather(plan, &w, i, &g).to_bits(), "input {i}");
+            for size in sizes {
+                let w: Vec<f32> = (0..size).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let (n_in, batched) = match (&plan.kernel, weights_by_input(plan, &w)) {
+                    (Kernel::Conv { ic, offsets, .. }, Some(ByInput::Conv(wt))) => {
+                        let n_in = (offsets.len() - 1) * ic;
+                        let mut batched = vec![f32::NAN; n_in];
+                        gather_all_conv(plan, &wt, &g, &mut batched);
+                        (n_in, batched)
+                    }
+                    (Kernel::Dense, Some(ByInput::Dense(wt))) => {
+                        let n_in = size / plan.n_out;
+                        let mut batched = vec![f32::NAN; n_in];
+                        gather_all_dense(&wt, plan.n_out, &g, &mut batched);
+                        (n_in, batched)
+                    }
+                    _ => continue,
+                };
+                assert_eq!(batched.len(), n_in);
+                for (i, b) in batched.iter().enumerate() {
+                    assert_eq!(b.to_bits(), gather(plan, &w, i, &g).to_bits(), "input {i} of {n_in}");
+                }
+                checked += 1;
             }
-            checked += 1;
         }
-        assert!(checked > 0, "the peer network has a convolution of 8 input channels");
+        assert_eq!(checked, 3, "the peer network's second convolution and its dense layer, twice");
     }
 }

@@ -37,6 +37,7 @@ pub enum Surrogate {
 
 impl Surrogate {
     /// The surrogate derivative at `x = v - v_th`.
+    #[inline]
     pub fn derivative(self, x: f32) -> f32 {
         match self {
             Surrogate::FastSigmoid { slope } => 1.0 / (1.0 + slope * x.abs()).powi(2),

@@ -171,7 +171,7 @@ impl SparseSnn {
         chip: &ChipForward,
         samples: &[(&StepEvents, usize)],
     ) -> snn::Result<super::BatchGradient> {
-        self.gradient_with(params, samples, &[], |x, _| self.forward_on_chip(chip, x, true))
+        self.gradient_with(params, samples, &[], |x, _, _| self.forward_on_chip(chip, x, true))
     }
 }
 
