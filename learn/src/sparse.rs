@@ -607,7 +607,7 @@ impl SparseSnn {
                 lt.surr_all.reserve(steps * n);
             }
             let (mut u, mut v, mut cur) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
-            let mut near = Vec::new();
+            let (mut near, mut dist) = (Vec::new(), Vec::new());
             let li = plan.neurons.is_some_and(|p| p.kind == NeuronKind::Li);
             if li {
                 v_max = vec![f32::NEG_INFINITY; n];
@@ -662,12 +662,12 @@ impl SparseSnn {
                                 *u = *c;
                             }
                         }
-                        for (v, &drive) in v.iter_mut().zip(&u) {
-                            *v = *v * np.beta + leak + drive;
-                        }
                         // exact: every neuron's derivative, densely (it vectorises); else those
                         // of the neurons near threshold, below
                         let all = tape && self.x_cut == f32::INFINITY;
+                        for (v, &drive) in v.iter_mut().zip(&u) {
+                            *v = *v * np.beta + leak + drive;
+                        }
                         if all {
                             let start = lt.surr_all.len();
                             lt.surr_all.resize(start + n, 0.0);
@@ -675,15 +675,31 @@ impl SparseSnn {
                         }
                         let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
                         above(&v, low, &mut near);
+                        // their distances to threshold
+                        dist.clear();
+                        dist.extend(near.iter().map(|&o| v[o as usize] - np.v_th));
+                        // those within the truncation keep a surrogate, listed without a branch,
+                        // their derivatives then taken all at once (it vectorises)
+                        if tape && !all {
+                            let (si, sv) = (&mut lt.surr.idx, &mut lt.surr.val);
+                            let kept = si.len();
+                            si.resize(kept + near.len(), 0);
+                            sv.resize(kept + near.len(), 0.0);
+                            let mut end = kept;
+                            for (&o, &d) in near.iter().zip(&dist) {
+                                si[end] = o;
+                                sv[end] = d;
+                                end += (d.abs() < self.x_cut) as usize;
+                            }
+                            si.truncate(end);
+                            sv.truncate(end);
+                            derivatives_in_place(self.surrogate, &mut sv[kept..]);
+                        }
                         // the spiking neurons among them, written without a branch
                         let fired = lt.spikes.idx.len();
                         lt.spikes.idx.resize(fired + near.len(), 0);
                         let mut end = fired;
-                        for &o in &near {
-                            let d = v[o as usize] - np.v_th;
-                            if tape && !all && d.abs() < self.x_cut {
-                                lt.surr.push(o, self.surrogate.derivative(d));
-                            }
+                        for (&o, &d) in near.iter().zip(&dist) {
                             lt.spikes.idx[end] = o;
                             end += (d > 0.0) as usize;
                         }
@@ -864,7 +880,7 @@ impl SparseSnn {
                     None => g_u.copy_from_slice(go),
                     Some(np) => {
                         if np.kind == NeuronKind::Li {
-                            g_u.copy_from_slice(&carry_v);
+                            std::mem::swap(&mut g_u, &mut carry_v); // carry_v is rewritten below
                             if k == last {
                                 for (o, g) in g_u.iter_mut().enumerate() {
                                     if lt.argmax[o] as usize == t {
@@ -880,7 +896,7 @@ impl SparseSnn {
                                     carry_v[j as usize] = 0.0;
                                 }
                             }
-                            g_u.copy_from_slice(&carry_v);
+                            std::mem::swap(&mut g_u, &mut carry_v); // carry_v is rewritten below
                             match lt.kept(t, n) {
                                 Kept::All(sv) => match mask {
                                     None => surrogate_all(&mut g_u, sv, go, &g_rec),
@@ -1324,6 +1340,24 @@ fn gather_all_dense(wt: &[f32], n: usize, g: &[f32], g_in: &mut [f32]) {
             *r = wt[o * n_in + i];
         }
         *out = dot(&row, &g[..n]);
+    }
+}
+
+/// `x` replaced by the surrogate derivative at `x` (one arm per surrogate, so that each loop
+/// vectorises).
+#[inline(always)]
+fn derivatives_in_place(surrogate: Surrogate, x: &mut [f32]) {
+    macro_rules! each {
+        ($s:expr) => {
+            for x in x.iter_mut() {
+                *x = $s.derivative(*x);
+            }
+        };
+    }
+    match surrogate {
+        Surrogate::FastSigmoid { slope } => each!(Surrogate::FastSigmoid { slope }),
+        Surrogate::Arctan { alpha } => each!(Surrogate::Arctan { alpha }),
+        Surrogate::Triangle { width } => each!(Surrogate::Triangle { width }),
     }
 }
 
