@@ -6,7 +6,8 @@
 //! Forward, each layer takes a list of events per step (input counts, the layer below's spikes)
 //! and adds each one's fan-out (its weight row, or the convolution targets of its pixel) into the
 //! layer's currents; the membranes are then stepped densely. Per step it keeps only what BPTT
-//! needs: the spikes, and the neurons whose surrogate derivative is not zero with its value.
+//! needs: the spikes, and the neurons whose surrogate derivative is not zero with its value (when
+//! all are kept, the exact gradient, every neuron's derivative in a dense array instead).
 //!
 //! Backward, layer by layer from the top, time reversed:
 //!
