@@ -432,3 +432,40 @@ fn stepped_equals_dense_with_wide_and_narrow_dense_layers() {
         }
     }
 }
+
+/// A merged ensemble (`spec::ensemble`) of recurrent members: the engine gives each member's
+/// spikes side by side, and its synaptic operations are the members' summed, not three times
+/// that: a recurrent spike reaches its own member's block, not the zero blocks of the others.
+#[test]
+fn an_ensembles_recurrent_spikes_cost_their_own_block() {
+    use snn::spec::{LayerSpec, NetworkSpec, OpSpec, ensemble};
+    let dense = |n_out, neurons, recurrent| LayerSpec {
+        op: OpSpec::Dense { n_out },
+        neurons: Some(neurons),
+        recurrent,
+        bias: false,
+        recurrent_bias: false,
+    };
+    let spec = NetworkSpec {
+        input_shape: vec![8],
+        layers: vec![
+            dense(12, NeuronParams::cuba_lif(0.8, 0.9).with_reset(Reset::Subtract), true),
+            dense(3, NeuronParams::leaky_integrator(0.95), false),
+        ],
+    };
+    let members: Vec<_> = (1..=3).map(|seed| spec.init(seed, 2.5).unwrap()).collect();
+    let (merged, weights) = ensemble(&spec, &members).unwrap();
+    let steps = 40;
+    let input = random_input(4, steps, 8, 0.3);
+    let run = |net: &Network| {
+        let engine = Engine::new(net, 1_000, Mode::Stepped).unwrap();
+        let mut st = engine.state(0);
+        feed(&engine, &mut st, &input, 8, steps);
+        st.stats
+    };
+    let whole = run(&merged.build(weights).unwrap());
+    let parts: Vec<_> = members.iter().map(|w| run(&spec.build(w.clone()).unwrap())).collect();
+    assert!(parts.iter().all(|s| s.spikes[0] > 20), "the test needs recurrent spikes: {parts:?}");
+    assert_eq!(whole.spikes[0], parts.iter().map(|s| s.spikes[0]).sum::<u64>());
+    assert_eq!(whole.synops, parts.iter().map(|s| s.synops).sum::<u64>());
+}

@@ -50,6 +50,10 @@ pub(super) struct Compiled {
     pub(super) bias: Option<Vec<f32>>,
     /// Recurrent weights `[in][out]`.
     pub(super) rec_t: Option<Vec<f32>>,
+    /// Per recurrent input, the outputs from its first to its last non-zero weight: a spike
+    /// adds (and counts operations) there only. All of them in a trained layer; a member's own
+    /// block in a merged ensemble's (`spec::ensemble`), whose other blocks are zero.
+    pub(super) rec_span: Vec<(u32, u32)>,
     /// Recurrent bias, added from the stream's step 1 on.
     pub(super) rec_bias: Option<Vec<f32>>,
     /// Every neuron is evaluated every step (bias, or a resting level above threshold).
@@ -131,6 +135,18 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         }
         t
     });
+    let rec_span = rec_t
+        .as_ref()
+        .map(|t| {
+            t.chunks(n_out.max(1))
+                .map(|row| {
+                    let lo = row.iter().position(|&w| w != 0.0).unwrap_or(0);
+                    let hi = row.iter().rposition(|&w| w != 0.0).map_or(lo, |h| h + 1);
+                    (lo as u32, hi as u32)
+                })
+                .collect()
+        })
+        .unwrap_or_default();
     let p = l.neurons;
     let every_step = l.op.bias().is_some() || l.recurrent_bias.is_some() || p.is_some_and(|p| p.v_leak > p.threshold());
     let (mut decay_table, mut ln_beta_per_us) = (Vec::new(), 0.0);
@@ -152,6 +168,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         neurons: p,
         bias: l.op.bias().map(<[f32]>::to_vec),
         rec_t,
+        rec_span,
         rec_bias: l.recurrent_bias.clone(),
         every_step,
         track_max: p.is_some_and(|p| p.kind == NeuronKind::Li),

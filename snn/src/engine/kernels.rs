@@ -25,13 +25,16 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
     if rec_on && let Some(rt) = &c.rec_t {
         s.rec.iter_mut().for_each(|r| *r = 0.0);
         if s.rec_pending {
+            // each previous spike reaches every neuron of the layer from its first to its last
+            // non-zero weight (all of them, but in a merged ensemble): synaptic operations too
             for &j in &s.prev {
-                for (r, &w) in s.rec.iter_mut().zip(&rt[j as usize * n..(j as usize + 1) * n]) {
+                let (lo, hi) = c.rec_span[j as usize];
+                let (lo, hi) = (lo as usize, hi as usize);
+                for (r, &w) in s.rec[lo..hi].iter_mut().zip(&rt[j as usize * n + lo..j as usize * n + hi]) {
                     *r += 1.0 * w;
                 }
+                stats.synops += (hi - lo) as u64;
             }
-            // each previous spike reaches every neuron of the layer: synaptic operations too
-            stats.synops += s.prev.len() as u64 * n as u64;
         }
         if let Some(b) = rec_bias {
             for (r, b) in s.rec.iter_mut().zip(b) {
