@@ -608,7 +608,7 @@ impl SparseSnn {
                 lt.surr_all.reserve(steps * n);
             }
             let (mut u, mut v, mut cur) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
-            let (mut near, mut dist) = (Vec::new(), Vec::new());
+            let (mut near_buf, mut dist) = (Vec::new(), Vec::new());
             let li = plan.neurons.is_some_and(|p| p.kind == NeuronKind::Li);
             if li {
                 v_max = vec![f32::NEG_INFINITY; n];
@@ -675,7 +675,8 @@ impl SparseSnn {
                             derivatives(self.surrogate, &v, np.v_th, &mut lt.surr_all[start..]);
                         }
                         let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
-                        above(&v, low, &mut near);
+                        let found = above(&v, low, &mut near_buf);
+                        let near = &near_buf[..found];
                         // their distances to threshold
                         dist.clear();
                         dist.extend(near.iter().map(|&o| v[o as usize] - np.v_th));
@@ -706,11 +707,17 @@ impl SparseSnn {
                         }
                         lt.spikes.idx.truncate(end);
                         lt.spikes.val.resize(end, 1.0);
+                        if mask.is_none() {
+                            // what the next layer receives: the spikes themselves
+                            lt.out.idx.extend_from_slice(&lt.spikes.idx[fired..]);
+                            lt.out.val.resize(lt.out.idx.len(), 1.0);
+                        }
                         for &o in &lt.spikes.idx[fired..] {
                             let o = o as usize;
-                            let m = mask.map_or(1.0, |m| m[o]);
-                            if m != 0.0 {
-                                lt.out.push(o as u32, m);
+                            if let Some(m) = mask
+                                && m[o] != 0.0
+                            {
+                                lt.out.push(o as u32, m[o]);
                             }
                             let v = &mut v[o];
                             *v = match np.reset {
@@ -1107,13 +1114,16 @@ fn truncation_width(surrogate: Surrogate, cutoff: f32) -> f32 {
     }
 }
 
-/// The indices of `v` above `low`, ascending, into `out`, without a branch per index: four
-/// membranes compared at once into a 4-bit mask, whose set lanes' offsets come packed from a
-/// table ([`PACK4`]) and are stored four at a time, the end advancing by their count.
+/// The indices of `v` above `low`, ascending, into the front of `out` (kept at least
+/// `v.len() + 4` long, so that it is not cleared each step): how many. Without a branch per
+/// index: four membranes compared at once into a 4-bit mask, whose set lanes' offsets come
+/// packed from a table ([`PACK4`]) and are stored four at a time, the end advancing by their
+/// count.
 #[inline(always)]
-fn above(v: &[f32], low: f32, out: &mut Vec<u32>) {
-    out.clear();
-    out.resize(v.len() + 4, 0);
+fn above(v: &[f32], low: f32, out: &mut Vec<u32>) -> usize {
+    if out.len() < v.len() + 4 {
+        out.resize(v.len() + 4, 0);
+    }
     let mut k = 0;
     let quads = v.len() / 4;
     for (q, x) in v.chunks_exact(4).enumerate() {
@@ -1130,7 +1140,7 @@ fn above(v: &[f32], low: f32, out: &mut Vec<u32>) {
         out[k] = j as u32;
         k += (x > low) as usize;
     }
-    out.truncate(k);
+    k
 }
 
 /// Which of four lanes are above `low`, as a 4-bit mask (lane 0 the lowest bit).
