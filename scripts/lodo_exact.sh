@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Issue #51, the fourth leave-one-dataset-out decision (2026-11-30, rule in
+# docs/log/tactile-2026-11-30.md): exact gradients (`--gradient-cutoff 0`) in the derived recipe,
+# measured at the search's trial 0 on the three datasets (the runs without it:
+# docs/results/search/lodo-2026-11-30/*-none.md, by scripts/lodo.sh). Writes
+# docs/results/search/lodo-2026-11-30/*-exact.md; the test splits are not read.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+b=target/release/braille
+[[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
+out=docs/results/search/lodo-2026-11-30
+mkdir -p "$out"
+for d in raw1350 th10 taxels; do
+  case $d in taxels) data=target/sim-taxels ;; *) data=data/icub_braille/$d ;; esac
+  tmp=$(mktemp -d)
+  $b train --data $data --search --search-trials 1 --seeds 1 --gradient-cutoff 0 \
+    --search-dir "$tmp/search" --out "$tmp/model.safetensors" --quiet
+  cp "$tmp/search/search.md" "$out/$d-exact.md"
+  rm -rf "$tmp"
+done
