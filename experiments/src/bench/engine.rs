@@ -112,15 +112,12 @@ pub fn train_step(batch: usize, repeats: usize, cutoff: f32) -> Result<TrainRepo
         let mut adam = Adam::new(&params, 0.0, 0.0);
         let mut times = Vec::new();
         let mut first = None;
-        // each batch in the trainer's input form before the clock starts, as the peers' input
-        // tensors are made before theirs (and as `braille train` encodes a dataset once)
-        let inputs: Vec<Vec<StepEvents>> = batches
-            .iter()
-            .map(|batch| {
-                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect()
-            })
-            .collect();
-        for (rep, events) in inputs.iter().enumerate() {
+        for (rep, batch) in batches.iter().enumerate() {
+            // the batch in the trainer's input form before the clock starts, as the peers' input
+            // tensors are made before theirs (and as `braille train` encodes a dataset once);
+            // one batch at a time, so that the memory figure holds one batch's input as before
+            let events: Vec<StepEvents> =
+                batch.iter().map(|e| trainer.input_events(StepEvents::from_entries(STEPS, &mut e.clone()))).collect();
             let start = Instant::now();
             let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
             let g = trainer.batch_gradient(&params, &samples, &[]);
@@ -193,10 +190,11 @@ fn dense_train_step(
     let loss_fn = burn::nn::loss::CrossEntropyLossConfig::new().init(&device);
     let n: usize = spec.input_shape.iter().product();
     let mut times = Vec::new();
-    // the input tensors made before the clock starts, as the peers' (and the sparse trainer's)
-    let inputs: Vec<_> = batches.iter().map(|batch| learn::train::dense_input(batch, STEPS, n, &device)).collect();
-    for (rep, (batch, input)) in batches.iter().zip(inputs).enumerate() {
+    for (rep, batch) in batches.iter().enumerate() {
         let b = batch.len();
+        // the input tensor made before the clock starts, as the peers' (and the sparse
+        // trainer's), one batch at a time
+        let input = learn::train::dense_input(batch, STEPS, n, &device);
         let start = Instant::now();
         let y: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
         let y = Tensor::<1, Int>::from_data(TensorData::new(y, [b]), &device);
