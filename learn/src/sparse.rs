@@ -596,6 +596,8 @@ impl SparseSnn {
         let steps = input.steps();
         let last = self.plans.len() - 1;
         let mut spare = spare.into_iter();
+        // exact: every neuron keeps its surrogate, stored densely (`LayerTape::surr_all`)
+        let all = tape && self.x_cut == f32::INFINITY;
         let mut layers: Vec<LayerTape> = Vec::with_capacity(self.plans.len());
         let mut v_max = Vec::new();
         for (k, plan) in self.plans.iter().enumerate() {
@@ -604,7 +606,7 @@ impl SparseSnn {
             let n = plan.n_out;
             let mask = masks.get(k).and_then(Option::as_deref);
             let mut lt = spare.next().map_or_else(LayerTape::default, LayerTape::cleared);
-            if tape && self.x_cut == f32::INFINITY {
+            if all {
                 lt.surr_all.reserve(steps * n);
             }
             let (mut u, mut v, mut cur) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
@@ -665,14 +667,13 @@ impl SparseSnn {
                         }
                         // exact: every neuron's derivative, densely (it vectorises); else those
                         // of the neurons near threshold, below
-                        let all = tape && self.x_cut == f32::INFINITY;
                         for (v, &drive) in v.iter_mut().zip(&u) {
                             *v = *v * np.beta + leak + drive;
                         }
                         if all {
                             let start = lt.surr_all.len();
-                            lt.surr_all.resize(start + n, 0.0);
-                            derivatives(self.surrogate, &v, np.v_th, &mut lt.surr_all[start..]);
+                            lt.surr_all.extend(v.iter().map(|&v| v - np.v_th));
+                            derivatives_in_place(self.surrogate, &mut lt.surr_all[start..]);
                         }
                         let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
                         let found = above(&v, low, &mut near_buf);
@@ -778,7 +779,8 @@ impl SparseSnn {
         grads: &mut Params,
     ) {
         let by_input = self.weights_by_input(params);
-        self.backward_by(params, &by_input, &mut Vec::new(), input, masks, out, g_logits, grads)
+        let mut work = Workspace { params, by_input: &by_input, pool: &mut Vec::new() };
+        self.backward_by(&mut work, input, masks, out, g_logits, grads)
     }
 
     /// Each layer's weights laid out for gathering the gradient of all its inputs at once (none
@@ -792,14 +794,10 @@ impl SparseSnn {
             .collect()
     }
 
-    /// [`Self::backward`] with the weights by input made ([`Self::weights_by_input`]), its
-    /// step-by-step gradients in buffers taken from `pool` and given back to it.
-    #[allow(clippy::too_many_arguments)]
+    /// [`Self::backward`] in a worker's [`Workspace`].
     fn backward_by(
         &self,
-        params: &Params,
-        by_input: &[Option<ByInput>],
-        pool: &mut Vec<Vec<f32>>,
+        work: &mut Workspace,
         input: &StepEvents,
         masks: &[Option<Vec<f32>>],
         out: &SampleOutput,
@@ -809,36 +807,30 @@ impl SparseSnn {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this CPU has AVX2 (just checked).
-            return unsafe { self.backward_avx2(params, by_input, pool, input, masks, out, g_logits, grads) };
+            return unsafe { self.backward_avx2(work, input, masks, out, g_logits, grads) };
         }
-        self.backward_with(params, by_input, pool, input, masks, out, g_logits, grads)
+        self.backward_with(work, input, masks, out, g_logits, grads)
     }
 
     /// [`Self::backward`] compiled for AVX2 (the same operations, as [`Self::forward_avx2`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
     fn backward_avx2(
         &self,
-        params: &Params,
-        by_input: &[Option<ByInput>],
-        pool: &mut Vec<Vec<f32>>,
+        work: &mut Workspace,
         input: &StepEvents,
         masks: &[Option<Vec<f32>>],
         out: &SampleOutput,
         g_logits: &[f32],
         grads: &mut Params,
     ) {
-        self.backward_with(params, by_input, pool, input, masks, out, g_logits, grads)
+        self.backward_with(work, input, masks, out, g_logits, grads)
     }
 
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn backward_with(
         &self,
-        params: &Params,
-        by_input: &[Option<ByInput>],
-        pool: &mut Vec<Vec<f32>>,
+        work: &mut Workspace,
         input: &StepEvents,
         masks: &[Option<Vec<f32>>],
         out: &SampleOutput,
@@ -858,6 +850,7 @@ impl SparseSnn {
             g_read[o] = if clamped { 0.0 } else { g };
         }
         // (pool buffers: as many taken as given back)
+        let (params, pool) = (work.params, &mut *work.pool);
         let mut g_out = pool.pop().unwrap_or_default();
         g_out.clear();
         match self.readout {
@@ -879,7 +872,7 @@ impl SparseSnn {
             g_below.resize(steps * nb, 0.0);
             // the weights laid out by input, for the steps where every input keeps a surrogate
             // (the exact gradient): eight inputs gathered at once
-            let by_input = by_input[k].as_ref();
+            let by_input = work.by_input[k].as_ref();
             let (mut g_u, mut carry_v, mut carry_i, mut g_rec) =
                 (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             for t in (0..steps).rev() {
@@ -1042,13 +1035,14 @@ impl SparseSnn {
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(spare, pool), (c, part)| {
+                    let mut work = Workspace { params, by_input: &by_input, pool };
                     let mut acc = empty();
                     for (j, &(input, label)) in part.iter().enumerate() {
                         let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
                         let out = forward(input, m, std::mem::take(spare))?;
                         let (loss, mut g, hit) = cross_entropy(&out.logits, label);
                         g.iter_mut().for_each(|g| *g /= b as f32);
-                        self.backward_by(params, &by_input, pool, input, m, &out, &g, &mut acc.grads);
+                        self.backward_by(&mut work, input, m, &out, &g, &mut acc.grads);
                         acc.loss_sum += loss;
                         acc.kept_surrogates += out.tape.iter().map(LayerTape::n_kept).sum::<usize>();
                         acc.hits += hit as usize;
@@ -1267,6 +1261,15 @@ fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
     }
 }
 
+/// What a worker's backward passes share: the parameters, each layer's weights laid out by input
+/// (made once per batch, [`SparseSnn::weights_by_input`]), and buffers for the step-by-step
+/// gradients, taken from the pool and given back to it, sample after sample.
+struct Workspace<'a> {
+    params: &'a Params,
+    by_input: &'a [Option<ByInput>],
+    pool: &'a mut Vec<Vec<f32>>,
+}
+
 /// Lanes of [`gather_all_conv`] and [`gather_all_dense`]: inputs gathered at once.
 const GATHER_LANES: usize = 8;
 
@@ -1344,7 +1347,7 @@ fn gather_all_dense(wt: &[f32], n: usize, g: &[f32], g_in: &mut [f32]) {
         }
     }
     // the last inputs one by one, as `dot` over their row
-    let mut row = vec![0f32; n];
+    let mut row = if rest.is_empty() { Vec::new() } else { vec![0f32; n] };
     for (j, out) in rest.iter_mut().enumerate() {
         let i = lanes_end + j;
         for (o, r) in row.iter_mut().enumerate() {
@@ -1392,23 +1395,6 @@ fn surrogate_all(g_u: &mut [f32], sv: &[f32], go: &[f32], gr: &[f32]) {
     }
 }
 
-/// The surrogate derivative `sigma'(v - v_th)` of every membrane in `v`, into `out` (one arm per
-/// surrogate, so that each loop vectorises).
-#[inline(always)]
-fn derivatives(surrogate: Surrogate, v: &[f32], v_th: f32, out: &mut [f32]) {
-    macro_rules! each {
-        ($s:expr) => {
-            for (o, &v) in out.iter_mut().zip(v) {
-                *o = $s.derivative(v - v_th);
-            }
-        };
-    }
-    match surrogate {
-        Surrogate::FastSigmoid { slope } => each!(Surrogate::FastSigmoid { slope }),
-        Surrogate::Arctan { alpha } => each!(Surrogate::Arctan { alpha }),
-        Surrogate::Triangle { width } => each!(Surrogate::Triangle { width }),
-    }
-}
 
 /// [`gather`] for every input of a convolution (`g_in[i]`, all of them), a pixel's input channels
 /// [`GATHER_LANES`] at a time from `wt` ([`weights_by_input`]). Each lane does the very
