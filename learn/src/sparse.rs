@@ -1395,7 +1395,6 @@ fn surrogate_all(g_u: &mut [f32], sv: &[f32], go: &[f32], gr: &[f32]) {
     }
 }
 
-
 /// [`gather`] for every input of a convolution (`g_in[i]`, all of them), a pixel's input channels
 /// [`GATHER_LANES`] at a time from `wt` ([`weights_by_input`]). Each lane does the very
 /// operations of [`gather`] in its order (the products of [`dot`] in four running sums and a tail,

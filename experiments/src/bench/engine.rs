@@ -60,7 +60,7 @@ pub struct TrainReport {
 
 /// The peers' training input: per step, `density` of the pixels have one event of a random
 /// polarity; `(step, input, 1)` entries of each of `batch` samples (C order).
-fn peer_train_batch(seed: u64, batch: usize, density: f64) -> Vec<learn::sparse::Entries> {
+pub fn peer_train_batch(seed: u64, batch: usize, density: f64) -> Vec<learn::sparse::Entries> {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let plane = 60 * 80;
