@@ -4,9 +4,10 @@
 # measured at the search's trial 0 on the three datasets (the runs without it:
 # docs/results/search/lodo-2026-11-30/*-none.md, by scripts/lodo.sh). Writes
 # docs/results/search/lodo-2026-11-30/*-exact.md; the test splits are not read.
-# With `--search`: the headline searches of raw1350 and the taxels again with exact gradients, for
-# the decision under the log's Rule B (validation only: the test splits are not read; final
-# models in models/search/*-exact*, trained and not scored).
+# With `--search`: the headline searches of raw1350, the taxels and th10 again with exact
+# gradients, for the decisions under the log's Rule B (validation only: the test splits are not
+# read; final models in models/search/*-exact*, trained and not scored). About 35, 30 and 100
+# minutes on two cores (2026-11-30).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -17,6 +18,8 @@ if [[ "${1:-}" == "--search" ]]; then
     --out models/search/raw1350-exact.safetensors --search-dir docs/results/search/raw1350-exact --quiet --force
   $b train --data target/sim-taxels --search --search-trials 16 --seeds 3 --gradient-cutoff 0 \
     --out models/search/sim-taxels-exact.safetensors --search-dir docs/results/search/sim-taxels-exact --quiet --force
+  $b train --data data/icub_braille/th10 --search --search-trials 12 --seeds 3 --gradient-cutoff 0 \
+    --out models/search/th10-exact.safetensors --search-dir docs/results/search/th10-exact --quiet --force
   exit 0
 fi
 out=docs/results/search/lodo-2026-11-30

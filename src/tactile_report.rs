@@ -3,20 +3,24 @@
 //! (`experiments::reports::tactile`).
 
 use anyhow::{Result, bail};
-use experiments::reports::tactile::{TactileSource, write_report};
+use experiments::reports::tactile::{SnnSearch, TactileSource, write_report};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A dataset as NAME=FOLDER (repeatable). Its SNN is the search run `NAME-warmup` under
-    /// --search, its networks and floors `NAME/baselines.json` under --baselines
-    /// [default: raw1350 and th10 under data/icub_braille, sim-taxels=target/sim-taxels, the
-    /// folder `scripts/search_taxels.sh` generates].
+    /// A dataset as NAME=FOLDER (repeatable). Its SNN is the better by validation score of the
+    /// search runs `NAME-warmup` (truncated gradients) and `NAME-exact` under --search (their
+    /// trial logs under --search-logs), its networks and floors `NAME/baselines.json` under
+    /// --baselines [default: raw1350 and th10 under data/icub_braille,
+    /// sim-taxels=target/sim-taxels, the folder `scripts/search_taxels.sh` generates].
     #[arg(long = "dataset", value_name = "NAME=FOLDER")]
     datasets: Vec<String>,
     /// Folder of the SNN search's final models [default: the shipped ones, `models/search/`].
     #[arg(long)]
     search: Option<PathBuf>,
+    /// Folder of the SNN searches' trial logs, one folder per search run.
+    #[arg(long, default_value = "docs/results/search")]
+    search_logs: PathBuf,
     /// Folder of `braille baselines --search --eval-test --out` results, one folder per dataset.
     #[arg(long, default_value = "docs/results/baselines")]
     baselines: PathBuf,
@@ -41,10 +45,18 @@ pub fn run(a: Args) -> Result<()> {
         let Some((name, folder)) = d.split_once('=') else {
             bail!("--dataset {d}: expected NAME=FOLDER");
         };
+        let run = |label: &str, run: String| SnnSearch {
+            label: label.into(),
+            models: search.join(format!("{run}.safetensors")),
+            trials: a.search_logs.join(run),
+        };
         let source = TactileSource {
             name: name.to_string(),
             data: PathBuf::from(folder),
-            snn_run: search.join(format!("{}.safetensors", experiments::reports::icub::search_run(name))),
+            snn: vec![
+                run("truncated gradients", experiments::reports::icub::search_run(name)),
+                run("exact gradients", format!("{name}-exact")),
+            ],
             baselines: a.baselines.join(name),
         };
         if !source.data.is_dir() {

@@ -12,14 +12,27 @@ use snn::engine::Mode;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// One dataset to report: its name, folder, the SNN search's run (`RUN.safetensors`,
-/// `RUN.seed2.safetensors`, ... under the search folder) and the baselines' folder.
+/// One dataset to report: its name, folder, the SNN searches that may stand for it and the
+/// baselines' folder.
 #[derive(Debug, Clone)]
 pub struct TactileSource {
     pub name: String,
     pub data: PathBuf,
-    pub snn_run: PathBuf,
+    /// The SNN searches, the one listed first winning ties; the better by validation score stands
+    /// for the dataset, the others' test split is not read.
+    pub snn: Vec<SnnSearch>,
     pub baselines: PathBuf,
+}
+
+/// One SNN search: its final models (`RUN.safetensors`, `RUN.seed2.safetensors`, ...) and the
+/// folder of its trial log (`trials-*.jsonl`), whose winner's score (the mean validation accuracy
+/// over the last epochs and the trial's seeds) decides between the searches of a dataset.
+#[derive(Debug, Clone)]
+pub struct SnnSearch {
+    /// What sets this search apart from the others of the dataset ("truncated gradients").
+    pub label: String,
+    pub models: PathBuf,
+    pub trials: PathBuf,
 }
 
 /// One model's line.
@@ -37,6 +50,8 @@ pub struct ModelLine {
     /// Synaptic operations (SNN) or multiply-accumulates (the others) per sample.
     pub ops_per_sample: f64,
     pub spiking: bool,
+    /// An SNN search's winning validation score (the others: none).
+    pub validation_score: Option<f64>,
 }
 
 impl ModelLine {
@@ -66,7 +81,9 @@ impl TactileRow {
     /// The SNN's mean minus the best conventional network's, and minus the best linear floor's,
     /// in points.
     pub fn gaps(&self) -> (Option<f64>, Option<f64>) {
-        let Some(snn) = self.lines.iter().find(|l| l.spiking) else { return (None, None) };
+        let Some(snn) = self.lines.iter().find(|l| l.spiking && !l.test_accuracies.is_empty()) else {
+            return (None, None);
+        };
         let net = self.best(|l| !l.spiking && !is_linear(l));
         let floor = self.best(is_linear);
         (net.map(|n| 100.0 * (snn.mean - n.mean)), floor.map(|f| 100.0 * (snn.mean - f.mean)))
@@ -116,59 +133,49 @@ struct NetFinal {
 
 fn line(model: String, choice: String, accuracies: Vec<f64>, parameters: usize, ops: f64, spiking: bool) -> ModelLine {
     let (mean, sd) = crate::eval::scoring::mean_sd(&accuracies).unwrap_or((f64::NAN, f64::NAN));
-    ModelLine { model, choice, test_accuracies: accuracies, mean, sd, parameters, ops_per_sample: ops, spiking }
+    ModelLine {
+        model,
+        choice,
+        test_accuracies: accuracies,
+        mean,
+        sd,
+        parameters,
+        ops_per_sample: ops,
+        spiking,
+        validation_score: None,
+    }
 }
 
-/// The report's row of `source`.
+/// The report's row of `source`: the SNN searches (the test split read only by the final models
+/// of the one with the best validation score), then the networks and the floors.
 pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
-    let mut lines = Vec::new();
-    let models: Vec<PathBuf> =
-        (1..).map(|seed| crate::train::search::seed_path(&source.snn_run, seed)).take_while(|p| p.is_file()).collect();
-    if models.is_empty() {
+    let mut found = Vec::new();
+    for s in &source.snn {
+        let models: Vec<PathBuf> =
+            (1..).map(|seed| crate::train::search::seed_path(&s.models, seed)).take_while(|p| p.is_file()).collect();
+        if models.is_empty() {
+            continue;
+        }
+        let trials = crate::train::search::read_logs(&s.trials)?;
+        let Some(winner) = crate::train::search::winner(&trials) else {
+            return Err(Error::Data { path: s.trials.clone(), what: "no trial logged: no validation score".into() });
+        };
+        found.push((s, models, winner.score));
+    }
+    let scores: Vec<f64> = found.iter().map(|f| f.2).collect();
+    let Some(chosen) = best_by_validation(&scores) else {
+        let path = source.snn.first().map_or_else(|| source.data.clone(), |s| s.models.clone());
         return Err(Error::Model {
-            path: source.snn_run.clone(),
+            path,
             what: "no SNN search model here (`braille train --data DIR --search --seeds 3 --out FILE`)".into(),
         });
+    };
+    let mut lines: Vec<ModelLine> = Vec::new();
+    for (i, (s, models, score)) in found.iter().enumerate() {
+        let mut l = snn_line(source, s, models, i == chosen)?;
+        l.validation_score = Some(*score);
+        lines.push(l);
     }
-    let (mut accuracies, mut synops) = (Vec::new(), 0.0);
-    for m in &models {
-        let (e, _) = eval_split(m, &source.data, SplitChoice::Test, Mode::Stepped)?;
-        accuracies.push(e.accuracy);
-        synops += e.synops_per_sample / models.len() as f64;
-    }
-    let first = pipeline::models::load_snn(&models[0])?;
-    let spec = &first.config.network;
-    let parameters = spec
-        .shapes()?
-        .iter()
-        .zip(&spec.layers)
-        .map(|(s, l)| {
-            let n = |v: &[usize]| if v.is_empty() { 0 } else { v.iter().product::<usize>() };
-            n(&s.weight)
-                + if l.bias { n(&s.bias) } else { 0 }
-                + if l.recurrent { n(&s.recurrent) } else { 0 }
-                + if l.recurrent_bias { n(&s.recurrent_bias) } else { 0 }
-        })
-        .sum();
-    let hidden: Vec<String> = spec.layers[..spec.layers.len() - 1]
-        .iter()
-        .filter_map(|l| match l.op {
-            snn::spec::OpSpec::Dense { n_out } => Some(format!(
-                "{n_out} {}{}",
-                l.neurons.map_or(String::new(), |p| format!("{:?}", p.kind)),
-                if l.recurrent { " (recurrent)" } else { "" }
-            )),
-            _ => None,
-        })
-        .collect();
-    lines.push(line(
-        format!("SNN ({} seeds)", models.len()),
-        format!("the search's winner: {}, dt {} ms", hidden.join(", "), first.config.dt_us as f64 / 1e3),
-        accuracies,
-        parameters,
-        synops,
-        true,
-    ));
     let path = source.baselines.join("baselines.json");
     let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
     let b: BaselinesFile = serde_json::from_str(&text)
@@ -197,6 +204,61 @@ pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
     Ok(TactileRow { dataset: source.name.clone(), lines })
 }
 
+/// The search with the highest validation score; the first of equals.
+fn best_by_validation(scores: &[f64]) -> Option<usize> {
+    scores.iter().enumerate().fold(None, |best: Option<usize>, (i, &v)| match best {
+        Some(b) if scores[b] >= v => Some(b),
+        _ => Some(i),
+    })
+}
+
+/// The line of one SNN search: with `read_test`, its final models on the test split (seed mean,
+/// SynOps per sample); without, its size alone.
+fn snn_line(source: &TactileSource, search: &SnnSearch, models: &[PathBuf], read_test: bool) -> Result<ModelLine> {
+    let (mut accuracies, mut synops) = (Vec::new(), f64::NAN);
+    if read_test {
+        synops = 0.0;
+        for m in models {
+            let (e, _) = eval_split(m, &source.data, SplitChoice::Test, Mode::Stepped)?;
+            accuracies.push(e.accuracy);
+            synops += e.synops_per_sample / models.len() as f64;
+        }
+    }
+    let first = pipeline::models::load_snn(&models[0])?;
+    let spec = &first.config.network;
+    let parameters = spec
+        .shapes()?
+        .iter()
+        .zip(&spec.layers)
+        .map(|(s, l)| {
+            let n = |v: &[usize]| if v.is_empty() { 0 } else { v.iter().product::<usize>() };
+            n(&s.weight)
+                + if l.bias { n(&s.bias) } else { 0 }
+                + if l.recurrent { n(&s.recurrent) } else { 0 }
+                + if l.recurrent_bias { n(&s.recurrent_bias) } else { 0 }
+        })
+        .sum();
+    let hidden: Vec<String> = spec.layers[..spec.layers.len() - 1]
+        .iter()
+        .filter_map(|l| match l.op {
+            snn::spec::OpSpec::Dense { n_out } => Some(format!(
+                "{n_out} {}{}",
+                l.neurons.map_or(String::new(), |p| format!("{:?}", p.kind)),
+                if l.recurrent { " (recurrent)" } else { "" }
+            )),
+            _ => None,
+        })
+        .collect();
+    Ok(line(
+        format!("SNN, {} ({} seeds)", search.label, models.len()),
+        format!("the search's winner: {}, dt {} ms", hidden.join(", "), first.config.dt_us as f64 / 1e3),
+        accuracies,
+        parameters,
+        synops,
+        true,
+    ))
+}
+
 /// The rows of `sources`, written to `out` as `tactile.md` and `tactile.json`; the Markdown.
 pub fn write_report(sources: &[TactileSource], out: &Path) -> Result<String> {
     let rows = sources.iter().map(tactile_row).collect::<Result<Vec<_>>>()?;
@@ -214,7 +276,7 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
     writeln!(md, "# The SNN against conventional networks on tactile data\n")?;
     writeln!(
         md,
-        "Regenerate: `braille tactile-report` (the SNN search's models from `scripts/search_icub.sh --defaults` and `scripts/search_taxels.sh --current`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
+        "Regenerate: `braille tactile-report` (the SNN searches' models from `scripts/search_icub.sh --defaults`, `scripts/search_taxels.sh --current` and `scripts/lodo_exact.sh --search`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN is the better by validation score (the winning trial's mean over its last 5 epochs and 3 seeds) of the dataset's two searches, with truncated and with exact gradients (the rule #51's leave-one-dataset-out decisions fixed, docs/training.md); the other's final models do not read the test split. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
         CMOS45_ADD.pj_per_op, LOIHI_SYNOP.pj_per_op, CMOS45_MAC.pj_per_op, CMOS45_MAC.source, LOIHI_SYNOP.source
     )?;
     writeln!(md, "| data | SNN minus the best network | SNN minus the best linear floor |\n| --- | --- | --- |")?;
@@ -230,7 +292,9 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
             "| model | chosen on validation | **test, mean (s.d.)** | per seed | parameters | work / sample | energy / sample: 45 nm | Loihi |\n| --- | --- | --- | --- | --- | --- | --- | --- |"
         )?;
         for l in &r.lines {
-            let mean = if l.sd.is_nan() {
+            let mean = if l.test_accuracies.is_empty() {
+                "not read (lower on validation)".to_string()
+            } else if l.sd.is_nan() {
                 format!("{:.1}%", 100.0 * l.mean)
             } else {
                 format!("**{:.1}%** ({:.1})", 100.0 * l.mean, 100.0 * l.sd)
@@ -240,18 +304,21 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
             } else {
                 String::new()
             };
-            let (e45, loihi) = l.energy_uj();
-            writeln!(
-                md,
-                "| {} | {} | {mean} | {per} | {} | {:.0} {} | {:.3} uJ | {} |",
-                l.model,
-                l.choice,
-                l.parameters,
-                l.ops_per_sample,
-                if l.spiking { "SynOps" } else { "MACs" },
-                e45,
-                loihi.map_or(String::new(), |e| format!("{e:.3} uJ"))
-            )?;
+            let choice = match l.validation_score {
+                Some(v) => format!("{}; validation score {:.2}%", l.choice, 100.0 * v),
+                None => l.choice.clone(),
+            };
+            let (work, e45, loihi) = if l.ops_per_sample.is_nan() {
+                (String::new(), String::new(), String::new())
+            } else {
+                let (e45, loihi) = l.energy_uj();
+                (
+                    format!("{:.0} {}", l.ops_per_sample, if l.spiking { "SynOps" } else { "MACs" }),
+                    format!("{e45:.3} uJ"),
+                    loihi.map_or(String::new(), |e| format!("{e:.3} uJ")),
+                )
+            };
+            writeln!(md, "| {} | {choice} | {mean} | {per} | {} | {work} | {e45} | {loihi} |", l.model, l.parameters)?;
         }
     }
     Ok(md)
@@ -267,6 +334,8 @@ mod tests {
         let row = TactileRow {
             dataset: "d".into(),
             lines: vec![
+                // an SNN search whose test split was not read stands for nothing
+                line("SNN, lower on validation".into(), String::new(), Vec::new(), 1, f64::NAN, true),
                 l("SNN", 0.80, true),
                 l("GRU", 0.85, false),
                 l("temporal CNN", 0.75, false),
@@ -275,6 +344,8 @@ mod tests {
             ],
         };
         let (net, floor) = row.gaps();
+        assert_eq!(best_by_validation(&[0.9, 0.95, 0.95, 0.8]), Some(1), "the first of equals");
+        assert_eq!(best_by_validation(&[]), None);
         assert!((net.unwrap() + 5.0).abs() < 1e-9 && (floor.unwrap() - 10.0).abs() < 1e-9);
         // SynOps cost an add, MACs a multiply-accumulate
         assert!(l("SNN", 0.8, true).energy_uj().1.is_some() && l("GRU", 0.8, false).energy_uj().1.is_none());
