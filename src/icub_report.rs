@@ -14,11 +14,16 @@ pub struct Args {
     /// ones, `models/icub/`].
     #[arg(long)]
     models: Option<PathBuf>,
-    /// Folder holding the search's final models (`raw1350-warmup.safetensors`,
-    /// `raw1350-warmup.seed2.safetensors`, ...), whose seed mean heads the table [default: the
-    /// shipped ones, `models/search/`].
+    /// Folder holding the searches' final models (`raw1350-warmup.safetensors`,
+    /// `raw1350-warmup.seed2.safetensors`, `raw1350-exact.safetensors`, ...); the seed mean of
+    /// the better on validation of a dataset's truncated and exact searches heads the table
+    /// [default: the shipped ones, `models/search/`].
     #[arg(long)]
     search: Option<PathBuf>,
+    /// Folder of the searches' trial logs, one folder per search run [default:
+    /// `docs/results/search`].
+    #[arg(long)]
+    search_logs: Option<PathBuf>,
     /// Where to write `icub.md`, `icub.json` and `icub.png`.
     #[arg(long, default_value = "docs/results")]
     out: PathBuf,
@@ -27,7 +32,11 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let models = args.models.unwrap_or_else(|| crate::common::shipped().icub_dir(pipeline::shipped::Variant::Trained));
     let search = args.search.unwrap_or_else(|| crate::common::shipped().search_dir());
-    let md = experiments::reports::figures::write_icub_report(&args.data, &models, Some(&search), &args.out)?;
+    let folders = experiments::reports::icub::SearchFolders {
+        models: search,
+        logs: args.search_logs.unwrap_or_else(|| crate::common::repo_path("docs/results/search")),
+    };
+    let md = experiments::reports::figures::write_icub_report(&args.data, &models, Some(&folders), &args.out)?;
     print!("{md}");
     Ok(())
 }

@@ -27,6 +27,7 @@ pub fn run(args: Args) -> Result<()> {
         realism: args.realism.realism,
         models: crate::common::shipped(),
         icub: repo_path("data/icub_braille"),
+        search_logs: repo_path("docs/results/search"),
     };
     Ok(experiments::reports::all::run(&spec, &Bar::default())?)
 }

@@ -18,9 +18,10 @@ pub struct Args {
     /// Folder of the SNN search's final models [default: the shipped ones, `models/search/`].
     #[arg(long)]
     search: Option<PathBuf>,
-    /// Folder of the SNN searches' trial logs, one folder per search run.
-    #[arg(long, default_value = "docs/results/search")]
-    search_logs: PathBuf,
+    /// Folder of the SNN searches' trial logs, one folder per search run [default:
+    /// `docs/results/search`].
+    #[arg(long)]
+    search_logs: Option<PathBuf>,
     /// Folder of `braille baselines --search --eval-test --out` results, one folder per dataset.
     #[arg(long, default_value = "docs/results/baselines")]
     baselines: PathBuf,
@@ -31,6 +32,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let search = a.search.unwrap_or_else(|| crate::common::shipped().search_dir());
+    let logs = a.search_logs.unwrap_or_else(|| crate::common::repo_path("docs/results/search"));
     let datasets = if a.datasets.is_empty() {
         vec![
             "raw1350=data/icub_braille/raw1350".to_string(),
@@ -45,18 +47,10 @@ pub fn run(a: Args) -> Result<()> {
         let Some((name, folder)) = d.split_once('=') else {
             bail!("--dataset {d}: expected NAME=FOLDER");
         };
-        let run = |label: &str, run: String| SnnSearch {
-            label: label.into(),
-            models: search.join(format!("{run}.safetensors")),
-            trials: a.search_logs.join(run),
-        };
         let source = TactileSource {
             name: name.to_string(),
             data: PathBuf::from(folder),
-            snn: vec![
-                run("truncated gradients", experiments::reports::icub::search_run(name)),
-                run("exact gradients", format!("{name}-exact")),
-            ],
+            snn: SnnSearch::under_rule(name, &search, &logs),
             baselines: a.baselines.join(name),
         };
         if !source.data.is_dir() {

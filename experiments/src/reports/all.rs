@@ -33,6 +33,9 @@ pub struct ReportSpec {
     pub models: Shipped,
     /// The folder of the iCub dataset folders `raw1350` and `th10`.
     pub icub: PathBuf,
+    /// The folder of the SNN searches' trial logs (one folder per search run), whose validation
+    /// scores pick the search that heads the iCub table.
+    pub search_logs: PathBuf,
 }
 
 /// Runs one part, timed, and notes it.
@@ -188,7 +191,10 @@ pub fn run(spec: &ReportSpec, progress: &dyn Progress) -> Result<()> {
         crate::reports::figures::write_icub_report(
             &spec.icub,
             &spec.models.icub_dir(Variant::Trained),
-            Some(&spec.models.search_dir()),
+            Some(&crate::reports::icub::SearchFolders {
+                models: spec.models.search_dir(),
+                logs: spec.search_logs.clone(),
+            }),
             out,
         )
     })?;

@@ -512,7 +512,12 @@ pub fn write_ueb_report(r: &crate::reports::ueb::UebReport, out: &Path) -> Resul
 }
 
 /// The report's files in `out`; its Markdown.
-pub fn write_icub_report(data: &Path, models: &Path, search: Option<&Path>, out: &Path) -> Result<String> {
+pub fn write_icub_report(
+    data: &Path,
+    models: &Path,
+    search: Option<&crate::reports::icub::SearchFolders>,
+    out: &Path,
+) -> Result<String> {
     let rows = icub_rows(data, models, search)?;
     create_dir(out)?;
     let md = crate::reports::icub::markdown(&rows)?;

@@ -35,6 +35,54 @@ pub struct SnnSearch {
     pub trials: PathBuf,
 }
 
+impl SnnSearch {
+    /// The searches that may stand for `dataset` under the rule #51's decisions fixed
+    /// (docs/training.md): the derived space searched with truncated gradients (the run
+    /// [`search_run`](crate::reports::icub::search_run) names) and with exact ones (`NAME-exact`),
+    /// their models under `models` and their trial logs under `logs`.
+    pub fn under_rule(dataset: &str, models: &Path, logs: &Path) -> Vec<SnnSearch> {
+        let run = |label: &str, run: String| SnnSearch {
+            label: label.into(),
+            models: models.join(format!("{run}.safetensors")),
+            trials: logs.join(run),
+        };
+        vec![
+            run("truncated gradients", crate::reports::icub::search_run(dataset)),
+            run("exact gradients", format!("{dataset}-exact")),
+        ]
+    }
+}
+
+/// A search of [`SnnSearch`] whose final models are there: the models, one per seed, and its
+/// winning trial's validation score.
+#[derive(Debug, Clone)]
+pub struct FoundSearch<'a> {
+    pub search: &'a SnnSearch,
+    pub models: Vec<PathBuf>,
+    pub validation_score: f64,
+}
+
+/// The searches of `searches` whose final models are there, and which of them stands (the
+/// highest validation score, the first of equals); none when no search has its models.
+pub fn found_searches(searches: &[SnnSearch]) -> Result<(Vec<FoundSearch<'_>>, Option<usize>)> {
+    let mut found = Vec::new();
+    for s in searches {
+        let models: Vec<PathBuf> =
+            (1..).map(|seed| crate::train::search::seed_path(&s.models, seed)).take_while(|p| p.is_file()).collect();
+        if models.is_empty() {
+            continue;
+        }
+        let trials = crate::train::search::read_logs(&s.trials)?;
+        let Some(winner) = crate::train::search::winner(&trials) else {
+            return Err(Error::Data { path: s.trials.clone(), what: "no trial logged: no validation score".into() });
+        };
+        found.push(FoundSearch { search: s, models, validation_score: winner.score });
+    }
+    let scores: Vec<f64> = found.iter().map(|f| f.validation_score).collect();
+    let chosen = best_by_validation(&scores);
+    Ok((found, chosen))
+}
+
 /// One model's line.
 #[derive(Debug, Clone, Serialize)]
 pub struct ModelLine {
@@ -149,21 +197,8 @@ fn line(model: String, choice: String, accuracies: Vec<f64>, parameters: usize, 
 /// The report's row of `source`: the SNN searches (the test split read only by the final models
 /// of the one with the best validation score), then the networks and the floors.
 pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
-    let mut found = Vec::new();
-    for s in &source.snn {
-        let models: Vec<PathBuf> =
-            (1..).map(|seed| crate::train::search::seed_path(&s.models, seed)).take_while(|p| p.is_file()).collect();
-        if models.is_empty() {
-            continue;
-        }
-        let trials = crate::train::search::read_logs(&s.trials)?;
-        let Some(winner) = crate::train::search::winner(&trials) else {
-            return Err(Error::Data { path: s.trials.clone(), what: "no trial logged: no validation score".into() });
-        };
-        found.push((s, models, winner.score));
-    }
-    let scores: Vec<f64> = found.iter().map(|f| f.2).collect();
-    let Some(chosen) = best_by_validation(&scores) else {
+    let (found, chosen) = found_searches(&source.snn)?;
+    let Some(chosen) = chosen else {
         let path = source.snn.first().map_or_else(|| source.data.clone(), |s| s.models.clone());
         return Err(Error::Model {
             path,
@@ -171,9 +206,9 @@ pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
         });
     };
     let mut lines: Vec<ModelLine> = Vec::new();
-    for (i, (s, models, score)) in found.iter().enumerate() {
-        let mut l = snn_line(source, s, models, i == chosen)?;
-        l.validation_score = Some(*score);
+    for (i, f) in found.iter().enumerate() {
+        let mut l = snn_line(source, f.search, &f.models, i == chosen)?;
+        l.validation_score = Some(f.validation_score);
         lines.push(l);
     }
     let path = source.baselines.join("baselines.json");
@@ -293,7 +328,7 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
         )?;
         for l in &r.lines {
             let mean = if l.test_accuracies.is_empty() {
-                "not read (lower on validation)".to_string()
+                "not scored here (lower on validation)".to_string()
             } else if l.sd.is_nan() {
                 format!("{:.1}%", 100.0 * l.mean)
             } else {
