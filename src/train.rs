@@ -62,6 +62,11 @@ pub struct Args {
     /// Pick the winner from the trial logs in DIR (all shards) and train the final models.
     #[arg(long, conflicts_with = "search")]
     collect: Option<PathBuf>,
+    /// --search: the rule issue #51 fixed (docs/training.md): the space searched twice, with
+    /// truncated gradients (the recipe's cutoff; logs in DIR/truncated) and with exact ones
+    /// (DIR/exact); only the better by validation score trains the final models.
+    #[arg(long, requires = "search", conflicts_with_all = ["gradient_cutoff", "shard", "budget_min"])]
+    both_gradients: bool,
     /// --search: the folder of the trial logs [default: OUT with the extension `.search`].
     #[arg(long)]
     search_dir: Option<PathBuf>,
@@ -569,7 +574,10 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
     {
         bail!("--budget-min: expected a number of minutes, 0 or more, got {m}");
     }
-    let run = SearchRun {
+    let dir = args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search"));
+    // the fixed rule's second search (--both-gradients)
+    let exact = SnnRecipe { gradient_cutoff: 0.0, ..base.clone() };
+    let run = |base, dir| SearchRun {
         dataset,
         profile,
         base,
@@ -579,14 +587,45 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
             trial_seeds: args.trial_seeds.max(1),
             ..SearchSpace::default()
         },
-        dir: args.collect.clone().or_else(|| args.search_dir.clone()).unwrap_or_else(|| out.with_extension("search")),
-        shard: args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL),
+        dir,
+        shard: Shard::ALL,
         run_trials: args.search,
         budget: args.budget_min.map(|m| std::time::Duration::from_secs_f64(60.0 * m)),
         seeds: args.seeds,
         eval_test: if args.eval_test { EvalTest::Yes } else { EvalTest::No },
         out: out.to_path_buf(),
         force: args.force,
+    };
+    if args.both_gradients {
+        if base.trainer != TrainerChoice::Sparse || base.gradient_cutoff <= 0.0 {
+            bail!(
+                "--both-gradients: the sparse trainer with a truncation (a --gradient-cutoff above 0) is one of the two searches"
+            );
+        }
+        let runs = [run(base, dir.join("truncated")), run(&exact, dir.join("exact"))];
+        eprintln!("{profile}");
+        let (chosen, scores, outcome) = experiments::train::search::run_rule(
+            &runs,
+            &mut TrialLines { quiet: args.quiet },
+            &mut Epochs::new(args.quiet),
+        )?;
+        let name = ["truncated", "exact"];
+        eprintln!(
+            "the {}-gradient search stands: validation score {:.2}% against {:.2}% ({})",
+            name[chosen],
+            100.0 * scores[chosen],
+            100.0 * scores[1 - chosen],
+            name[1 - chosen]
+        );
+        if let SearchOutcome::Done { trials, report, .. } = outcome {
+            println!("{}", trials_markdown(&trials));
+            eprintln!("wrote {}", report.display());
+        }
+        return Ok(());
+    }
+    let run = SearchRun {
+        shard: args.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL),
+        ..run(base, dir)
     };
     eprintln!("{profile}");
     match experiments::train::search::run(&run, &mut TrialLines { quiet: args.quiet }, &mut Epochs::new(args.quiet))? {

@@ -710,6 +710,54 @@ fn tiny_event_dataset(dir: &Path, classes: usize) {
 }
 
 #[test]
+fn the_fixed_rule_searches_with_both_gradients_and_trains_the_better_on_validation() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    tiny_event_dataset(&data, 3);
+    let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
+    let args = [
+        "train",
+        "--data",
+        d,
+        "--search",
+        "--both-gradients",
+        "--search-trials",
+        "1",
+        "--search-epochs",
+        "2",
+        "--hidden",
+        "8",
+        "--quiet",
+        "--search-dir",
+        logs.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = braille(&args);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    // each search's trial logged in its own folder, with its cutoff
+    let score = |g: &str| {
+        let line = std::fs::read_to_string(logs.join(g).join("trials-0-of-1.jsonl")).unwrap();
+        let t: serde_json::Value = serde_json::from_str(line.lines().next().unwrap()).unwrap();
+        assert_eq!(t["recipe"]["gradient_cutoff"].as_f64().unwrap() == 0.0, g == "exact", "{g}");
+        t["score"].as_f64().unwrap()
+    };
+    let (truncated, exact) = (score("truncated"), score("exact"));
+    let stands = if exact > truncated { "exact" } else { "truncated" };
+    assert!(err.contains(&format!("the {stands}-gradient search stands")), "{err}");
+    // only the search that stands trains the final model and writes its report
+    assert!(out.exists());
+    assert!(logs.join(stands).join("search.md").exists());
+    let other = if stands == "exact" { "truncated" } else { "exact" };
+    assert!(!logs.join(other).join("search.md").exists());
+    // the rule's second search is the exact one: no cutoff of one's own, no budget
+    let mut with_cutoff = args.to_vec();
+    with_cutoff.extend_from_slice(&["--gradient-cutoff", "0"]);
+    assert!(!braille(&with_cutoff).status.success());
+}
+
+#[test]
 fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");

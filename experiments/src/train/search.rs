@@ -1077,6 +1077,20 @@ pub fn seed_path(out: &Path, seed: u64) -> PathBuf {
 /// Runs the search `run` describes ([`SearchRun`]); trials and final models report to `observer`
 /// and `epochs`.
 pub fn run(run: &SearchRun, observer: &mut dyn SearchObserver, epochs: &mut dyn Observer) -> Result<SearchOutcome> {
+    match search_trials(run, observer)? {
+        Trials::Shard(trials) => Ok(SearchOutcome::Shard { trials }),
+        Trials::All { data, trials } => finish(run, *data, trials, observer, epochs),
+    }
+}
+
+/// A search's trials: one shard's, or all of them, the combination included.
+enum Trials {
+    Shard(Vec<Trial>),
+    All { data: Box<TactileData>, trials: Vec<Trial> },
+}
+
+/// The checks, this shard's trials and, when the search ends in this process, the combination.
+fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<Trials> {
     let finishing = !run.run_trials || run.shard.count == 1;
     if finishing {
         for seed in 1..=run.seeds.max(1) {
@@ -1093,7 +1107,7 @@ pub fn run(run: &SearchRun, observer: &mut dyn SearchObserver, epochs: &mut dyn 
         });
         let ran = run_trials(&data, run.profile, run.base, &run.space, run.shard, &run.dir, budget, observer)?;
         if !finishing {
-            return Ok(SearchOutcome::Shard { trials: ran });
+            return Ok(Trials::Shard(ran));
         }
     }
     let trials = read_logs(&run.dir)?;
@@ -1110,6 +1124,20 @@ pub fn run(run: &SearchRun, observer: &mut dyn SearchObserver, epochs: &mut dyn 
         Some(_) => read_logs(&run.dir)?,
         None => trials,
     };
+    if trials.is_empty() {
+        return Err(Error::SearchLog { dir: run.dir.clone(), what: "no trials logged".into() });
+    }
+    Ok(Trials::All { data: Box::new(data), trials })
+}
+
+/// The winner of a finished search's `trials`, its final models and the report.
+fn finish(
+    run: &SearchRun,
+    data: TactileData,
+    trials: Vec<Trial>,
+    observer: &mut dyn SearchObserver,
+    epochs: &mut dyn Observer,
+) -> Result<SearchOutcome> {
     let Some(w) = winner(&trials) else {
         return Err(Error::SearchLog { dir: run.dir.clone(), what: "no trials logged".into() });
     };
@@ -1134,4 +1162,38 @@ pub fn run(run: &SearchRun, observer: &mut dyn SearchObserver, epochs: &mut dyn 
     std::fs::write(&report, &markdown).map_err(|source| Error::Io { path: report.clone(), source })?;
     let winner = w.trial;
     Ok(SearchOutcome::Done { trials, winner, finals, report, markdown })
+}
+
+/// The searches of the rule issue #51's leave-one-dataset-out decisions fixed (docs/training.md):
+/// `runs` (the same space, with truncated and with exact gradients, each with its own trial
+/// log) searched in turn, and only the one whose winner has the highest validation score (the
+/// first of equals) trains its final models (and reads the test split, if asked). Returns which
+/// search stood, every search's winning score, and its outcome. Not for shards or budgets: a
+/// budget would give the searches different trials.
+pub fn run_rule(
+    runs: &[SearchRun],
+    observer: &mut dyn SearchObserver,
+    epochs: &mut dyn Observer,
+) -> Result<(usize, Vec<f64>, SearchOutcome)> {
+    if runs.is_empty() {
+        return Err(Error::SearchLog { dir: PathBuf::new(), what: "no search to run".into() });
+    }
+    let mut done = Vec::new();
+    for r in runs {
+        if r.shard.count != 1 || r.budget.is_some() {
+            return Err(Error::SearchLog {
+                dir: r.dir.clone(),
+                what: "the searches of the fixed rule run whole and without a budget (give --search-trials)".into(),
+            });
+        }
+        let Trials::All { data, trials } = search_trials(r, observer)? else {
+            unreachable!("an unsharded search ends in this process")
+        };
+        done.push((data, trials));
+    }
+    let scores: Vec<f64> = done.iter().map(|(_, t)| winner(t).map_or(f64::NEG_INFINITY, |w| w.score)).collect();
+    let chosen = scores.iter().enumerate().fold(0, |b, (i, &v)| if v > scores[b] { i } else { b });
+    let (data, trials) = done.swap_remove(chosen);
+    let outcome = finish(&runs[chosen], *data, trials, observer, epochs)?;
+    Ok((chosen, scores, outcome))
 }
