@@ -326,6 +326,64 @@ pub struct SparseSnn {
     x_cut: f32,
     input: Layout,
     plans: Vec<Plan>,
+    /// Buffers kept from one batch to the next ([`Scratch`]).
+    scratch: Scratch,
+}
+
+/// A worker's buffers (a sample's tape, the backward's step-by-step gradients) and the chunks'
+/// gradient sums, kept from one batch to the next: some MB, which allocated anew for each batch
+/// would have their pages faulted in and cleared again by the kernel (a fifth of the truncated
+/// step's time on the peer network). Results do not depend on them. A clone starts empty.
+#[derive(Debug, Default)]
+struct Scratch {
+    workers: std::sync::Mutex<Vec<(Vec<LayerTape>, Vec<Vec<f32>>)>>,
+    grads: std::sync::Mutex<Vec<Params>>,
+}
+
+impl Clone for Scratch {
+    fn clone(&self) -> Scratch {
+        Scratch::default()
+    }
+}
+
+impl Scratch {
+    /// Zeroed gradients shaped as `params`, from a kept buffer when one fits.
+    fn zeros_like(&self, params: &Params) -> Params {
+        let kept = self.grads.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+        match kept {
+            Some(mut g) if g.tensors().map(Vec::len).eq(params.tensors().map(Vec::len)) => {
+                g.tensors_mut().for_each(|t| t.fill(0.0));
+                g
+            }
+            _ => params.zeros_like(),
+        }
+    }
+
+    fn keep_grads(&self, g: Params) {
+        self.grads.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(g);
+    }
+}
+
+/// A worker's buffers taken from [`Scratch`] for one batch, given back when dropped.
+struct WorkerBuffers<'a> {
+    scratch: &'a Scratch,
+    tape: Vec<LayerTape>,
+    pool: Vec<Vec<f32>>,
+}
+
+impl<'a> WorkerBuffers<'a> {
+    fn take(scratch: &'a Scratch) -> WorkerBuffers<'a> {
+        let kept = scratch.workers.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+        let (tape, pool) = kept.unwrap_or_default();
+        WorkerBuffers { scratch, tape, pool }
+    }
+}
+
+impl Drop for WorkerBuffers<'_> {
+    fn drop(&mut self) {
+        let kept = (std::mem::take(&mut self.tape), std::mem::take(&mut self.pool));
+        self.scratch.workers.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(kept);
+    }
 }
 
 /// Whether both trainers can train `spec` read by `readout`: no recurrent biases, and an output
@@ -404,7 +462,17 @@ impl SparseSnn {
             });
         }
         let x_cut = truncation_width(surrogate, cutoff);
-        Ok(SparseSnn { spec, surrogate, readout, clamped_readout_gradient: false, cutoff, x_cut, input, plans })
+        Ok(SparseSnn {
+            spec,
+            surrogate,
+            readout,
+            clamped_readout_gradient: false,
+            cutoff,
+            x_cut,
+            input,
+            plans,
+            scratch: Scratch::default(),
+        })
     }
 
     pub fn cutoff(&self) -> f32 {
@@ -1020,7 +1088,7 @@ impl SparseSnn {
         let b = samples.len().max(1);
         let chunk = b.div_ceil(CHUNKS);
         let empty = || BatchGradient {
-            grads: params.zeros_like(),
+            grads: self.scratch.zeros_like(params),
             loss_sum: 0.0,
             hits: 0,
             spikes: Vec::new(),
@@ -1031,10 +1099,11 @@ impl SparseSnn {
             .par_chunks(chunk)
             .enumerate()
             // each worker's buffers (a tape, the backward's step-by-step gradients) reused from
-            // sample to sample: results do not depend on them
+            // sample to sample and batch to batch: results do not depend on them
             .map_init(
-                || (Vec::new(), Vec::new()),
-                |(spare, pool), (c, part)| {
+                || WorkerBuffers::take(&self.scratch),
+                |buffers, (c, part)| {
+                    let WorkerBuffers { tape: spare, pool, .. } = buffers;
                     let mut work = Workspace { params, by_input: &by_input, pool };
                     let mut acc = empty();
                     for (j, &(input, label)) in part.iter().enumerate() {
@@ -1061,6 +1130,7 @@ impl SparseSnn {
             total.hits += p.hits;
             total.kept_surrogates += p.kept_surrogates;
             add_spikes(&mut total.spikes, p.spikes.iter().copied());
+            self.scratch.keep_grads(p.grads);
         }
         Ok(total)
     }
