@@ -599,7 +599,9 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
     if args.both_gradients {
         if base.trainer != TrainerChoice::Sparse || base.gradient_cutoff <= 0.0 {
             bail!(
-                "--both-gradients: the sparse trainer with a truncation (a --gradient-cutoff above 0) is one of the two searches"
+                "--both-gradients: its first search is the sparse trainer's truncated one, but this recipe has the {:?} trainer with gradient cutoff {}",
+                base.trainer,
+                base.gradient_cutoff
             );
         }
         let runs = [run(base, dir.join("truncated")), run(&exact, dir.join("exact"))];

@@ -336,9 +336,12 @@ pub struct SparseSnn {
 /// step's time on the peer network). Results do not depend on them. A clone starts empty.
 #[derive(Debug, Default)]
 struct Scratch {
-    workers: std::sync::Mutex<Vec<(Vec<LayerTape>, Vec<Vec<f32>>)>>,
+    workers: std::sync::Mutex<Vec<KeptBuffers>>,
     grads: std::sync::Mutex<Vec<Params>>,
 }
+
+/// A worker's tape and its backward's step-by-step buffers, kept in [`Scratch`].
+type KeptBuffers = (Vec<LayerTape>, Vec<Vec<f32>>);
 
 impl Clone for Scratch {
     fn clone(&self) -> Scratch {
