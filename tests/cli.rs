@@ -751,7 +751,7 @@ fn the_fixed_rule_searches_with_both_gradients_and_trains_the_better_on_validati
     assert!(logs.join(stands).join("search.md").exists());
     let other = if stands == "exact" { "truncated" } else { "exact" };
     assert!(!logs.join(other).join("search.md").exists());
-    // the rule's second search is the exact one: no cutoff of one's own, no budget
+    // the rule's second search is the exact one: no cutoff of one's own
     let mut with_cutoff = args.to_vec();
     with_cutoff.extend_from_slice(&["--gradient-cutoff", "0"]);
     assert!(!braille(&with_cutoff).status.success());

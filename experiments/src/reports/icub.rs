@@ -62,15 +62,8 @@ pub fn search_run(dataset: &str) -> String {
     }
 }
 
-/// The final models of search run `run` under `search` (`RUN.safetensors`, `RUN.seed2...`) on the
-/// test split of `data`, run by the engine; None when the run's first model is not there.
-pub fn seed_mean(data: &Path, search: &Path, run: &str) -> Result<Option<SeedMean>> {
-    let first = search.join(format!("{run}.safetensors"));
-    let models: Vec<_> =
-        (1..).map(|seed| crate::train::search::seed_path(&first, seed)).take_while(|p| p.is_file()).collect();
-    test_seed_mean(data, &models)
-}
-
+/// A search's final models (one per seed) on the test split of `data`, run by the engine; None
+/// for no models.
 fn test_seed_mean(data: &Path, models: &[std::path::PathBuf]) -> Result<Option<SeedMean>> {
     if models.is_empty() {
         return Ok(None);

@@ -79,7 +79,7 @@ pub fn found_searches(searches: &[SnnSearch]) -> Result<(Vec<FoundSearch<'_>>, O
         found.push(FoundSearch { search: s, models, validation_score: winner.score });
     }
     let scores: Vec<f64> = found.iter().map(|f| f.validation_score).collect();
-    let chosen = best_by_validation(&scores);
+    let chosen = crate::train::search::best_score(&scores);
     Ok((found, chosen))
 }
 
@@ -239,14 +239,6 @@ pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
     Ok(TactileRow { dataset: source.name.clone(), lines })
 }
 
-/// The search with the highest validation score; the first of equals.
-fn best_by_validation(scores: &[f64]) -> Option<usize> {
-    scores.iter().enumerate().fold(None, |best: Option<usize>, (i, &v)| match best {
-        Some(b) if scores[b] >= v => Some(b),
-        _ => Some(i),
-    })
-}
-
 /// The line of one SNN search: with `read_test`, its final models on the test split (seed mean,
 /// SynOps per sample); without, its size alone.
 fn snn_line(source: &TactileSource, search: &SnnSearch, models: &[PathBuf], read_test: bool) -> Result<ModelLine> {
@@ -379,8 +371,8 @@ mod tests {
             ],
         };
         let (net, floor) = row.gaps();
-        assert_eq!(best_by_validation(&[0.9, 0.95, 0.95, 0.8]), Some(1), "the first of equals");
-        assert_eq!(best_by_validation(&[]), None);
+        assert_eq!(crate::train::search::best_score(&[0.9, 0.95, 0.95, 0.8]), Some(1), "the first of equals");
+        assert_eq!(crate::train::search::best_score(&[]), None);
         assert!((net.unwrap() + 5.0).abs() < 1e-9 && (floor.unwrap() - 10.0).abs() < 1e-9);
         // SynOps cost an add, MACs a multiply-accumulate
         assert!(l("SNN", 0.8, true).energy_uj().1.is_some() && l("GRU", 0.8, false).energy_uj().1.is_none());

@@ -717,6 +717,14 @@ pub fn winner(trials: &[Trial]) -> Option<&Trial> {
     })
 }
 
+/// The index of the highest of `scores` (searches' winning validation scores); the first of equals.
+pub fn best_score(scores: &[f64]) -> Option<usize> {
+    scores.iter().enumerate().fold(None, |best: Option<usize>, (i, &v)| match best {
+        Some(b) if scores[b] >= v => Some(b),
+        _ => Some(i),
+    })
+}
+
 /// The winner's recipe for the final models, with `seed`: the whole training split (no
 /// hold-out), as many epochs as its trial ran (at least 10), the weights averaged over the last
 /// third.
@@ -1175,9 +1183,6 @@ pub fn run_rule(
     observer: &mut dyn SearchObserver,
     epochs: &mut dyn Observer,
 ) -> Result<(usize, Vec<f64>, SearchOutcome)> {
-    if runs.is_empty() {
-        return Err(Error::SearchLog { dir: PathBuf::new(), what: "no search to run".into() });
-    }
     let mut done = Vec::new();
     for r in runs {
         if r.shard.count != 1 || r.budget.is_some() {
@@ -1192,7 +1197,9 @@ pub fn run_rule(
         done.push((data, trials));
     }
     let scores: Vec<f64> = done.iter().map(|(_, t)| winner(t).map_or(f64::NEG_INFINITY, |w| w.score)).collect();
-    let chosen = scores.iter().enumerate().fold(0, |b, (i, &v)| if v > scores[b] { i } else { b });
+    let Some(chosen) = best_score(&scores) else {
+        return Err(Error::SearchLog { dir: PathBuf::new(), what: "no search to run".into() });
+    };
     let (data, trials) = done.swap_remove(chosen);
     let outcome = finish(&runs[chosen], *data, trials, observer, epochs)?;
     Ok((chosen, scores, outcome))
