@@ -1245,11 +1245,34 @@ const PACK4: [([u32; 4], usize); 16] = {
     t
 };
 
+/// `y += a x` entry by entry, eight entries at a time (short rows, such as a readout's 26, would
+/// otherwise fall to the scalar remainder of a loop vectorised for 32).
 #[inline(always)]
 fn axpy(y: &mut [f32], x: &[f32], a: f32) {
-    for (y, x) in y.iter_mut().zip(x) {
+    let n = y.len().min(x.len());
+    let (mut ys, mut xs) = (y[..n].chunks_exact_mut(8), x[..n].chunks_exact(8));
+    for (y, x) in (&mut ys).zip(&mut xs) {
+        axpy_width::<8>(y, x, a);
+    }
+    for (y, x) in ys.into_remainder().iter_mut().zip(xs.remainder()) {
         *y += a * x;
     }
+}
+
+/// [`axpy`] over `y`'s first `WIDTH` entries (0: all of `x`), every load before the stores so
+/// that the fixed width vectorises without an aliasing check (the same operations).
+#[inline(always)]
+fn axpy_width<const WIDTH: usize>(y: &mut [f32], x: &[f32], a: f32) {
+    if WIDTH == 0 {
+        return axpy(y, x, a);
+    }
+    let (x, y): (&[f32; WIDTH], &mut [f32; WIDTH]) =
+        (x[..WIDTH].try_into().expect("WIDTH entries"), (&mut y[..WIDTH]).try_into().expect("WIDTH entries"));
+    let mut v = *y;
+    for l in 0..WIDTH {
+        v[l] += a * x[l];
+    }
+    *y = v;
 }
 
 #[inline(always)]
@@ -1276,12 +1299,9 @@ fn scatter(plan: &Plan, w: &[f32], i: usize, x: f32, u: &mut [f32]) {
     let n = plan.n_out;
     match &plan.kernel {
         Kernel::Dense => axpy(u, &w[i * n..][..n], x),
-        Kernel::Conv { ic, oc, kk, offsets, targets } => {
-            let (p, c) = (i / ic, i % ic);
-            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
-                axpy(&mut u[q as usize * oc..][..*oc], &w[(c * kk + k as usize) * oc..][..*oc], x);
-            }
-        }
+        Kernel::Conv { oc: 8, .. } => conv_scatter::<8>(plan, w, i, x, u),
+        Kernel::Conv { oc: 16, .. } => conv_scatter::<16>(plan, w, i, x, u),
+        Kernel::Conv { .. } => conv_scatter::<0>(plan, w, i, x, u),
         Kernel::Pool { c, weight, offsets, targets } => {
             let (p, ch) = (i / c, i % c);
             for &q in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
@@ -1297,12 +1317,9 @@ fn weight_grad(plan: &Plan, gw: &mut [f32], i: usize, x: f32, g: &[f32]) {
     let n = plan.n_out;
     match &plan.kernel {
         Kernel::Dense => axpy(&mut gw[i * n..][..n], g, x),
-        Kernel::Conv { ic, oc, kk, offsets, targets } => {
-            let (p, c) = (i / ic, i % ic);
-            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
-                axpy(&mut gw[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc], x);
-            }
-        }
+        Kernel::Conv { oc: 8, .. } => conv_weight_grad::<8>(plan, gw, i, x, g),
+        Kernel::Conv { oc: 16, .. } => conv_weight_grad::<16>(plan, gw, i, x, g),
+        Kernel::Conv { .. } => conv_weight_grad::<0>(plan, gw, i, x, g),
         Kernel::Pool { .. } => {}
     }
 }
@@ -1313,16 +1330,9 @@ fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
     let n = plan.n_out;
     match &plan.kernel {
         Kernel::Dense => dot(&w[i * n..][..n], g),
-        // sums from -0.0, as `Iterator::sum`, in loops rather than closures (which would not be
-        // compiled for the caller's AVX2)
-        Kernel::Conv { ic, oc, kk, offsets, targets } => {
-            let (p, c) = (i / ic, i % ic);
-            let mut sum = -0.0;
-            for &(q, k) in &targets[offsets[p] as usize..offsets[p + 1] as usize] {
-                sum += dot(&w[(c * kk + k as usize) * oc..][..*oc], &g[q as usize * oc..][..*oc]);
-            }
-            sum
-        }
+        Kernel::Conv { oc: 8, .. } => conv_gather::<8>(plan, w, i, g),
+        Kernel::Conv { oc: 16, .. } => conv_gather::<16>(plan, w, i, g),
+        Kernel::Conv { .. } => conv_gather::<0>(plan, w, i, g),
         Kernel::Pool { c, weight, offsets, targets } => {
             let (p, ch) = (i / c, i % c);
             let mut sum = -0.0;
@@ -1332,6 +1342,67 @@ fn gather(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
             sum
         }
     }
+}
+
+/// A convolution's kernel, its output channels `oc` being `WIDTH` when that is not 0 (the loops
+/// then compiled for that many channels, the same operations in the same order).
+struct ConvOf<'a> {
+    ic: usize,
+    oc: usize,
+    kk: usize,
+    offsets: &'a [u32],
+    targets: &'a [(u32, u32)],
+}
+
+impl ConvOf<'_> {
+    #[inline(always)]
+    fn new<const WIDTH: usize>(plan: &Plan) -> ConvOf<'_> {
+        let Kernel::Conv { ic, oc, kk, offsets, targets } = &plan.kernel else {
+            unreachable!("called for convolutions only");
+        };
+        ConvOf { ic: *ic, oc: if WIDTH == 0 { *oc } else { WIDTH }, kk: *kk, offsets, targets }
+    }
+
+    /// Input `i`'s channel and its targets (output pixel, kernel position).
+    #[inline(always)]
+    fn targets_of(&self, i: usize) -> (usize, &[(u32, u32)]) {
+        let p = i / self.ic;
+        (i % self.ic, &self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize])
+    }
+}
+
+/// [`scatter`] for a convolution of `WIDTH` output channels (0: any).
+#[inline(always)]
+fn conv_scatter<const WIDTH: usize>(plan: &Plan, w: &[f32], i: usize, x: f32, u: &mut [f32]) {
+    let conv = ConvOf::new::<WIDTH>(plan);
+    let (oc, kk, (c, targets)) = (conv.oc, conv.kk, conv.targets_of(i));
+    for &(q, k) in targets {
+        axpy_width::<WIDTH>(&mut u[q as usize * oc..][..oc], &w[(c * kk + k as usize) * oc..][..oc], x);
+    }
+}
+
+/// [`weight_grad`] for a convolution of `WIDTH` output channels (0: any).
+#[inline(always)]
+fn conv_weight_grad<const WIDTH: usize>(plan: &Plan, gw: &mut [f32], i: usize, x: f32, g: &[f32]) {
+    let conv = ConvOf::new::<WIDTH>(plan);
+    let (oc, kk, (c, targets)) = (conv.oc, conv.kk, conv.targets_of(i));
+    for &(q, k) in targets {
+        axpy_width::<WIDTH>(&mut gw[(c * kk + k as usize) * oc..][..oc], &g[q as usize * oc..][..oc], x);
+    }
+}
+
+/// [`gather`] for a convolution of `WIDTH` output channels (0: any).
+#[inline(always)]
+fn conv_gather<const WIDTH: usize>(plan: &Plan, w: &[f32], i: usize, g: &[f32]) -> f32 {
+    let conv = ConvOf::new::<WIDTH>(plan);
+    let (oc, kk, (c, targets)) = (conv.oc, conv.kk, conv.targets_of(i));
+    // sums from -0.0, as `Iterator::sum`, in loops rather than closures (which would not be
+    // compiled for the caller's AVX2)
+    let mut sum = -0.0;
+    for &(q, k) in targets {
+        sum += dot(&w[(c * kk + k as usize) * oc..][..oc], &g[q as usize * oc..][..oc]);
+    }
+    sum
 }
 
 /// What a worker's backward passes share: the parameters, each layer's weights laid out by input
@@ -1691,7 +1762,16 @@ mod tests {
                 layer(OpSpec::Dense { n_out: 4 }, Some(NeuronParams::lif(0.85)), false, false),
             ],
         };
-        vec![(a, Readout::MaxMembrane), (b, Readout::SpikeCount)]
+        // 8 and 16 channels, the widths whose fan-outs are compiled for them (`conv_scatter`)
+        let c = NetworkSpec {
+            input_shape: vec![2, 9, 10],
+            layers: vec![
+                layer(conv(8, 3, 2, 1), Some(NeuronParams::lif(0.8)), false, false),
+                layer(conv(16, 3, 2, 1), Some(NeuronParams::lif(0.85)), false, false),
+                layer(OpSpec::Dense { n_out: 6 }, Some(NeuronParams::leaky_integrator(0.9)), false, false),
+            ],
+        };
+        vec![(a, Readout::MaxMembrane), (b, Readout::SpikeCount), (c, Readout::MaxMembrane)]
     }
 
     /// Random input counts (C order) of `batch` samples over `steps` steps.
