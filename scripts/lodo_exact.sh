@@ -4,6 +4,7 @@
 # measured at the search's trial 0 on the three datasets (the runs without it:
 # docs/results/search/lodo-2026-11-30/*-none.md, by scripts/lodo.sh). Writes
 # docs/results/search/lodo-2026-11-30/*-exact.md; the test splits are not read.
+# With `--th10-fold`: th10's own fold under Rule B (below).
 # With `--search`: the headline searches of raw1350, the taxels and th10 again with exact
 # gradients, for the decisions under the log's Rule B (validation only: the test splits are not
 # read; final models in models/search/*-exact*, trained and not scored). About 35, 30 and 100
@@ -13,6 +14,17 @@ cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 [[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
+if [[ "${1:-}" == "--th10-fold" ]]; then
+  # th10's own fold under Rule B (session 59): augmentation (admitted for th10 by the second
+  # decision) and exact gradients; its winner against th10-aug's 74.38% on validation (it won,
+  # 74.74%, so its final models read the test split once: `braille eval --data
+  # data/icub_braille/th10 --model models/search/th10-aug-exact{,.seed2,.seed3}.safetensors`).
+  # About 105 minutes on two cores.
+  $b train --data data/icub_braille/th10 --search --search-trials 12 --seeds 3 --stretch 0.1 --drop-events 0.1 \
+    --gradient-cutoff 0 --out models/search/th10-aug-exact.safetensors --search-dir docs/results/search/th10-aug-exact \
+    --quiet --force
+  exit 0
+fi
 if [[ "${1:-}" == "--search" ]]; then
   $b train --data data/icub_braille/raw1350 --search --search-trials 16 --seeds 3 --gradient-cutoff 0 \
     --out models/search/raw1350-exact.safetensors --search-dir docs/results/search/raw1350-exact --quiet --force

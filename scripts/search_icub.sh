@@ -64,6 +64,17 @@ if [[ "${1:-}" == "--twins-guard" ]]; then
     --loss-spike-guard 2 --out models/search/th10-zero-guard12.safetensors --search-dir docs/results/search/th10-zero-guard12 --quiet --force
   exit 0
 fi
+if [[ "${1:-}" == "--twins-exact" ]]; then
+  # th10's twin searched with exact gradients too, as the fixed rule searches every SNN (session
+  # 59, rule in docs/log/chips-2026-11-30.md): the 12 trials of th10-zero-guard12 with
+  # `--gradient-cutoff 0`, no budget and no test read; its winner against th10-zero-guard12's
+  # 75.73% on validation, only the better one's final models read the test split (about 90-110
+  # minutes on two cores; a stopped run resumes from its logs).
+  $b train --data data/icub_braille/th10 --reset zero --search --search-trials 12 --seeds 3 --loss-spike-guard 2 \
+    --gradient-cutoff 0 --out models/search/th10-zero-guard-exact.safetensors \
+    --search-dir docs/results/search/th10-zero-guard-exact --quiet --force
+  exit 0
+fi
 if [[ "${1:-}" == "--defaults" ]]; then
   $b train --data data/icub_braille/raw1350 --search --search-trials 16 --seeds 3 --eval-test \
     --out models/search/raw1350-warmup.safetensors --search-dir docs/results/search/raw1350-warmup --quiet --force
