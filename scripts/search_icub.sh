@@ -69,7 +69,9 @@ if [[ "${1:-}" == "--twins-exact" ]]; then
   # 59, rule in docs/log/chips-2026-11-30.md): the 12 trials of th10-zero-guard12 with
   # `--gradient-cutoff 0`, no budget and no test read; its winner against th10-zero-guard12's
   # 75.73% on validation, only the better one's final models read the test split (about 90-110
-  # minutes on two cores; a stopped run resumes from its logs).
+  # minutes on two cores; a stopped run resumes from its logs). It won on validation (76.24%
+  # against 75.73%, 2026-12-01), so its final models read the test split once: `braille eval --data
+  # data/icub_braille/th10 --model models/search/th10-zero-guard-exact{,.seed2,.seed3}.safetensors`.
   $b train --data data/icub_braille/th10 --reset zero --search --search-trials 12 --seeds 3 --loss-spike-guard 2 \
     --gradient-cutoff 0 --out models/search/th10-zero-guard-exact.safetensors \
     --search-dir docs/results/search/th10-zero-guard-exact --quiet --force
