@@ -10,36 +10,7 @@
 # models/search/*-stretch{-exact,}*, trained and not scored).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --quiet
-b=target/release/braille
-[[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
-data_of() {
-  case $1 in
-    taxels) echo target/sim-taxels ;;
-    raw1350 | th10) echo "data/icub_braille/$1" ;;
-    *) echo "unknown dataset $1 (raw1350, th10 or taxels)" >&2; exit 2 ;;
-  esac
-}
 if [[ "${1:-}" == "--search" ]]; then
-  d=${2:?--search needs a dataset: raw1350, th10 or taxels}
-  data=$(data_of "$d")
-  name=$d trials=16
-  [[ $d == taxels ]] && name=sim-taxels
-  [[ $d == th10 ]] && trials=12
-  for mode in exact truncated; do
-    cutoff=() suffix=-stretch
-    [[ $mode == exact ]] && cutoff=(--gradient-cutoff 0) suffix=-stretch-exact
-    $b train --data "$data" --search --search-trials $trials --seeds 3 --stretch 0.1 "${cutoff[@]}" \
-      --out "models/search/$name$suffix.safetensors" --search-dir "docs/results/search/$name$suffix" --quiet --force
-  done
-  exit 0
+  exec bash scripts/lodo_candidate.sh --search "${2:?--search needs a dataset: raw1350, th10 or taxels}" stretch -- --stretch 0.1
 fi
-out=docs/results/search/lodo-2026-12-01
-mkdir -p "$out"
-for d in raw1350 th10 taxels; do
-  tmp=$(mktemp -d)
-  $b train --data "$(data_of $d)" --search --search-trials 1 --seeds 1 --stretch 0.1 \
-    --search-dir "$tmp/search" --out "$tmp/model.safetensors" --quiet
-  cp "$tmp/search/search.md" "$out/$d-stretch.md"
-  rm -rf "$tmp"
-done
+exec bash scripts/lodo_candidate.sh stretch 2026-12-01 -- --stretch 0.1
