@@ -37,7 +37,7 @@ if [[ "${1:-}" == "--search" ]]; then
   done
   exit 0
 fi
-cand=${1:?a name for the candidate} date=${2:?the decision's date}
+cand=${1:?a name for the candidate} date=${2:?the date of the decision}
 [[ "${3:-}" == "--" ]] || { echo "flags after --" >&2; exit 2; }
 shift 3
 out=docs/results/search/lodo-$date

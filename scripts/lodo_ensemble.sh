@@ -37,12 +37,7 @@ fi
 for name in raw1350 th10 taxels; do
   f=${finals[$name]}
   # the final recipe as its model recorded it
-  python3 - "$f.safetensors" > "$work/$name-recipe.json" <<'PY'
-import json, struct, sys
-b = open(sys.argv[1], 'rb').read()
-n = struct.unpack('<Q', b[:8])[0]
-print(json.dumps(json.loads(json.loads(b[8:8 + n])['__metadata__']['provenance'])['recipe'], indent=1))
-PY
+  python3 scripts/recipe_of.py "$f.safetensors" > "$work/$name-recipe.json"
   ms=()
   for s in 1 2 3; do
     m=$work/$name-member$s.safetensors

@@ -16,6 +16,8 @@ pub struct Args {
     #[arg(long = "dataset", value_name = "NAME=FOLDER")]
     datasets: Vec<String>,
     /// Folder of the SNN search's final models [default: the shipped ones, `models/search/`].
+    /// Where its `ensemble-members/` holds seeds 4 and on of the standing search's recipe
+    /// (`scripts/ensembles.sh`), seed ensembles of three are scored beside the SNN.
     #[arg(long)]
     search: Option<PathBuf>,
     /// Folder of the SNN searches' trial logs, one folder per search run [default:

@@ -286,8 +286,19 @@ pub struct SplitEval {
 /// The SNN at `model_path` on `split` of the dataset folder `data_dir`, run by the engine in
 /// `mode`; with each sample's truth, prediction and readout as CSV ([`predictions_csv`]).
 pub fn eval_split(model_path: &Path, data_dir: &Path, split: SplitChoice, mode: Mode) -> Result<(SplitEval, String)> {
-    let model = pipeline::models::load_snn(model_path)?;
-    let encoding = encoding_of(&model, model_path)?;
+    eval_model(&pipeline::models::load_snn(model_path)?, model_path, data_dir, split, mode)
+}
+
+/// As [`eval_split`], for a model in memory (a merged ensemble, say); `model_path` names it in
+/// errors and in the result.
+pub fn eval_model(
+    model: &SnnModel,
+    model_path: &Path,
+    data_dir: &Path,
+    split: SplitChoice,
+    mode: Mode,
+) -> Result<(SplitEval, String)> {
+    let encoding = encoding_of(model, model_path)?;
     let set = load_split(data_dir, &encoding, split)?;
     let s = snn_accuracy(&model.network, &model.config, &set, mode)?;
     let csv = predictions_csv(&model.classes, &set.labels, &s.predictions);

@@ -5,7 +5,7 @@
 //! validation hold-out, with seed means and spreads, size, work per sample and energy estimates.
 
 use crate::error::{Error, Result};
-use crate::eval::tactile::{SplitChoice, eval_split};
+use crate::eval::tactile::{SplitChoice, eval_model, eval_split};
 use serde::{Deserialize, Serialize};
 use snn::energy::{CMOS45_ADD, CMOS45_MAC, LOIHI_SYNOP};
 use snn::engine::Mode;
@@ -100,7 +100,15 @@ pub struct ModelLine {
     pub spiking: bool,
     /// An SNN search's winning validation score (the others: none).
     pub validation_score: Option<f64>,
+    /// Seed ensembles of the standing SNN search's recipe, beside the single networks: each
+    /// "seed" a merged ensemble of three ([`ENSEMBLE_MEMBERS`]).
+    pub ensemble: bool,
 }
+
+/// The folder, beside an SNN search's final models, of more final models of its recipe (seeds 4
+/// and on, `scripts/ensembles.sh`): the standing search's seeds 1-3, 4-6, 7-9 ... make one
+/// ensemble each (`braille ensemble`), which the report scores beside the single networks.
+pub const ENSEMBLE_MEMBERS: &str = "ensemble-members";
 
 impl ModelLine {
     /// Energy per sample in microjoules: SynOps at a 45 nm float add and on Loihi; MACs at a 45
@@ -126,10 +134,19 @@ impl TactileRow {
         self.lines.iter().filter(|l| pick(l)).max_by(|a, b| a.mean.total_cmp(&b.mean))
     }
 
-    /// The SNN's mean minus the best conventional network's, and minus the best linear floor's,
-    /// in points.
+    /// The SNN's mean (a single network per seed) minus the best conventional network's, and
+    /// minus the best linear floor's, in points.
     pub fn gaps(&self) -> (Option<f64>, Option<f64>) {
-        let Some(snn) = self.lines.iter().find(|l| l.spiking && !l.test_accuracies.is_empty()) else {
+        self.gaps_of(|l| !l.ensemble)
+    }
+
+    /// As [`Self::gaps`], for the seed ensembles' line where there is one.
+    pub fn ensemble_gaps(&self) -> (Option<f64>, Option<f64>) {
+        self.gaps_of(|l| l.ensemble)
+    }
+
+    fn gaps_of(&self, pick: impl Fn(&ModelLine) -> bool) -> (Option<f64>, Option<f64>) {
+        let Some(snn) = self.lines.iter().find(|l| l.spiking && !l.test_accuracies.is_empty() && pick(l)) else {
             return (None, None);
         };
         let net = self.best(|l| !l.spiking && !is_linear(l));
@@ -191,6 +208,7 @@ fn line(model: String, choice: String, accuracies: Vec<f64>, parameters: usize, 
         ops_per_sample: ops,
         spiking,
         validation_score: None,
+        ensemble: false,
     }
 }
 
@@ -210,6 +228,10 @@ pub fn tactile_row(source: &TactileSource) -> Result<TactileRow> {
         let mut l = snn_line(source, f.search, &f.models, i == chosen)?;
         l.validation_score = Some(f.validation_score);
         lines.push(l);
+    }
+    let standing = &found[chosen];
+    if let Some(l) = ensemble_line(source, standing, lines[chosen].parameters)? {
+        lines.insert(found.len(), l);
     }
     let path = source.baselines.join("baselines.json");
     let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
@@ -286,6 +308,48 @@ fn snn_line(source: &TactileSource, search: &SnnSearch, models: &[PathBuf], read
     ))
 }
 
+/// The seed ensembles of the standing search `f` (its final models of seeds 1-3, then three at a
+/// time from [`ENSEMBLE_MEMBERS`]), each merged and scored on the test split; none without
+/// members there.
+fn ensemble_line(source: &TactileSource, f: &FoundSearch<'_>, member_parameters: usize) -> Result<Option<ModelLine>> {
+    const SIZE: usize = 3;
+    let (Some(dir), Some(name)) = (f.search.models.parent(), f.search.models.file_name()) else {
+        return Ok(None);
+    };
+    let base = dir.join(ENSEMBLE_MEMBERS).join(name);
+    let more: Vec<PathBuf> = (SIZE as u64 + 1..)
+        .map(|seed| crate::train::search::seed_path(&base, seed))
+        .take_while(|p| p.is_file())
+        .collect();
+    if more.is_empty() || f.models.len() != SIZE {
+        return Ok(None);
+    }
+    let all: Vec<PathBuf> = f.models.iter().cloned().chain(more).collect();
+    let (mut accuracies, mut synops, mut names) = (Vec::new(), 0.0, Vec::new());
+    let groups = all.len() / SIZE;
+    for (g, members) in all.chunks_exact(SIZE).enumerate() {
+        let seeds = format!("{}-{}", g * SIZE + 1, (g + 1) * SIZE);
+        let model = crate::train::fit::ensemble(members)?;
+        let label = base.with_file_name(format!("ensemble of seeds {seeds} of {}", name.to_string_lossy()));
+        let (e, _) = eval_model(&model, &label, &source.data, SplitChoice::Test, Mode::Stepped)?;
+        accuracies.push(e.accuracy);
+        synops += e.synops_per_sample / groups as f64;
+        names.push(seeds);
+    }
+    let mut l = line(
+        format!("SNN, ensembles of {SIZE}, {} ({groups} ensembles: seeds {})", f.search.label, names.join(" / ")),
+        format!(
+            "beside, chosen by nothing: the line above's recipe, {SIZE} seeds merged (`braille ensemble`), {SIZE} networks' work"
+        ),
+        accuracies,
+        SIZE * member_parameters,
+        synops,
+        true,
+    );
+    l.ensemble = true;
+    Ok(Some(l))
+}
+
 /// The rows of `sources`, written to `out` as `tactile.md` and `tactile.json`; the Markdown.
 pub fn write_report(sources: &[TactileSource], out: &Path) -> Result<String> {
     let rows = sources.iter().map(tactile_row).collect::<Result<Vec<_>>>()?;
@@ -303,14 +367,17 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
     writeln!(md, "# The SNN against conventional networks on tactile data\n")?;
     writeln!(
         md,
-        "Regenerate: `braille tactile-report` (the SNN searches' models from `scripts/search_icub.sh --defaults`, `scripts/search_taxels.sh --current` and `scripts/lodo_exact.sh --search`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN is the better by validation score (the winning trial's mean over its last 5 epochs and 3 seeds) of the dataset's two searches, with truncated and with exact gradients (the rule #51's leave-one-dataset-out decisions fixed, docs/training.md); the other's final models do not read the test split. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
+        "Regenerate: `braille tactile-report` (the SNN searches' models from `scripts/search_icub.sh --defaults`, `scripts/search_taxels.sh --current` and `scripts/lodo_exact.sh --search`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN is the better by validation score (the winning trial's mean over its last 5 epochs and 3 seeds) of the dataset's two searches, with truncated and with exact gradients (the rule #51's leave-one-dataset-out decisions fixed, docs/training.md); the other's final models do not read the test split. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). Beside the SNN, where `scripts/ensembles.sh` trained seeds 4-9 of its recipe: its seed ensembles of three (seeds 1-3, 4-6 and 7-9 merged by `braille ensemble`), each scored once, a mean over the three ensembles; they are chosen by nothing, their work is three networks', and they are not the SNN's figure (the rule, docs/training.md, keeps them beside the recipe). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
         CMOS45_ADD.pj_per_op, LOIHI_SYNOP.pj_per_op, CMOS45_MAC.pj_per_op, CMOS45_MAC.source, LOIHI_SYNOP.source
     )?;
-    writeln!(md, "| data | SNN minus the best network | SNN minus the best linear floor |\n| --- | --- | --- |")?;
+    writeln!(
+        md,
+        "| data | SNN minus the best network | SNN minus the best linear floor | beside: SNN ensembles of 3 minus the best network |\n| --- | --- | --- | --- |"
+    )?;
     for r in rows {
         let (net, floor) = r.gaps();
         let pts = |g: Option<f64>| g.map_or("n/a".into(), |g| format!("{g:+.1} points"));
-        writeln!(md, "| {} | {} | {} |", r.dataset, pts(net), pts(floor))?;
+        writeln!(md, "| {} | {} | {} | {} |", r.dataset, pts(net), pts(floor), pts(r.ensemble_gaps().0))?;
     }
     for r in rows {
         writeln!(md, "\n## {}\n", r.dataset)?;
@@ -364,13 +431,18 @@ mod tests {
                 // an SNN search whose test split was not read stands for nothing
                 line("SNN, lower on validation".into(), String::new(), Vec::new(), 1, f64::NAN, true),
                 l("SNN", 0.80, true),
+                line("SNN, ensembles".into(), String::new(), vec![0.9, 0.88], 3, 3.0, true),
                 l("GRU", 0.85, false),
                 l("temporal CNN", 0.75, false),
                 l("ridge regression", 0.60, false),
                 l("logistic regression", 0.70, false),
             ],
         };
+        let mut row = row;
+        row.lines[2].ensemble = true;
         let (net, floor) = row.gaps();
+        let (ens, _) = row.ensemble_gaps();
+        assert!((ens.unwrap() - 4.0).abs() < 1e-9, "the ensembles' gap apart: {ens:?}");
         assert_eq!(crate::train::search::best_score(&[0.9, 0.95, 0.95, 0.8]), Some(1), "the first of equals");
         assert_eq!(crate::train::search::best_score(&[]), None);
         assert!((net.unwrap() + 5.0).abs() < 1e-9 && (floor.unwrap() - 10.0).abs() < 1e-9);

@@ -187,7 +187,8 @@ pub struct SearchPoint {
 
 impl SearchPoint {
     /// The derived recipe moved to this point, trained for the search's epochs with early
-    /// stopping on the hold-out.
+    /// stopping on the hold-out. The base's depth is kept (`--hidden 256,256` searches two
+    /// hidden layers), each at the point's width.
     pub fn recipe(&self, base: &SnnRecipe, space: &SearchSpace) -> SnnRecipe {
         SnnRecipe {
             tau_mem_us: base.tau_mem_us * self.tau_scale,
@@ -195,7 +196,7 @@ impl SearchPoint {
             tau_out_us: base.tau_out_us * self.readout_tau_scale,
             recurrent: self.recurrent,
             recurrent_init_gain: self.recurrent.then_some(0.0),
-            hidden: vec![self.hidden],
+            hidden: vec![self.hidden; base.hidden.len().max(1)],
             dropout: self.dropout,
             lr: self.lr,
             init_gain: self.init_gain,
@@ -825,6 +826,9 @@ pub fn report_markdown(
             Some(TrainerChoice::Dense) => "by burn's autodiff (dense)",
         }
     );
+    if let Some(depth) = trials.first().map(|t| t.recipe.hidden.len()).filter(|&d| d > 1) {
+        s += &format!("Every trial has {depth} hidden layers, each of the width the table gives (`--hidden`).\n\n");
+    }
     s += &trials_markdown(trials);
     if let Some(w) = winner(trials) {
         let f = final_recipe(w, 1);
@@ -930,6 +934,11 @@ mod tests {
         // the neighbours first: one dimension away from the derived point
         assert_eq!((pts[1].tau_scale, pts[1].hidden), (0.5, 256));
         assert!(pts[1..10].iter().all(|p| p.hidden == 256 && p.dropout == pts[0].dropout));
+        // the base's depth is kept, every layer at the point's width
+        assert_eq!(pts[1].recipe(&base, &space).hidden, vec![256]);
+        let deep = SnnRecipe { hidden: vec![256, 64], ..base.clone() };
+        let p = SearchPoint { hidden: 512, ..SearchPoint::derived(&deep) };
+        assert_eq!(p.recipe(&deep, &space).hidden, vec![512, 512]);
         let shards: Vec<Shard> = (0..3).map(|i| Shard::parse(&format!("{i}/3")).unwrap()).collect();
         for k in 0..12 {
             assert_eq!(shards.iter().filter(|s| s.runs(k)).count(), 1);
