@@ -388,6 +388,10 @@ pub struct Trial {
     pub epochs_run: usize,
     /// The lowest final training accuracy of its seeds.
     pub final_train_accuracy: f64,
+    /// Epochs the loss-spike guard undid, over all its seeds (0 without the guard, and in logs
+    /// from before 2026-12-01).
+    #[serde(default, skip_serializing_if = "super::recipe::is_zero_count")]
+    pub undone_epochs: usize,
     /// The first seed's validation accuracy per epoch.
     pub val_accuracy: Vec<f64>,
     pub seconds: f64,
@@ -652,6 +656,7 @@ fn trial_of(
             .iter()
             .map(|t| t.history.last().map_or(f64::NAN, |h| h.train_accuracy))
             .fold(f64::INFINITY, f64::min),
+        undone_epochs: runs.iter().map(|t| t.history.iter().filter(|h| h.undone).count()).sum(),
         val_accuracy: first.history.iter().map(|h| h.val_accuracy).collect(),
         seconds: runs.iter().map(|t| t.seconds).sum(),
         shard: shard.to_string(),
@@ -757,7 +762,7 @@ pub fn trials_markdown(trials: &[Trial]) -> String {
             format!("{:.2}% (seeds {})", 100.0 * t.score, per.join(" / "))
         };
         s += &format!(
-            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
+            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}{}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
             t.trial,
             if Some(t.trial) == best { " **chosen**" } else { "" },
             if t.point.recurrent { "from zero" } else { "no" },
@@ -769,6 +774,10 @@ pub fn trials_markdown(trials: &[Trial]) -> String {
             t.point.init_gain,
             t.epochs_run,
             t.best_epoch,
+            match t.undone_epochs {
+                0 => String::new(),
+                n => format!("; {n} undone by the guard"),
+            },
             100.0 * t.final_train_accuracy,
             100.0 * t.best_val_accuracy,
             score,
@@ -828,6 +837,13 @@ pub fn report_markdown(
     );
     if let Some(depth) = trials.first().map(|t| t.recipe.hidden.len()).filter(|&d| d > 1) {
         s += &format!("Every trial has {depth} hidden layers, each of the width the table gives (`--hidden`).\n\n");
+    }
+    if let Some(f) = trials.first().map(|t| t.recipe.loss_spike_guard).filter(|&f| f > 0.0) {
+        s += &format!(
+            "Every trial runs with the loss-spike guard (`--loss-spike-guard {f}`): an epoch whose training loss is more \
+             than {f} times the lowest before it is undone and the learning rate halved; the table counts the epochs \
+             it undid, over all seeds.\n\n"
+        );
     }
     s += &trials_markdown(trials);
     if let Some(w) = winner(trials) {
@@ -954,6 +970,7 @@ mod tests {
             best_epoch: 1,
             epochs_run: 1,
             final_train_accuracy: 1.0,
+            undone_epochs: 0,
             val_accuracy: vec![score],
             seconds: 1.0,
             shard: "0/1".into(),
@@ -985,6 +1002,15 @@ mod tests {
         with_c.push(trial(6, c, 0.8));
         assert_eq!(combination(&with_c, &base), None, "already run");
         assert_eq!(winner(&with_c).unwrap().trial, 5);
+        // epochs the loss-spike guard undid: counted in the table, kept by the log, absent from
+        // the logs of runs without it
+        let mut guarded = trial(7, d, 0.5);
+        guarded.undone_epochs = 2;
+        assert!(trials_markdown(std::slice::from_ref(&guarded)).contains("1 (1; 2 undone by the guard)"));
+        assert!(!trials_markdown(&trials).contains("undone"));
+        let back: Trial = serde_json::from_str(&serde_json::to_string(&guarded).unwrap()).unwrap();
+        assert_eq!(back.undone_epochs, 2);
+        assert!(!serde_json::to_string(&trials[0]).unwrap().contains("undone"));
         assert!(Shard::parse("3/3").is_err() && Shard::parse("1").is_err() && Shard::parse("0/0").is_err());
     }
 
