@@ -376,8 +376,8 @@ pub struct Trial {
     pub trial: usize,
     pub point: SearchPoint,
     pub recipe: SnnRecipe,
-    /// Mean validation accuracy over the last `score_epochs` epochs run (the mean over the
-    /// trial's seeds).
+    /// Mean validation accuracy over the last `score_epochs` epochs run and kept (the mean over
+    /// the trial's seeds).
     pub score: f64,
     /// Each seed's score, when a trial trains several ([`SearchSpace::trial_seeds`]).
     #[serde(default)]
@@ -392,7 +392,8 @@ pub struct Trial {
     /// from before 2026-12-01).
     #[serde(default, skip_serializing_if = "super::recipe::is_zero_count")]
     pub undone_epochs: usize,
-    /// The first seed's validation accuracy per epoch.
+    /// The first seed's validation accuracy per epoch kept (the loss-spike guard's undone epochs
+    /// have none).
     pub val_accuracy: Vec<f64>,
     pub seconds: f64,
     /// `I/N`: the shard that ran it.
@@ -635,12 +636,7 @@ fn trial_of(
     shard: Shard,
     profile: &DataProfile,
 ) -> Trial {
-    let score = |t: &TrainedSnn| {
-        let val: Vec<f64> = t.history.iter().map(|h| h.val_accuracy).collect();
-        let last = &val[val.len().saturating_sub(space.score_epochs)..];
-        last.iter().sum::<f64>() / last.len().max(1) as f64
-    };
-    let seed_scores: Vec<f64> = runs.iter().map(score).collect();
+    let seed_scores: Vec<f64> = runs.iter().map(|t| seed_score(&t.history, space.score_epochs)).collect();
     let n = runs.len().max(1) as f64;
     let first = &runs[0];
     Trial {
@@ -657,11 +653,23 @@ fn trial_of(
             .map(|t| t.history.last().map_or(f64::NAN, |h| h.train_accuracy))
             .fold(f64::INFINITY, f64::min),
         undone_epochs: runs.iter().map(|t| t.history.iter().filter(|h| h.undone).count()).sum(),
-        val_accuracy: first.history.iter().map(|h| h.val_accuracy).collect(),
+        val_accuracy: validated(&first.history),
         seconds: runs.iter().map(|t| t.seconds).sum(),
         shard: shard.to_string(),
         profile: profile.clone(),
     }
+}
+
+/// The validation accuracy of each epoch run and kept: one the loss-spike guard undid has none.
+fn validated(history: &[learn::train::EpochReport]) -> Vec<f64> {
+    history.iter().filter(|h| !h.undone).map(|h| h.val_accuracy).collect()
+}
+
+/// A seed's score: its mean validation accuracy over the last `epochs` epochs run and kept.
+fn seed_score(history: &[learn::train::EpochReport], epochs: usize) -> f64 {
+    let val = validated(history);
+    let last = &val[val.len().saturating_sub(epochs)..];
+    last.iter().sum::<f64>() / last.len().max(1) as f64
 }
 
 /// The combination trial: every dimension at the value of the best trial among the derived
@@ -1012,6 +1020,27 @@ mod tests {
         assert_eq!(back.undone_epochs, 2);
         assert!(!serde_json::to_string(&trials[0]).unwrap().contains("undone"));
         assert!(Shard::parse("3/3").is_err() && Shard::parse("1").is_err() && Shard::parse("0/0").is_err());
+    }
+
+    #[test]
+    fn a_seed_scores_the_epochs_it_kept_not_those_the_guard_undid() {
+        let epoch = |epoch, val_accuracy: f64, undone| {
+            let mut r = learn::train::EpochReport::without_spikes(
+                epoch,
+                1e-3,
+                (1.0, 1, 1),
+                (0.5, val_accuracy),
+                std::time::Instant::now(),
+            );
+            r.undone = undone;
+            r
+        };
+        // epoch 3 undone (no validation): the last two kept are epochs 2 and 4
+        let h = [epoch(1, 0.2, false), epoch(2, 0.6, false), epoch(3, f64::NAN, true), epoch(4, 0.8, false)];
+        assert_eq!(validated(&h), [0.2, 0.6, 0.8]);
+        assert!((seed_score(&h, 2) - 0.7).abs() < 1e-12);
+        assert!((seed_score(&h, 10) - 1.6 / 3.0).abs() < 1e-12);
+        assert_eq!(seed_score(&h[..2], 1), 0.6);
     }
 
     #[test]
