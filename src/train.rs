@@ -9,8 +9,8 @@ use experiments::train::fit::{EvalTest, TactileData, train_on};
 use experiments::train::recipe::{NeuronChoice, ReadoutGradient, SnnRecipe, SurrogateChoice, TrainerChoice};
 use experiments::train::resnet::{ResnetPreset, ResnetTraining};
 use experiments::train::search::{
-    DataProfile, FinalModel, SearchObserver, SearchOutcome, SearchRun, SearchSpace, Shard, Trial, derived_recipe,
-    trials_markdown,
+    DataProfile, FinalModel, Halving, SearchObserver, SearchOutcome, SearchRun, SearchSpace, Shard, Trial,
+    derived_recipe, trials_markdown,
 };
 use pipeline::augment::Preprocess;
 use snn::model_file::{Arch, Readout};
@@ -55,6 +55,11 @@ pub struct Args {
     /// with some seeds loses), and the final models train for the most epochs any of them ran.
     #[arg(long, default_value_t = 3)]
     trial_seeds: u64,
+    /// --search: successive halving (docs/training.md): 3x --search-trials points in three rungs,
+    /// each keeping the best third for three times the epochs, at about the same cost as
+    /// --search-trials full trials; no combination trial.
+    #[arg(long, requires = "search", conflicts_with_all = ["shard", "budget_min"])]
+    search_halving: bool,
     /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
     /// then `--collect DIR` picks the winner from every shard's log.
     #[arg(long)]
@@ -508,6 +513,9 @@ struct TrialLines {
 }
 
 impl SearchObserver for TrialLines {
+    fn rung_begin(&mut self, rung: usize, rungs: usize, points: usize, epochs: usize) {
+        eprintln!("successive halving, rung {rung} of {rungs}: {points} points, at most {epochs} epochs each");
+    }
     fn trial_begin(&mut self, trial: usize, of: usize, r: &SnnRecipe) {
         eprintln!(
             "trial {trial}/{of}: hidden {:?}{}, tau_mem {:.0} ms, tau_out {:.0} ms, dropout {}, lr {}, init gain {}",
@@ -585,6 +593,7 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
             trials: args.search_trials,
             epochs: args.search_epochs,
             trial_seeds: args.trial_seeds.max(1),
+            halving: args.search_halving.then_some(Halving::DEFAULT),
             ..SearchSpace::default()
         },
         dir,

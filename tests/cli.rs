@@ -758,6 +758,72 @@ fn the_fixed_rule_searches_with_both_gradients_and_trains_the_better_on_validati
 }
 
 #[test]
+fn a_successive_halving_search_promotes_its_best_points_and_resumes_from_its_logs() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    tiny_event_dataset(&data, 3);
+    let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
+    // the budget of 2 trials of 9 epochs: 6 points of 1 epoch, the best 2 for 3, the best 1 for 9
+    let args = [
+        "train",
+        "--data",
+        d,
+        "--search",
+        "--search-halving",
+        "--search-trials",
+        "2",
+        "--search-epochs",
+        "9",
+        "--trial-seeds",
+        "1",
+        "--hidden",
+        "8",
+        "--quiet",
+        "--search-dir",
+        logs.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = braille(&args);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("rung 0 of 3: 6 points, at most 1 epochs"), "{err}");
+    let rung = |name: &str| -> Vec<serde_json::Value> {
+        let text = std::fs::read_to_string(logs.join(name)).unwrap();
+        text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    };
+    let (r0, r1, last) = (rung("rung-0.jsonl"), rung("rung-1.jsonl"), rung("trials-0-of-1.jsonl"));
+    assert_eq!((r0.len(), r1.len(), last.len()), (6, 2, 1));
+    let epochs = |t: &serde_json::Value| t["recipe"]["epochs"].as_u64().unwrap();
+    assert_eq!((epochs(&r0[0]), epochs(&r1[0]), epochs(&last[0])), (1, 3, 9));
+    // each rung runs the best of the one before (by score, ties to the earlier point)
+    let best = |rung: &[serde_json::Value], keep: usize| -> Vec<u64> {
+        let mut v: Vec<(f64, u64)> =
+            rung.iter().map(|t| (t["score"].as_f64().unwrap(), t["trial"].as_u64().unwrap())).collect();
+        v.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut k: Vec<u64> = v.iter().take(keep).map(|x| x.1).collect();
+        k.sort();
+        k
+    };
+    let mut ran1: Vec<u64> = r1.iter().map(|t| t["trial"].as_u64().unwrap()).collect();
+    ran1.sort();
+    assert_eq!(ran1, best(&r0, 2));
+    assert_eq!(vec![last[0]["trial"].as_u64().unwrap()], best(&r1, 1));
+    assert!(out.exists());
+    let report = std::fs::read_to_string(logs.join("search.md")).unwrap();
+    assert!(report.contains("successive-halving search") && report.contains(" promoted |"), "{report}");
+    // a rerun finds every rung logged and trains no trial again
+    let mut again = args.to_vec();
+    again.push("--force");
+    let o = braille(&again);
+    assert!(o.status.success() && !text(&o).1.lines().any(|l| l.starts_with("trial ")), "{}", text(&o).1);
+    // rungs wait for each other: no shards
+    let mut sharded = args.to_vec();
+    sharded.extend_from_slice(&["--shard", "0/2"]);
+    assert!(!braille(&sharded).status.success());
+}
+
+#[test]
 fn search_in_shards_collect_and_baselines_on_a_new_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");

@@ -256,6 +256,64 @@ pub struct SearchSpace {
     pub trials: usize,
     /// The draw's seed.
     pub seed: u64,
+    /// Successive halving instead of one rung of trials ([`Halving`]; `None`: every trial at the
+    /// space's epochs, as before 2026-12-01).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub halving: Option<Halving>,
+}
+
+/// Successive halving (Jamieson and Talwalkar, AISTATS 2016; the inner loop of Hyperband, Li et
+/// al., JMLR 18, 2018): more points, each first trained briefly, the best of each rung promoted
+/// to the next, longer one. Rung `r` of `rungs` trains its points for `epochs / eta^(rungs-1-r)`
+/// epochs (the last rung the space's epochs), with the space's seeds per trial, and promotes the
+/// best `1/eta` of them by score (ties to the earlier point). The first rung has `trials *
+/// eta^(rungs-1) / rungs` points, so each rung costs about `trials / rungs` full trials and the
+/// whole search about what `trials` full trials cost: the same budget, more recipes tried (48
+/// against 16 at the defaults). The last rung's trials are the search's trials (its logs, its
+/// winner); the earlier rungs are logged in `rung-R.jsonl` beside them. A short rung's score is
+/// the mean over its last `score_epochs` scaled to its length (at least one epoch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Halving {
+    pub eta: usize,
+    pub rungs: usize,
+}
+
+impl Halving {
+    /// Keep one in three, three rungs.
+    pub const DEFAULT: Halving = Halving { eta: 3, rungs: 3 };
+
+    fn factor(&self, rungs_after: usize) -> usize {
+        self.eta.max(2).saturating_pow(rungs_after as u32)
+    }
+
+    /// Points in the first rung, for the budget of `trials` full trials.
+    pub fn first_rung_points(&self, trials: usize) -> usize {
+        (trials * self.factor(self.rungs.max(1) - 1)).div_ceil(self.rungs.max(1))
+    }
+
+    /// Points in rung `rung` when the first has `first`.
+    pub fn rung_points(&self, rung: usize, first: usize) -> usize {
+        (first / self.factor(rung)).max(1)
+    }
+
+    /// The space a rung's trials run with: its epochs and its score's epochs.
+    pub fn rung_space(&self, rung: usize, space: &SearchSpace) -> SearchSpace {
+        let f = self.factor(self.rungs.max(1) - 1 - rung) as f64;
+        let epochs = ((space.epochs as f64 / f).round() as usize).max(1);
+        let score_epochs = ((space.score_epochs as f64 * epochs as f64 / space.epochs as f64).round() as usize).max(1);
+        SearchSpace { epochs, score_epochs, ..space.clone() }
+    }
+
+    fn check(&self) -> Result<()> {
+        if self.eta < 2 || self.rungs < 2 {
+            return Err(Error::Setting {
+                name: "successive halving",
+                value: format!("eta {}, {} rungs", self.eta, self.rungs),
+                expected: "eta 2 or more and 2 rungs or more",
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for SearchSpace {
@@ -277,6 +335,7 @@ impl Default for SearchSpace {
             trial_seeds: 3,
             trials: 16,
             seed: 1,
+            halving: None,
         }
     }
 }
@@ -362,7 +421,7 @@ impl SearchSpace {
                 expected: "a value in every dimension, epochs and trials",
             });
         }
-        Ok(())
+        self.halving.as_ref().map_or(Ok(()), Halving::check)
     }
 }
 
@@ -440,13 +499,28 @@ impl std::fmt::Display for Shard {
 /// The trials logged in `dir` (every `trials-*.jsonl`), by trial number. A line that does not
 /// parse is an error naming the file and the line.
 pub fn read_logs(dir: &Path) -> Result<Vec<Trial>> {
+    read_logs_named(dir, |n| n.starts_with("trials-") && n.ends_with(".jsonl"))
+}
+
+/// The trials of a successive-halving search's rung `rung` (not the last), as [`read_logs`].
+pub fn read_rung_log(dir: &Path, rung: usize) -> Result<Vec<Trial>> {
+    let name = rung_log_name(rung);
+    if !dir.join(&name).exists() {
+        return Ok(Vec::new());
+    }
+    read_logs_named(dir, |n| n == name)
+}
+
+fn rung_log_name(rung: usize) -> String {
+    format!("rung-{rung}.jsonl")
+}
+
+fn read_logs_named(dir: &Path, wanted: impl Fn(&str) -> bool) -> Result<Vec<Trial>> {
     let io = |source| Error::Io { path: dir.to_path_buf(), source };
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(io)?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("trials-") && n.ends_with(".jsonl"))
-        })
+        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(&wanted))
         .collect();
     files.sort();
     let mut trials: Vec<Trial> = Vec::new();
@@ -484,6 +558,8 @@ pub fn read_logs(dir: &Path) -> Result<Vec<Trial>> {
 pub trait SearchObserver {
     /// A trial begins; its epochs go to the returned observer.
     fn trial_begin(&mut self, _trial: usize, _of: usize, _recipe: &SnnRecipe) {}
+    /// A successive-halving search's rung `rung` (of `rungs`) begins: `points` trials of `epochs`.
+    fn rung_begin(&mut self, _rung: usize, _rungs: usize, _points: usize, _epochs: usize) {}
     fn epoch(&mut self, _report: &EpochReport) {}
     fn trial_end(&mut self, _trial: &Trial) {}
     /// The winner is chosen; its final models (`seeds` of them) train next with `recipe`.
@@ -561,13 +637,32 @@ pub fn run_trials(
             what: format!("holds the trials of another dataset ({}); use another search folder", t.profile.data),
         });
     }
-    let started = std::time::Instant::now();
     let points = space.points(base);
+    let mine: Vec<(usize, SearchPoint)> = points.iter().copied().enumerate().filter(|&(k, _)| shard.runs(k)).collect();
+    let log = shard.log(dir);
+    run_listed(data, profile, base, space, &mine, points.len(), shard, &log, &done, budget, observer)
+}
+
+/// Runs the numbered points `listed` at `space`'s epochs, appending each trial to `log`; a point
+/// already in `done` (the same number, recipe and seeds) is not run again; a trial starts only if
+/// the `budget` allows it.
+#[allow(clippy::too_many_arguments)]
+fn run_listed(
+    data: &TactileData,
+    profile: &DataProfile,
+    base: &SnnRecipe,
+    space: &SearchSpace,
+    listed: &[(usize, SearchPoint)],
+    of: usize,
+    shard: Shard,
+    log: &Path,
+    done: &[Trial],
+    budget: Option<Budget>,
+    observer: &mut dyn SearchObserver,
+) -> Result<Vec<Trial>> {
+    let started = std::time::Instant::now();
     let mut ran = Vec::new();
-    for (k, p) in points.iter().enumerate() {
-        if !shard.runs(k) {
-            continue;
-        }
+    for &(k, p) in listed {
         let recipe = p.recipe(base, space);
         if let Some(t) = done.iter().find(|t| {
             t.trial == k && t.recipe == recipe && t.seed_scores.len().max(1) as u64 == space.trial_seeds.max(1)
@@ -587,9 +682,73 @@ pub fn run_trials(
         if budget.is_some_and(|b| !b.allows(started.elapsed(), mean)) {
             break;
         }
-        ran.push(run_point(data, profile, k, points.len(), *p, base, space, shard, dir, observer)?);
+        ran.push(run_point(data, profile, (k, of), p, base, space, shard, log, observer)?);
     }
     Ok(ran)
+}
+
+/// Runs a successive-halving search's trials ([`Halving`]) on `data`, resuming from its logs:
+/// every rung before the last (logged in `dir/rung-R.jsonl`), each promoting its best points,
+/// then the last rung, whose trials are the search's (`dir/trials-0-of-1.jsonl`), returned.
+#[allow(clippy::too_many_arguments)]
+pub fn run_halving(
+    data: &TactileData,
+    profile: &DataProfile,
+    base: &SnnRecipe,
+    space: &SearchSpace,
+    halving: Halving,
+    dir: &Path,
+    observer: &mut dyn SearchObserver,
+) -> Result<Vec<Trial>> {
+    space.check()?;
+    halving.check()?;
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    let first = halving.first_rung_points(space.trials);
+    let points = SearchSpace { trials: first, ..space.clone() }.points(base);
+    let mut alive: Vec<(usize, SearchPoint)> = points.iter().copied().enumerate().collect();
+    for rung in 0..halving.rungs {
+        let rung_space = halving.rung_space(rung, space);
+        let last = rung + 1 == halving.rungs;
+        let (log, done) = if last {
+            (Shard::ALL.log(dir), read_logs(dir)?)
+        } else {
+            (dir.join(rung_log_name(rung)), read_rung_log(dir, rung)?)
+        };
+        if let Some(t) = done.iter().find(|t| t.profile != *profile) {
+            return Err(Error::SearchLog {
+                dir: dir.to_path_buf(),
+                what: format!("holds the trials of another dataset ({}); use another search folder", t.profile.data),
+            });
+        }
+        observer.rung_begin(rung, halving.rungs, alive.len(), rung_space.epochs);
+        let ran = run_listed(
+            data,
+            profile,
+            base,
+            &rung_space,
+            &alive,
+            points.len(),
+            Shard::ALL,
+            &log,
+            &done,
+            None,
+            observer,
+        )?;
+        if last {
+            return Ok(ran);
+        }
+        let promoted = promoted(&ran, halving.rung_points(rung + 1, first));
+        alive.retain(|(k, _)| promoted.contains(k));
+    }
+    unreachable!("the last rung returns")
+}
+
+/// The numbers of the `keep` best trials by score (ties to the earlier; a NaN score last).
+fn promoted(trials: &[Trial], keep: usize) -> Vec<usize> {
+    let key = |t: &Trial| if t.score.is_nan() { f64::NEG_INFINITY } else { t.score };
+    let mut ranked: Vec<&Trial> = trials.iter().collect();
+    ranked.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.trial.cmp(&b.trial)));
+    ranked.iter().take(keep).map(|t| t.trial).collect()
 }
 
 /// Trains one trial and appends it to its shard's log.
@@ -597,17 +756,16 @@ pub fn run_trials(
 fn run_point(
     data: &TactileData,
     profile: &DataProfile,
-    k: usize,
-    of: usize,
+    (k, of): (usize, usize),
     p: SearchPoint,
     base: &SnnRecipe,
     space: &SearchSpace,
     shard: Shard,
-    dir: &Path,
+    log: &Path,
     observer: &mut dyn SearchObserver,
 ) -> Result<Trial> {
     let recipe = p.recipe(base, space);
-    let log = shard.log(dir);
+    let log = log.to_path_buf();
     observer.trial_begin(k, of, &recipe);
     let runs = (0..space.trial_seeds.max(1))
         .map(|i| {
@@ -720,7 +878,7 @@ pub fn run_combination(
     let trials = read_logs(dir)?;
     let Some(p) = combination(&trials, base) else { return Ok(None) };
     let k = trials.iter().map(|t| t.trial + 1).max().unwrap_or(0).max(space.trials);
-    run_point(data, profile, k, k + 1, p, base, space, Shard::ALL, dir, observer).map(Some)
+    run_point(data, profile, (k, k + 1), p, base, space, Shard::ALL, &Shard::ALL.log(dir), observer).map(Some)
 }
 
 /// The winner of the logged trials: the highest score (ties to the earlier trial).
@@ -758,6 +916,40 @@ pub fn final_recipe(winner: &Trial, seed: u64) -> SnnRecipe {
 /// The trials as a Markdown table, best first marked.
 pub fn trials_markdown(trials: &[Trial]) -> String {
     let best = winner(trials).map(|w| w.trial);
+    trials_table(trials, |t| if Some(t.trial) == best { " **chosen**" } else { "" })
+}
+
+/// A successive-halving search's earlier rungs and how its last was chosen, as Markdown.
+fn halving_markdown(h: Halving, space: &SearchSpace, rungs: &[Vec<Trial>], last: &[Trial]) -> String {
+    let first = h.first_rung_points(space.trials);
+    let mut s = format!(
+        "These are the last rung of a successive-halving search (`--search-halving`; Jamieson and Talwalkar 2016): \
+         {first} points (the derived one, its neighbours, then draws from the space) for the budget of {} full \
+         trials; each rung keeps the best 1 in {} by score and trains them {} times longer. Trial numbers are the \
+         points' numbers in the first rung.\n\n| rung | points | epochs at most | score over the last | minutes |\n\
+         | --- | --- | --- | --- | --- |\n",
+        space.trials, h.eta, h.eta
+    );
+    for r in 0..h.rungs {
+        let rs = h.rung_space(r, space);
+        let ran = if r + 1 == h.rungs { last } else { rungs.get(r).map_or(&[][..], |v| &v[..]) };
+        s += &format!(
+            "| {r} | {} | {} | {} | {:.0} |\n",
+            ran.len(),
+            rs.epochs,
+            rs.score_epochs,
+            ran.iter().map(|t| t.seconds).sum::<f64>() / 60.0
+        );
+    }
+    for (r, ran) in rungs.iter().enumerate() {
+        let next = promoted(ran, h.rung_points(r + 1, first));
+        s += &format!("\n### Rung {r}\n\n");
+        s += &trials_table(ran, |t| if next.contains(&t.trial) { " promoted" } else { "" });
+    }
+    s + "\n### The last rung\n\n"
+}
+
+fn trials_table<'a>(trials: &'a [Trial], mark: impl Fn(&'a Trial) -> &'static str) -> String {
     let mut s = String::from(
         "| trial | recurrent | hidden | tau_mem (ms) | tau_out (ms) | dropout | lr | init gain | epochs run (best) | train acc | val acc, best | score (mean of last) | minutes |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
@@ -772,7 +964,7 @@ pub fn trials_markdown(trials: &[Trial]) -> String {
         s += &format!(
             "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}{}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
             t.trial,
-            if Some(t.trial) == best { " **chosen**" } else { "" },
+            mark(t),
             if t.point.recurrent { "from zero" } else { "no" },
             t.point.hidden,
             r.tau_mem_us / 1000.0,
@@ -817,6 +1009,7 @@ pub fn final_models(
 pub fn report_markdown(
     profile: &DataProfile,
     space: &SearchSpace,
+    rungs: &[Vec<Trial>],
     trials: &[Trial],
     finals: &[(u64, &TrainedSnn)],
 ) -> String {
@@ -843,6 +1036,9 @@ pub fn report_markdown(
             Some(TrainerChoice::Dense) => "by burn's autodiff (dense)",
         }
     );
+    if let Some(h) = space.halving {
+        s += &halving_markdown(h, space, rungs, trials);
+    }
     if let Some(depth) = trials.first().map(|t| t.recipe.hidden.len()).filter(|&d| d > 1) {
         s += &format!("Every trial has {depth} hidden layers, each of the width the table gives (`--hidden`).\n\n");
     }
@@ -1023,6 +1219,55 @@ mod tests {
     }
 
     #[test]
+    fn successive_halving_spends_the_budget_of_the_trials_it_replaces() {
+        let space = SearchSpace { halving: Some(Halving::DEFAULT), ..SearchSpace::default() };
+        let h = Halving::DEFAULT;
+        // 16 trials of 60 epochs: 48 points of 7 epochs, 16 of 20, 5 of 60
+        let first = h.first_rung_points(space.trials);
+        let rungs: Vec<(usize, usize, usize)> = (0..3)
+            .map(|r| {
+                let rs = h.rung_space(r, &space);
+                (h.rung_points(r, first), rs.epochs, rs.score_epochs)
+            })
+            .collect();
+        assert_eq!(rungs, [(48, 7, 1), (16, 20, 2), (5, 60, 5)]);
+        let epochs: usize = rungs.iter().map(|(n, e, _)| n * e).sum();
+        assert!((epochs as f64 / (16.0 * 60.0) - 1.0).abs() < 0.01, "{epochs}");
+        assert_eq!(h.rung_space(2, &space), space, "the last rung is the space itself");
+        assert!(SearchSpace { halving: Some(Halving { eta: 1, rungs: 3 }), ..space.clone() }.check().is_err());
+        // promotion: the best scores, ties to the earlier point, NaN last
+        let t = |trial: usize, score: f64| Trial {
+            trial,
+            point: SearchPoint::derived(&SnnRecipe::preset("default").unwrap()),
+            recipe: SnnRecipe::preset("default").unwrap(),
+            score,
+            seed_scores: Vec::new(),
+            best_val_accuracy: score,
+            best_epoch: 1,
+            epochs_run: 1,
+            final_train_accuracy: 1.0,
+            undone_epochs: 0,
+            val_accuracy: vec![score],
+            seconds: 1.0,
+            shard: "0/1".into(),
+            profile: DataProfile {
+                data: "x".into(),
+                kind: "events".into(),
+                channels: 1,
+                classes: 2,
+                train_samples: 4,
+                duration_us: 1,
+                events_per_sample: None,
+                signal_step: None,
+                period_us: 0,
+            },
+        };
+        let ran = [t(0, 0.5), t(1, f64::NAN), t(2, 0.7), t(3, 0.5), t(4, 0.6)];
+        assert_eq!(promoted(&ran, 3), [2, 4, 0]);
+        assert_eq!(promoted(&ran, 5), [2, 4, 0, 3, 1]);
+    }
+
+    #[test]
     fn a_seed_scores_the_epochs_it_kept_not_those_the_guard_undid() {
         let epoch = |epoch, val_accuracy: f64, undone| {
             let mut r = learn::train::EpochReport::without_spikes(
@@ -1173,7 +1418,19 @@ fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<T
         }
     }
     let data = TactileData::encode(run.dataset, run.base)?;
-    if run.run_trials {
+    if let Some(h) = run.space.halving
+        && run.run_trials
+    {
+        if run.shard.count != 1 || run.budget.is_some() {
+            return Err(Error::SearchLog {
+                dir: run.dir.clone(),
+                what: "a successive-halving search runs whole and without a budget (its rungs wait for each other; \
+                       --search-trials sets its budget)"
+                    .into(),
+            });
+        }
+        run_halving(&data, run.profile, run.base, &run.space, h, &run.dir, observer)?;
+    } else if run.run_trials {
         let budget = run.budget.map(|total| {
             if finishing { Budget::finishing(total, &run.space, run.seeds) } else { Budget::shard(total) }
         });
@@ -1191,10 +1448,14 @@ fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<T
             what: format!("the trials were run on {}, not on {}", t.profile.data, run.profile.data),
         });
     }
-    // each dimension at its best neighbour's value, if that point was not run
-    let trials = match run_combination(&data, run.profile, run.base, &run.space, &run.dir, observer)? {
-        Some(_) => read_logs(&run.dir)?,
-        None => trials,
+    // each dimension at its best neighbour's value, if that point was not run (not after
+    // successive halving, whose last rung is not the derived point's neighbourhood)
+    let trials = match run.space.halving {
+        None => match run_combination(&data, run.profile, run.base, &run.space, &run.dir, observer)? {
+            Some(_) => read_logs(&run.dir)?,
+            None => trials,
+        },
+        Some(_) => trials,
     };
     if trials.is_empty() {
         return Err(Error::SearchLog { dir: run.dir.clone(), what: "no trials logged".into() });
@@ -1229,7 +1490,11 @@ fn finish(
         finals.push(f);
     }
     let refs: Vec<(u64, &TrainedSnn)> = trained.iter().map(|(s, t)| (*s, t)).collect();
-    let markdown = report_markdown(run.profile, &run.space, &trials, &refs);
+    let rungs = match run.space.halving {
+        Some(h) => (0..h.rungs - 1).map(|r| read_rung_log(&run.dir, r)).collect::<Result<Vec<_>>>()?,
+        None => Vec::new(),
+    };
+    let markdown = report_markdown(run.profile, &run.space, &rungs, &trials, &refs);
     let report = run.dir.join("search.md");
     std::fs::write(&report, &markdown).map_err(|source| Error::Io { path: report.clone(), source })?;
     let winner = w.trial;
