@@ -4,10 +4,12 @@
 # validation hold-out) on raw1350, th10 and the simulated taxels; the test splits are not read.
 #   bash scripts/lodo_candidate.sh NAME DATE -- FLAGS...
 # writes docs/results/search/lodo-DATE/{raw1350,th10,taxels}-NAME.md, to set beside the same
-# trial without the candidate (docs/results/search/lodo-2026-11-30/*-none.md).
+# trial without the candidate (docs/results/search/lodo-2026-11-30/*-none.md). SETS (default
+# "raw1350 th10 taxels") names the datasets, for a candidate whose flags differ by dataset.
 #   bash scripts/lodo_candidate.sh --search DATASET NAME -- FLAGS...
 # runs DATASET's headline search with the candidate, exact gradients then truncated (validation
 # only: final models in models/search/{DATASET}-NAME{-exact,}*, trained and not scored).
+# MODES (default "exact truncated") names the searches to run.
 # The rule each decision applies is written in docs/log/ before its run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,7 +31,7 @@ if [[ "${1:-}" == "--search" ]]; then
   name=$d trials=16
   [[ $d == taxels ]] && name=sim-taxels
   [[ $d == th10 ]] && trials=12
-  for mode in exact truncated; do
+  for mode in ${MODES:-exact truncated}; do
     cutoff=() suffix=-$cand
     [[ $mode == exact ]] && cutoff=(--gradient-cutoff 0) suffix=-$cand-exact
     $b train --data "$data" --search --search-trials $trials --seeds 3 "$@" "${cutoff[@]}" \
@@ -42,7 +44,7 @@ cand=${1:?a name for the candidate} date=${2:?the date of the decision}
 shift 3
 out=docs/results/search/lodo-$date
 mkdir -p "$out"
-for d in raw1350 th10 taxels; do
+for d in ${SETS:-raw1350 th10 taxels}; do
   tmp=$(mktemp -d)
   $b train --data "$(data_of $d)" --search --search-trials 1 --seeds 1 "$@" \
     --search-dir "$tmp/search" --out "$tmp/model.safetensors" --quiet

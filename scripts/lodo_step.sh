@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue #51: the leave-one-dataset-out candidate "the SNN's step twice the derived one" (rule in
 # docs/log/tactile-2026-12-01.md). The derived step is 10 ms on raw1350 and th10 and 5 ms on the
-# simulated taxels, so the step is given per dataset; otherwise as scripts/lodo_candidate.sh:
+# simulated taxels, so the step is given per dataset to scripts/lodo_candidate.sh:
 #   bash scripts/lodo_step.sh                  trial 0 on the three datasets (validation only)
 #   bash scripts/lodo_step.sh --search DATASET  that dataset's searches with the step (validation only)
 set -euo pipefail
@@ -17,17 +17,6 @@ if [[ "${1:-}" == "--search" ]]; then
   d=${2:?--search needs a dataset: raw1350, th10 or taxels}
   exec bash scripts/lodo_candidate.sh --search "$d" step2 -- --dt-us "$(step_of "$d")"
 fi
-cargo build --release --quiet
-b=target/release/braille
-[[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
-out=docs/results/search/lodo-2026-12-01
-mkdir -p "$out"
 for d in raw1350 th10 taxels; do
-  data=data/icub_braille/$d
-  [[ $d == taxels ]] && data=target/sim-taxels
-  tmp=$(mktemp -d)
-  $b train --data "$data" --search --search-trials 1 --seeds 1 --dt-us "$(step_of $d)" \
-    --search-dir "$tmp/search" --out "$tmp/model.safetensors" --quiet
-  cp "$tmp/search/search.md" "$out/$d-step2.md"
-  rm -rf "$tmp"
+  SETS=$d bash scripts/lodo_candidate.sh step2 2026-12-01 -- --dt-us "$(step_of $d)"
 done

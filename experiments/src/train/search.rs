@@ -1082,6 +1082,36 @@ pub fn report_markdown(
 mod tests {
     use super::*;
 
+    /// A trial as its log would hold it, scored `score`.
+    fn logged(trial: usize, point: SearchPoint, recipe: SnnRecipe, score: f64) -> Trial {
+        Trial {
+            trial,
+            point,
+            recipe,
+            score,
+            seed_scores: Vec::new(),
+            best_val_accuracy: score,
+            best_epoch: 1,
+            epochs_run: 1,
+            final_train_accuracy: 1.0,
+            undone_epochs: 0,
+            val_accuracy: vec![score],
+            seconds: 1.0,
+            shard: "0/1".into(),
+            profile: DataProfile {
+                data: "x".into(),
+                kind: "events".into(),
+                channels: 3,
+                classes: 4,
+                train_samples: 10,
+                duration_us: 1_000_000,
+                events_per_sample: Some(40.0),
+                signal_step: None,
+                period_us: 0,
+            },
+        }
+    }
+
     #[test]
     fn the_budget_keeps_time_for_the_combination_and_the_final_models() {
         use std::time::Duration;
@@ -1164,32 +1194,7 @@ mod tests {
             assert_eq!(shards.iter().filter(|s| s.runs(k)).count(), 1);
         }
         // the combination: each dimension's best neighbour
-        let trial = |k: usize, point: SearchPoint, score: f64| Trial {
-            trial: k,
-            point,
-            recipe: point.recipe(&base, &space),
-            score,
-            seed_scores: Vec::new(),
-            best_val_accuracy: score,
-            best_epoch: 1,
-            epochs_run: 1,
-            final_train_accuracy: 1.0,
-            undone_epochs: 0,
-            val_accuracy: vec![score],
-            seconds: 1.0,
-            shard: "0/1".into(),
-            profile: DataProfile {
-                data: "x".into(),
-                kind: "events".into(),
-                channels: 3,
-                classes: 4,
-                train_samples: 10,
-                duration_us: 1_000_000,
-                events_per_sample: Some(40.0),
-                signal_step: None,
-                period_us: 0,
-            },
-        };
+        let trial = |k: usize, point: SearchPoint, score: f64| logged(k, point, point.recipe(&base, &space), score);
         let d = pts[0];
         let trials = vec![
             trial(0, d, 0.5),
@@ -1236,31 +1241,9 @@ mod tests {
         assert_eq!(h.rung_space(2, &space), space, "the last rung is the space itself");
         assert!(SearchSpace { halving: Some(Halving { eta: 1, rungs: 3 }), ..space.clone() }.check().is_err());
         // promotion: the best scores, ties to the earlier point, NaN last
-        let t = |trial: usize, score: f64| Trial {
-            trial,
-            point: SearchPoint::derived(&SnnRecipe::preset("default").unwrap()),
-            recipe: SnnRecipe::preset("default").unwrap(),
-            score,
-            seed_scores: Vec::new(),
-            best_val_accuracy: score,
-            best_epoch: 1,
-            epochs_run: 1,
-            final_train_accuracy: 1.0,
-            undone_epochs: 0,
-            val_accuracy: vec![score],
-            seconds: 1.0,
-            shard: "0/1".into(),
-            profile: DataProfile {
-                data: "x".into(),
-                kind: "events".into(),
-                channels: 1,
-                classes: 2,
-                train_samples: 4,
-                duration_us: 1,
-                events_per_sample: None,
-                signal_step: None,
-                period_us: 0,
-            },
+        let t = |trial: usize, score: f64| {
+            let recipe = SnnRecipe::preset("default").unwrap();
+            logged(trial, SearchPoint::derived(&recipe), recipe, score)
         };
         let ran = [t(0, 0.5), t(1, f64::NAN), t(2, 0.7), t(3, 0.5), t(4, 0.6)];
         assert_eq!(promoted(&ran, 3), [2, 4, 0]);
