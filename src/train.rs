@@ -60,6 +60,11 @@ pub struct Args {
     /// --search-trials full trials; no combination trial.
     #[arg(long, requires = "search", conflicts_with_all = ["shard", "budget_min"])]
     search_halving: bool,
+    /// --search / --collect: the SNN's step searched too, at these multiples of the derived
+    /// step (as the conventional networks search their bins; the data re-encoded at each), e.g.
+    /// `1,2` [default: 1, the derived step only].
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    search_step_scale: Vec<f64>,
     /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
     /// then `--collect DIR` picks the winner from every shard's log.
     #[arg(long)]
@@ -518,14 +523,15 @@ impl SearchObserver for TrialLines {
     }
     fn trial_begin(&mut self, trial: usize, of: usize, r: &SnnRecipe) {
         eprintln!(
-            "trial {trial}/{of}: hidden {:?}{}, tau_mem {:.0} ms, tau_out {:.0} ms, dropout {}, lr {}, init gain {}",
+            "trial {trial}/{of}: hidden {:?}{}, tau_mem {:.0} ms, tau_out {:.0} ms, dropout {}, lr {}, init gain {}, step {} ms",
             r.hidden,
             if r.recurrent { " recurrent from zero" } else { " feed-forward" },
             r.tau_mem_us / 1000.0,
             r.tau_out_us / 1000.0,
             r.dropout,
             r.lr,
-            r.init_gain
+            r.init_gain,
+            r.dt_us as f64 / 1000.0
         );
     }
     fn epoch(&mut self, e: &learn::train::EpochReport) {
@@ -594,6 +600,11 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
             epochs: args.search_epochs,
             trial_seeds: args.trial_seeds.max(1),
             halving: args.search_halving.then_some(Halving::DEFAULT),
+            step_scale: if args.search_step_scale.is_empty() {
+                SearchSpace::default().step_scale
+            } else {
+                args.search_step_scale.clone()
+            },
             ..SearchSpace::default()
         },
         dir,

@@ -758,6 +758,60 @@ fn the_fixed_rule_searches_with_both_gradients_and_trains_the_better_on_validati
 }
 
 #[test]
+fn a_search_over_the_step_trains_each_trial_on_data_encoded_at_its_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    tiny_event_dataset(&data, 3);
+    let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
+    // trial 15 is the step's neighbour, the derived recipe at twice the step (after the other
+    // dimensions' 15 neighbours, three of them widths as 8 is not in the space)
+    let args = [
+        "train",
+        "--data",
+        d,
+        "--search",
+        "--search-step-scale",
+        "1,2",
+        "--search-trials",
+        "16",
+        "--search-epochs",
+        "2",
+        "--trial-seeds",
+        "1",
+        "--hidden",
+        "8",
+        "--quiet",
+        "--search-dir",
+        logs.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = braille(&args);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let log = std::fs::read_to_string(logs.join("trials-0-of-1.jsonl")).unwrap();
+    let trials: Vec<serde_json::Value> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let dt = |t: &serde_json::Value| t["recipe"]["dt_us"].as_i64().unwrap();
+    let mut neighbour = trials[0]["point"].clone();
+    neighbour["step_scale"] = 2.0.into();
+    assert_eq!(trials[15]["point"], neighbour);
+    assert_eq!(dt(&trials[15]), 2 * dt(&trials[0]));
+    assert!(trials[..15].iter().all(|t| dt(t) == dt(&trials[0]) && t["point"].get("step_scale").is_none()));
+    assert!(trials.iter().all(|t| t["score"].as_f64().unwrap().is_finite()));
+    let report = std::fs::read_to_string(logs.join("search.md")).unwrap();
+    assert!(report.contains("| step (ms) |"), "{report}");
+    // the final model steps as its trial did, whichever won
+    let chosen = report.lines().find(|l| l.contains("**chosen**")).unwrap();
+    let won = trials.iter().find(|t| chosen.starts_with(&format!("| {} **chosen**", t["trial"]))).unwrap();
+    assert_eq!(pipeline::models::load_snn(&out).unwrap().config.dt_us, dt(won));
+    // a step that is not a positive multiple is refused before any trial
+    let mut bad = args.to_vec();
+    bad[5] = "1,0";
+    let o = braille(&bad);
+    assert!(!o.status.success() && text(&o).1.contains("step scale"), "{}", text(&o).1);
+}
+
+#[test]
 fn a_successive_halving_search_promotes_its_best_points_and_resumes_from_its_logs() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");

@@ -181,6 +181,7 @@ pub enum EvalTest {
 
 /// A tactile dataset folder encoded by a recipe: the training split, the folder's own
 /// validation split if it has one, and the test split (kept aside).
+#[derive(Clone)]
 pub struct TactileData {
     pub dir: std::path::PathBuf,
     pub classes: Vec<String>,

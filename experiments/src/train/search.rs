@@ -12,6 +12,7 @@ use crate::error::{Error, Result};
 use crate::train::fit::{EvalTest, TactileData, TrainedSnn, train_on};
 use crate::train::recipe::{SnnRecipe, TrainerChoice};
 use encoders::dataset::{Dataset, DatasetKind, SampleData, Split};
+use learn::data::TactileEncoding;
 use learn::train::{EpochReport, Observer};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -183,6 +184,26 @@ pub struct SearchPoint {
     pub dropout: f64,
     pub lr: f64,
     pub init_gain: f32,
+    /// The step `dt_us` times this (the input re-encoded at that step). Absent from logs written
+    /// before 2026-12-01, which read as 1; not written when 1, so those logs stay as they were.
+    #[serde(default = "unit", skip_serializing_if = "is_unit")]
+    pub step_scale: f64,
+}
+
+fn unit() -> f64 {
+    1.0
+}
+
+fn is_unit(v: &f64) -> bool {
+    *v == 1.0
+}
+
+fn units() -> Vec<f64> {
+    vec![1.0]
+}
+
+fn are_units(v: &[f64]) -> bool {
+    v == [1.0]
 }
 
 impl SearchPoint {
@@ -194,6 +215,7 @@ impl SearchPoint {
             tau_mem_us: base.tau_mem_us * self.tau_scale,
             tau_syn_us: base.tau_syn_us * self.tau_scale,
             tau_out_us: base.tau_out_us * self.readout_tau_scale,
+            dt_us: scaled_step(base.dt_us, self.step_scale),
             recurrent: self.recurrent,
             recurrent_init_gain: self.recurrent.then_some(0.0),
             hidden: vec![self.hidden; base.hidden.len().max(1)],
@@ -220,8 +242,14 @@ impl SearchPoint {
             dropout: base.dropout,
             lr: base.lr,
             init_gain: base.init_gain,
+            step_scale: 1.0,
         }
     }
+}
+
+/// `dt_us` times `scale`, in whole microseconds (at least one).
+fn scaled_step(dt_us: i64, scale: f64) -> i64 {
+    if scale == 1.0 { dt_us } else { ((dt_us as f64 * scale).round() as i64).max(1) }
 }
 
 /// The documented search space and how each trial is run (docs/training.md, "The search").
@@ -234,6 +262,11 @@ pub struct SearchSpace {
     pub dropout: Vec<f64>,
     pub lr: Vec<f64>,
     pub init_gain: Vec<f32>,
+    /// The SNN's step times each of these (`--search-step-scale`), as the conventional networks
+    /// search their bins (`braille baselines --search`); `[1]` (the default): the derived step
+    /// only, and the same points as before this dimension existed.
+    #[serde(default = "units", skip_serializing_if = "are_units")]
+    pub step_scale: Vec<f64>,
     /// Epochs at most per trial.
     pub epochs: usize,
     /// A trial stops after this many epochs without a better validation accuracy.
@@ -326,6 +359,7 @@ impl Default for SearchSpace {
             dropout: vec![0.0, 0.1, 0.2],
             lr: vec![5e-4, 1e-3, 2e-3],
             init_gain: vec![0.5, 1.0],
+            step_scale: units(),
             epochs: 60,
             patience: 15,
             score_epochs: 5,
@@ -343,8 +377,10 @@ impl Default for SearchSpace {
 impl SearchSpace {
     /// The trials' points, in order: the derived recipe's point; then its neighbours, each
     /// dimension's other values one at a time (time constants, recurrence, initial gain, learning
-    /// rate, readout, hidden size, dropout); then distinct points drawn with the space's seed.
-    /// Every shard computes the same list.
+    /// rate, readout, hidden size, dropout, step); then distinct points drawn with the space's
+    /// seed. Every shard computes the same list. The step is drawn only when it has more than one
+    /// value, so a space with the derived step alone draws what it drew before the step was a
+    /// dimension.
     pub fn points(&self, base: &SnnRecipe) -> Vec<SearchPoint> {
         let d = SearchPoint::derived(base);
         let mut points = vec![d];
@@ -374,6 +410,9 @@ impl SearchSpace {
         for &v in &self.dropout {
             add(&mut points, SearchPoint { dropout: v, ..d });
         }
+        for &v in &self.step_scale {
+            add(&mut points, SearchPoint { step_scale: v, ..d });
+        }
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
         let size = self.tau_scale.len()
             * self.readout_tau_scale.len()
@@ -381,7 +420,8 @@ impl SearchSpace {
             * self.hidden.len()
             * self.dropout.len()
             * self.lr.len()
-            * self.init_gain.len();
+            * self.init_gain.len()
+            * self.step_scale.len();
         let want = self.trials.min(size);
         let mut draws = 0;
         while points.len() < want && draws < 100 * want {
@@ -397,6 +437,10 @@ impl SearchSpace {
                 dropout: pick(&mut rng, &self.dropout),
                 lr: pick(&mut rng, &self.lr),
                 init_gain: pick(&mut rng, &self.init_gain),
+                step_scale: match self.step_scale[..] {
+                    [one] => one,
+                    _ => pick(&mut rng, &self.step_scale),
+                },
             };
             add(&mut points, p);
         }
@@ -413,12 +457,20 @@ impl SearchSpace {
             self.dropout.is_empty(),
             self.lr.is_empty(),
             self.init_gain.is_empty(),
+            self.step_scale.is_empty(),
         ];
         if empty.iter().any(|&e| e) || self.epochs == 0 || self.trials == 0 || self.score_epochs == 0 {
             return Err(Error::Setting {
                 name: "search space",
                 value: format!("{} trials, {} epochs", self.trials, self.epochs),
                 expected: "a value in every dimension, epochs and trials",
+            });
+        }
+        if let Some(v) = self.step_scale.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+            return Err(Error::Setting {
+                name: "search step scale",
+                value: v.to_string(),
+                expected: "positive multiples of the derived step",
             });
         }
         self.halving.as_ref().map_or(Ok(()), Halving::check)
@@ -617,7 +669,7 @@ impl Budget {
 /// ([`Budget::allows`]).
 #[allow(clippy::too_many_arguments)]
 pub fn run_trials(
-    data: &TactileData,
+    data: &SearchData,
     profile: &DataProfile,
     base: &SnnRecipe,
     space: &SearchSpace,
@@ -648,7 +700,7 @@ pub fn run_trials(
 /// the `budget` allows it.
 #[allow(clippy::too_many_arguments)]
 fn run_listed(
-    data: &TactileData,
+    data: &SearchData,
     profile: &DataProfile,
     base: &SnnRecipe,
     space: &SearchSpace,
@@ -692,7 +744,7 @@ fn run_listed(
 /// then the last rung, whose trials are the search's (`dir/trials-0-of-1.jsonl`), returned.
 #[allow(clippy::too_many_arguments)]
 pub fn run_halving(
-    data: &TactileData,
+    data: &SearchData,
     profile: &DataProfile,
     base: &SnnRecipe,
     space: &SearchSpace,
@@ -751,10 +803,36 @@ fn promoted(trials: &[Trial], keep: usize) -> Vec<usize> {
     ranked.iter().take(keep).map(|t| t.trial).collect()
 }
 
+/// The data a search's trials train on: the dataset encoded by the recipe the search is centred
+/// on, and encoded again for a trial whose step differs ([`SearchSpace::step_scale`]). The
+/// hold-out is drawn from the samples' labels and order, so it is the same at every step.
+pub struct SearchData<'a> {
+    pub dataset: &'a Dataset,
+    /// Encoded by the search's base recipe.
+    pub base: TactileData,
+}
+
+impl SearchData<'_> {
+    /// Whether data encoded by `a` serves `b` (the points differ in the step only; the
+    /// sigma-delta threshold is compared too, as a recipe given by hand may change it).
+    fn serves(a: &TactileEncoding, b: &SnnRecipe) -> bool {
+        a.dt_us == b.dt_us && a.sigma_delta.as_ref().is_none_or(|sd| sd.threshold == b.sigma_delta)
+    }
+
+    /// The data encoded as `recipe` asks: the base's, or a new encoding at its step.
+    pub fn for_recipe(&self, recipe: &SnnRecipe) -> Result<std::borrow::Cow<'_, TactileData>> {
+        Ok(if Self::serves(&self.base.encoding, recipe) {
+            std::borrow::Cow::Borrowed(&self.base)
+        } else {
+            std::borrow::Cow::Owned(TactileData::encode(self.dataset, recipe)?)
+        })
+    }
+}
+
 /// Trains one trial and appends it to its shard's log.
 #[allow(clippy::too_many_arguments)]
 fn run_point(
-    data: &TactileData,
+    data: &SearchData,
     profile: &DataProfile,
     (k, of): (usize, usize),
     p: SearchPoint,
@@ -767,10 +845,11 @@ fn run_point(
     let recipe = p.recipe(base, space);
     let log = log.to_path_buf();
     observer.trial_begin(k, of, &recipe);
+    let data = data.for_recipe(&recipe)?;
     let runs = (0..space.trial_seeds.max(1))
         .map(|i| {
             let r = SnnRecipe { seed: recipe.seed + i, ..recipe.clone() };
-            train_on(&r, data, EvalTest::No, None, &mut EpochsTo(observer))
+            train_on(&r, &data, EvalTest::No, None, &mut EpochsTo(observer))
         })
         .collect::<Result<Vec<_>>>()?;
     let trial = trial_of(k, p, recipe, &runs, space, shard, profile);
@@ -852,7 +931,7 @@ pub fn combination(trials: &[Trial], base: &SnnRecipe) -> Option<SearchPoint> {
 /// The search's dimensions: whether two points differ in one, and a point with that dimension
 /// taken from another.
 type Dimension = (fn(&SearchPoint, &SearchPoint) -> bool, fn(SearchPoint, &SearchPoint) -> SearchPoint);
-const DIMENSIONS: [Dimension; 7] = [
+const DIMENSIONS: [Dimension; 8] = [
     (|a, b| a.tau_scale != b.tau_scale, |a, b| SearchPoint { tau_scale: b.tau_scale, ..a }),
     (|a, b| a.recurrent != b.recurrent, |a, b| SearchPoint { recurrent: b.recurrent, ..a }),
     (|a, b| a.init_gain != b.init_gain, |a, b| SearchPoint { init_gain: b.init_gain, ..a }),
@@ -863,12 +942,13 @@ const DIMENSIONS: [Dimension; 7] = [
     ),
     (|a, b| a.hidden != b.hidden, |a, b| SearchPoint { hidden: b.hidden, ..a }),
     (|a, b| a.dropout != b.dropout, |a, b| SearchPoint { dropout: b.dropout, ..a }),
+    (|a, b| a.step_scale != b.step_scale, |a, b| SearchPoint { step_scale: b.step_scale, ..a }),
 ];
 
 /// Runs the combination trial (numbered after the space's trials) if there is one to run, and
 /// logs it to this shard's log in `dir`.
 pub fn run_combination(
-    data: &TactileData,
+    data: &SearchData,
     profile: &DataProfile,
     base: &SnnRecipe,
     space: &SearchSpace,
@@ -950,8 +1030,12 @@ fn halving_markdown(h: Halving, space: &SearchSpace, rungs: &[Vec<Trial>], last:
 }
 
 fn trials_table<'a>(trials: &'a [Trial], mark: impl Fn(&'a Trial) -> &'static str) -> String {
-    let mut s = String::from(
-        "| trial | recurrent | hidden | tau_mem (ms) | tau_out (ms) | dropout | lr | init gain | epochs run (best) | train acc | val acc, best | score (mean of last) | minutes |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+    // the step's column only where the trials' steps differ (`--search-step-scale`)
+    let steps = trials.iter().any(|t| Some(t.recipe.dt_us) != trials.first().map(|f| f.recipe.dt_us));
+    let mut s = format!(
+        "| trial | recurrent | hidden | tau_mem (ms) | tau_out (ms) | dropout | lr | init gain |{} epochs run (best) | train acc | val acc, best | score (mean of last) | minutes |\n| --- | --- | --- | --- | --- | --- | --- | --- |{} --- | --- | --- | --- | --- |\n",
+        if steps { " step (ms) |" } else { "" },
+        if steps { " --- |" } else { "" },
     );
     for t in trials {
         let r = &t.recipe;
@@ -962,7 +1046,7 @@ fn trials_table<'a>(trials: &'a [Trial], mark: impl Fn(&'a Trial) -> &'static st
             format!("{:.2}% (seeds {})", 100.0 * t.score, per.join(" / "))
         };
         s += &format!(
-            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} | {} ({}{}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
+            "| {}{} | {} | {} | {:.0} | {:.0} | {} | {} | {} |{} {} ({}{}) | {:.1}% | {:.1}% | {} | {:.1} |\n",
             t.trial,
             mark(t),
             if t.point.recurrent { "from zero" } else { "no" },
@@ -972,6 +1056,7 @@ fn trials_table<'a>(trials: &'a [Trial], mark: impl Fn(&'a Trial) -> &'static st
             t.point.dropout,
             t.point.lr,
             t.point.init_gain,
+            if steps { format!(" {} |", r.dt_us as f64 / 1000.0) } else { String::new() },
             t.epochs_run,
             t.best_epoch,
             match t.undone_epochs {
@@ -1127,6 +1212,62 @@ mod tests {
         // a shard keeps nothing back
         let s = Budget::shard(min(60.0));
         assert!(s.allows(min(55.9), Some(min(4.0))) && !s.allows(min(56.1), Some(min(4.0))));
+    }
+
+    #[test]
+    fn the_derived_step_alone_draws_the_points_it_drew_before_the_step_was_a_dimension() {
+        // raw1350's successive-halving search (2026-12-01): 48 points, 34 of them drawn, logged
+        // before the step joined the space
+        let log = include_str!("../../../docs/results/search/raw1350-halving/rung-0.jsonl");
+        let logged: Vec<Trial> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+        let d = logged[0].point;
+        let base = SnnRecipe {
+            recurrent: d.recurrent,
+            hidden: vec![d.hidden],
+            dropout: d.dropout,
+            lr: d.lr,
+            init_gain: d.init_gain,
+            ..logged[0].recipe.clone()
+        };
+        let points = SearchSpace { trials: logged.len(), ..SearchSpace::default() }.points(&base);
+        assert_eq!(points, logged.iter().map(|t| t.point).collect::<Vec<_>>());
+        // and a point at the derived step is written as before, without the field
+        let line = serde_json::to_string(&d).unwrap();
+        assert!(!line.contains("step_scale"), "{line}");
+        assert_eq!(points[0].recipe(&base, &SearchSpace::default()).dt_us, base.dt_us);
+    }
+
+    #[test]
+    fn a_searched_step_is_a_neighbour_a_draw_and_a_dimension_of_the_combination() {
+        let base = SnnRecipe { dt_us: 10_000, ..SnnRecipe::default() };
+        let space = SearchSpace { step_scale: vec![1.0, 2.0], trials: 40, ..SearchSpace::default() };
+        let pts = space.points(&base);
+        let d = SearchPoint::derived(&base);
+        // the step's neighbour is the last of the 14 neighbours (3 time constants, recurrence,
+        // gain, 2 rates, 2 readouts, 2 sizes, 2 dropouts, then the step), after the dropout's
+        let k = pts.iter().position(|p| *p == SearchPoint { step_scale: 2.0, ..d }).unwrap();
+        assert_eq!(k, 14);
+        assert_ne!(pts[13].dropout, d.dropout);
+        let drawn = &pts[k + 1..];
+        assert!(drawn.iter().any(|p| p.step_scale == 1.0) && drawn.iter().any(|p| p.step_scale == 2.0));
+        let r = pts[k].recipe(&base, &space);
+        assert_eq!((r.dt_us, r.tau_mem_us, r.tau_out_us), (20_000, base.tau_mem_us, base.tau_out_us));
+        assert!(serde_json::to_string(&pts[k]).unwrap().contains("\"step_scale\":2.0"));
+        // the combination takes the step from its best neighbour
+        let trial = |k: usize, point: SearchPoint, score: f64| logged(k, point, point.recipe(&base, &space), score);
+        let trials = vec![
+            trial(0, d, 0.5),
+            trial(1, SearchPoint { step_scale: 2.0, ..d }, 0.6),
+            trial(2, SearchPoint { lr: 5e-4, ..d }, 0.55),
+        ];
+        assert_eq!(combination(&trials, &base), Some(SearchPoint { step_scale: 2.0, lr: 5e-4, ..d }));
+        // the table gains the step's column only when the steps differ
+        assert!(trials_markdown(&trials).contains("| step (ms) |") && trials_markdown(&trials).contains("| 20 |"));
+        assert!(!trials_markdown(&trials[..1]).contains("step (ms)"));
+        for bad in [0.0, -1.0, f64::NAN] {
+            let e = SearchSpace { step_scale: vec![1.0, bad], ..SearchSpace::default() }.check().unwrap_err();
+            assert!(e.to_string().contains("step scale"), "{e}");
+        }
     }
 
     #[test]
@@ -1391,6 +1532,7 @@ enum Trials {
 
 /// The checks, this shard's trials and, when the search ends in this process, the combination.
 fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<Trials> {
+    run.space.check()?;
     let finishing = !run.run_trials || run.shard.count == 1;
     if finishing {
         for seed in 1..=run.seeds.max(1) {
@@ -1400,7 +1542,7 @@ fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<T
             }
         }
     }
-    let data = TactileData::encode(run.dataset, run.base)?;
+    let data = SearchData { dataset: run.dataset, base: TactileData::encode(run.dataset, run.base)? };
     if let Some(h) = run.space.halving
         && run.run_trials
     {
@@ -1443,7 +1585,7 @@ fn search_trials(run: &SearchRun, observer: &mut dyn SearchObserver) -> Result<T
     if trials.is_empty() {
         return Err(Error::SearchLog { dir: run.dir.clone(), what: "no trials logged".into() });
     }
-    Ok(Trials::All { data: Box::new(data), trials })
+    Ok(Trials::All { data: Box::new(data.base), trials })
 }
 
 /// The winner of a finished search's `trials`, its final models and the report.
@@ -1458,11 +1600,8 @@ fn finish(
         return Err(Error::SearchLog { dir: run.dir.clone(), what: "no trials logged".into() });
     };
     observer.chosen(w, &final_recipe(w, 1), run.seeds.max(1));
-    let data = if (w.recipe.dt_us, w.recipe.sigma_delta) == (run.base.dt_us, run.base.sigma_delta) {
-        data
-    } else {
-        TactileData::encode(run.dataset, &w.recipe)?
-    };
+    let data =
+        if SearchData::serves(&data.encoding, &w.recipe) { data } else { TactileData::encode(run.dataset, &w.recipe)? };
     let trained = final_models(&data, w, run.seeds, run.eval_test, epochs)?;
     let mut finals = Vec::new();
     for (seed, t) in &trained {
