@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue #51: seed ensembles beside the single-network SNNs (rule in docs/log/tactile-2026-12-01.md,
-# written before the run). Each dataset's SNN of record (raw1350: the exact search, th10: the
-# truncated one, the taxels: the exact one; docs/results/tactile.md) has its final recipe, as its
+# written before the run). Each dataset's SNN of record (raw1350 and the taxels: their searches
+# with the step, since the tenth decision on 2026-12-01, before it the exact searches; th10: the
+# truncated search; docs/results/tactile.md) has its final recipe, as its
 # model file records it, retrained on the whole training split with seeds 4-9, into
 # models/search/ensemble-members/ (no test split read). `braille tactile-report` then merges
 # seeds 1-3, 4-6 and 7-9 into three ensembles (`braille ensemble`) and scores each on the test
@@ -13,7 +14,7 @@ cargo build --release --quiet
 b=target/release/braille
 [[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
 declare -A data=([raw1350]=data/icub_braille/raw1350 [th10]=data/icub_braille/th10 [taxels]=target/sim-taxels)
-declare -A finals=([raw1350]=raw1350-exact [th10]=th10-warmup [taxels]=sim-taxels-exact)
+declare -A finals=([raw1350]=raw1350-stepscale [th10]=th10-warmup [taxels]=sim-taxels-stepscale)
 out=models/search/ensemble-members work=target/ensembles
 mkdir -p "$out" "$work"
 jobs=()

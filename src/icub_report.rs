@@ -14,9 +14,11 @@ pub struct Args {
     /// ones, `models/icub/`].
     #[arg(long)]
     models: Option<PathBuf>,
-    /// Folder holding the searches' final models (`raw1350-warmup.safetensors`,
-    /// `raw1350-warmup.seed2.safetensors`, `raw1350-exact.safetensors`, ...); the seed mean of
-    /// the better on validation of a dataset's truncated and exact searches heads the table
+    /// Folder holding the searches' final models (`raw1350-stepscale.safetensors`,
+    /// `th10-warmup.safetensors`, `th10-warmup.seed2.safetensors`, `th10-exact.safetensors`,
+    /// ...); the seed mean of the better on validation of a dataset's truncated and exact
+    /// searches (the fixed rule's, `experiments::reports::tactile::SnnSearch::under_rule`) heads
+    /// the table
     /// [default: the shipped ones, `models/search/`].
     #[arg(long)]
     search: Option<PathBuf>,

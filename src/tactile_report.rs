@@ -8,9 +8,11 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A dataset as NAME=FOLDER (repeatable). Its SNN is the better by validation score of the
-    /// search runs `NAME-warmup` (truncated gradients) and `NAME-exact` under --search (their
-    /// trial logs under --search-logs), its networks and floors `NAME/baselines.json` under
+    /// A dataset as NAME=FOLDER (repeatable). Its SNN is the better by validation score of its
+    /// searches under the fixed rule (`experiments::reports::tactile::SnnSearch::under_rule`):
+    /// for raw1350 and sim-taxels the `--both-gradients` run `NAME-stepscale` (its logs'
+    /// `truncated/` and `exact/`), for others the runs `NAME-warmup` (truncated gradients) and
+    /// `NAME-exact`; models under --search, trial logs under --search-logs; its networks and floors `NAME/baselines.json` under
     /// --baselines [default: raw1350 and th10 under data/icub_braille,
     /// sim-taxels=target/sim-taxels, the folder `scripts/search_taxels.sh` generates].
     #[arg(long = "dataset", value_name = "NAME=FOLDER")]

@@ -62,7 +62,7 @@ pub struct Args {
     search_halving: bool,
     /// --search / --collect: the SNN's step searched too, at these multiples of the derived
     /// step (as the conventional networks search their bins; the data re-encoded at each), e.g.
-    /// `1,2` [default: 1, the derived step only].
+    /// `1,2` [default: 1, the derived step only; with --both-gradients 1,2, the fixed rule's].
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     search_step_scale: Vec<f64>,
     /// --search: run every N-th trial from I only, log it and stop (a job array's task I of N);
@@ -72,9 +72,10 @@ pub struct Args {
     /// Pick the winner from the trial logs in DIR (all shards) and train the final models.
     #[arg(long, conflicts_with = "search")]
     collect: Option<PathBuf>,
-    /// --search: the rule issue #51 fixed (docs/training.md): the space searched twice, with
-    /// truncated gradients (the recipe's cutoff; logs in DIR/truncated) and with exact ones
-    /// (DIR/exact); only the better by validation score trains the final models.
+    /// --search: the rule issue #51 fixed (docs/training.md): the space, its step at 1 and 2
+    /// times the derived one, searched twice, with truncated gradients (the recipe's cutoff; logs
+    /// in DIR/truncated) and with exact ones (DIR/exact); only the better by validation score
+    /// trains the final models.
     #[arg(long, requires = "search", conflicts_with_all = ["gradient_cutoff", "shard", "budget_min"])]
     both_gradients: bool,
     /// --search: the folder of the trial logs [default: OUT with the extension `.search`].
@@ -600,10 +601,10 @@ fn search(args: &Args, dataset: &Dataset, profile: &DataProfile, base: &SnnRecip
             epochs: args.search_epochs,
             trial_seeds: args.trial_seeds.max(1),
             halving: args.search_halving.then_some(Halving::DEFAULT),
-            step_scale: if args.search_step_scale.is_empty() {
-                SearchSpace::default().step_scale
-            } else {
-                args.search_step_scale.clone()
+            step_scale: match (&args.search_step_scale[..], args.both_gradients) {
+                ([], true) => experiments::train::search::RULE_STEP_SCALE.to_vec(),
+                ([], false) => SearchSpace::default().step_scale,
+                (given, _) => given.to_vec(),
             },
             ..SearchSpace::default()
         },

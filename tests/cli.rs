@@ -809,6 +809,29 @@ fn a_search_over_the_step_trains_each_trial_on_data_encoded_at_its_step() {
     bad[5] = "1,0";
     let o = braille(&bad);
     assert!(!o.status.success() && text(&o).1.contains("step scale"), "{}", text(&o).1);
+    // the fixed rule's searches (--both-gradients) search the step at 1 and 2 by themselves
+    let rule_logs = dir.path().join("rule");
+    let mut rule: Vec<&str> = args.iter().copied().filter(|a| !["--search-step-scale", "1,2"].contains(a)).collect();
+    let at = rule.iter().position(|a| *a == "--search-dir").unwrap() + 1;
+    rule[at] = rule_logs.to_str().unwrap();
+    rule.extend(["--both-gradients", "--force"]);
+    let o = braille(&rule);
+    assert!(o.status.success(), "{}", text(&o).1);
+    for g in ["truncated", "exact"] {
+        let log = std::fs::read_to_string(rule_logs.join(g).join("trials-0-of-1.jsonl")).unwrap();
+        let t: serde_json::Value = serde_json::from_str(log.lines().nth(15).unwrap()).unwrap();
+        assert_eq!((t["trial"].as_u64(), t["point"]["step_scale"].as_f64()), (Some(15), Some(2.0)), "{g}");
+    }
+    // both of the run's searches name its final models; the report takes them for the search
+    // that trained them (its gradients) only
+    use experiments::reports::tactile::{SnnSearch, found_searches};
+    let searches: Vec<SnnSearch> = ["truncated", "exact"]
+        .iter()
+        .map(|g| SnnSearch { label: g.to_string(), models: out.clone(), trials: rule_logs.join(g) })
+        .collect();
+    let (found, chosen) = found_searches(&searches).unwrap();
+    assert_eq!((found.len(), chosen), (1, Some(0)));
+    assert!(rule_logs.join(&found[0].search.label).join("search.md").exists(), "{}", found[0].search.label);
 }
 
 #[test]

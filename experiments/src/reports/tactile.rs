@@ -37,19 +37,37 @@ pub struct SnnSearch {
 
 impl SnnSearch {
     /// The searches that may stand for `dataset` under the rule #51's decisions fixed
-    /// (docs/training.md): the derived space searched with truncated gradients (the run
-    /// [`search_run`](crate::reports::icub::search_run) names) and with exact ones (`NAME-exact`),
-    /// their models under `models` and their trial logs under `logs`.
+    /// (docs/training.md): the derived space searched with truncated gradients and with exact
+    /// ones, their models under `models` and their trial logs under `logs`. Since the tenth
+    /// decision (2026-12-01) the space has the step at 1 and 2 times the derived one: raw1350's
+    /// and the taxels' searches with it are one `--both-gradients` run, `NAME-stepscale` (its
+    /// logs in `truncated/` and `exact/`, the final models of the better one only); th10's
+    /// 12-trial searches never reach the step's neighbour, so its searches without the step
+    /// (the run [`search_run`](crate::reports::icub::search_run) names, and `NAME-exact`) are
+    /// its searches with it, trial for trial.
     pub fn under_rule(dataset: &str, models: &Path, logs: &Path) -> Vec<SnnSearch> {
-        let run = |label: &str, run: String| SnnSearch {
+        let search = |label: &str, run: &str, trials: PathBuf| SnnSearch {
             label: label.into(),
             models: models.join(format!("{run}.safetensors")),
-            trials: logs.join(run),
+            trials,
         };
-        vec![
-            run("truncated gradients", crate::reports::icub::search_run(dataset)),
-            run("exact gradients", format!("{dataset}-exact")),
-        ]
+        match dataset {
+            "raw1350" | "sim-taxels" => {
+                let run = format!("{dataset}-stepscale");
+                let dir = logs.join(&run);
+                vec![
+                    search("truncated gradients, step searched", &run, dir.join("truncated")),
+                    search("exact gradients, step searched", &run, dir.join("exact")),
+                ]
+            }
+            _ => {
+                let (truncated, exact) = (crate::reports::icub::search_run(dataset), format!("{dataset}-exact"));
+                vec![
+                    search("truncated gradients", &truncated, logs.join(&truncated)),
+                    search("exact gradients", &exact, logs.join(&exact)),
+                ]
+            }
+        }
     }
 }
 
@@ -76,6 +94,14 @@ pub fn found_searches(searches: &[SnnSearch]) -> Result<(Vec<FoundSearch<'_>>, O
         let Some(winner) = crate::train::search::winner(&trials) else {
             return Err(Error::Data { path: s.trials.clone(), what: "no trial logged: no validation score".into() });
         };
+        // a `--both-gradients` run trains the final models of its better search only, and both
+        // of its searches name them: they are this search's only if they were trained with its
+        // gradients
+        let model = pipeline::models::load_snn(&models[0])?;
+        let cutoff = model.provenance["recipe"]["gradient_cutoff"].as_f64();
+        if cutoff.is_some_and(|c| c as f32 != winner.recipe.gradient_cutoff) {
+            continue;
+        }
         found.push(FoundSearch { search: s, models, validation_score: winner.score });
     }
     let scores: Vec<f64> = found.iter().map(|f| f.validation_score).collect();
@@ -367,7 +393,7 @@ pub fn markdown(rows: &[TactileRow]) -> Result<String> {
     writeln!(md, "# The SNN against conventional networks on tactile data\n")?;
     writeln!(
         md,
-        "Regenerate: `braille tactile-report` (the SNN searches' models from `scripts/search_icub.sh --defaults`, `scripts/search_taxels.sh --current` and `scripts/lodo_exact.sh --search`; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN is the better by validation score (the winning trial's mean over its last 5 epochs and 3 seeds) of the dataset's two searches, with truncated and with exact gradients (the rule #51's leave-one-dataset-out decisions fixed, docs/training.md); the other's final models do not read the test split. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). Beside the SNN, where `scripts/ensembles.sh` trained seeds 4-9 of its recipe: its seed ensembles of three (seeds 1-3, 4-6 and 7-9 merged by `braille ensemble`), each scored once, a mean over the three ensembles; they are chosen by nothing, their work is three networks', and they are not the SNN's figure (the rule, docs/training.md, keeps them beside the recipe). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
+        "Regenerate: `braille tactile-report` (the SNN searches' models from `scripts/lodo_step_scale.sh` for raw1350 and the taxel set, `scripts/search_icub.sh --defaults` and `scripts/lodo_exact.sh --search` for th10; the networks and floors from `scripts/baselines.sh`, which regenerates the SIMULATED taxel set in `target/sim-taxels`). Every model was chosen on the same stratified 20% validation hold-out of the training split (seed 1); the test split was scored once per final model, after every choice. The SNN is the better by validation score (the winning trial's mean over its last 5 epochs and 3 seeds) of the dataset's two searches, with truncated and with exact gradients, the step searched at 1 and 2 times the derived one (the rule #51's leave-one-dataset-out decisions fixed, docs/training.md; th10's 12 trials never reach the step's neighbour, so its searches are the same with the step as without); the other's final models are not trained, or do not read the test split. The SNN and the networks: mean of the final models over seeds 1-3 (sample s.d.), each seed's score beside it; the linear floors are deterministic (one fit). Beside the SNN, where `scripts/ensembles.sh` trained seeds 4-9 of its recipe: its seed ensembles of three (seeds 1-3, 4-6 and 7-9 merged by `braille ensemble`), each scored once, a mean over the three ensembles; they are chosen by nothing, their work is three networks', and they are not the SNN's figure (the rule, docs/training.md, keeps them beside the recipe). The SNN runs on the event-driven engine. Work per sample: SynOps for the SNN, multiply-accumulates for the others (the networks' gates and the floors' binning not counted). Energy: SynOps at a 45 nm 32-bit float add ({} pJ) and on Loihi ({} pJ), MACs at a 45 nm 32-bit float multiply-accumulate ({} pJ) ({}; {}); arithmetic only.\n",
         CMOS45_ADD.pj_per_op, LOIHI_SYNOP.pj_per_op, CMOS45_MAC.pj_per_op, CMOS45_MAC.source, LOIHI_SYNOP.source
     )?;
     writeln!(

@@ -1623,6 +1623,13 @@ fn finish(
     Ok(SearchOutcome::Done { trials, winner, finals, report, markdown })
 }
 
+/// The steps the fixed rule's searches try, as multiples of the derived step (the space's
+/// `step_scale`): the derived step and twice it, since #51's tenth leave-one-dataset-out decision
+/// (2026-12-01, docs/log/tactile-2026-12-01.md: on validation raw1350 +0.28, th10 0.00, the taxels
+/// -0.42, none losing more than 0.5). `braille train --search --both-gradients` uses them unless
+/// `--search-step-scale` says otherwise; a plain `--search` keeps the derived step alone.
+pub const RULE_STEP_SCALE: [f64; 2] = [1.0, 2.0];
+
 /// The searches of the rule issue #51's leave-one-dataset-out decisions fixed (docs/training.md):
 /// `runs` (the same space, with truncated and with exact gradients, each with its own trial
 /// log) searched in turn, and only the one whose winner has the highest validation score (the
