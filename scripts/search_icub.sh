@@ -64,6 +64,24 @@ if [[ "${1:-}" == "--twins-guard" ]]; then
     --loss-spike-guard 2 --out models/search/th10-zero-guard12.safetensors --search-dir docs/results/search/th10-zero-guard12 --quiet --force
   exit 0
 fi
+if [[ "${1:-}" == "--twins-step" ]]; then
+  # raw1350's twin under the rule as it stands since #51's tenth decision (2026-12-01): the fixed
+  # rule's searches (--both-gradients: truncated and exact gradients, the step at 1 and 2 times
+  # the derived one) with reset to zero as a fixed part of the space, 16 trials, no budget; only
+  # the better one's final models are trained, and they read the test split once (--eval-test).
+  # The truncated search starts from raw1350-zero's trials 0-6 (the same points and recipes, not
+  # run again; its combination left out). Rule in docs/log/chips-2026-12-01.md. About 75
+  # minutes on two cores; a stopped run resumes from its logs.
+  mkdir -p docs/results/search/raw1350-zero-stepscale/truncated
+  log=docs/results/search/raw1350-zero-stepscale/truncated/trials-0-of-1.jsonl
+  [[ -e $log ]] || python3 -c 'import json, sys
+for line in open(sys.argv[1]):
+    if json.loads(line)["trial"] < 7:
+        sys.stdout.write(line)' docs/results/search/raw1350-zero/trials-0-of-1.jsonl > "$log"
+  $b train --data data/icub_braille/raw1350 --reset zero --search --both-gradients --search-trials 16 --seeds 3 --eval-test \
+    --out models/search/raw1350-zero-stepscale.safetensors --search-dir docs/results/search/raw1350-zero-stepscale --quiet --force
+  exit 0
+fi
 if [[ "${1:-}" == "--twins-exact" ]]; then
   # th10's twin searched with exact gradients too, as the fixed rule searches every SNN (session
   # 59, rule in docs/log/chips-2026-11-30.md): the 12 trials of th10-zero-guard12 with
