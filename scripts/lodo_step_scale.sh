@@ -6,7 +6,7 @@
 # 12-trial searches never reach the step's neighbour (point 14), so they are its searches without.
 # Each search starts from a copy of the same search's trials 0-13 without the step (the points the
 # two share, which the code reproduces to the digit); a trial the copy does not match is trained
-# again (raw1350-warmup's copy takes today's default `realism`, below). Logs in
+# again (scripts/shared_trials.py; raw1350-warmup's copy takes today's default `realism`). Logs in
 # docs/results/search/{raw1350,sim-taxels}-stepscale/{truncated,exact}.
 #   bash scripts/lodo_step_scale.sh [DATASET...]     (default: raw1350 taxels)
 set -euo pipefail
@@ -27,18 +27,7 @@ for d in "${sets[@]}"; do
     from=docs/results/search/${!mode}/trials-0-of-1.jsonl
     mkdir -p "$dir/$mode"
     if [[ ! -e $dir/$mode/trials-0-of-1.jsonl ]]; then
-      # raw1350-warmup's log (2026-11-25) was written when the recipe's `realism` defaulted to
-      # `clean`; it is a field of the simulated training windows that the tactile trainer does not
-      # read (this session's halving search, at `nominal`, scored its trials to the digit), and
-      # its copy takes today's default so that the search recognises its trials
-      python3 -c 'import json, sys
-for line in open(sys.argv[1]):
-    t = json.loads(line)
-    if t["trial"] < 14:
-        if t["recipe"].get("realism") == "clean":
-            t["recipe"]["realism"] = "nominal"
-            line = json.dumps(t, separators=(",", ":")) + "\n"
-        sys.stdout.write(line)' "$from" > "$dir/$mode/trials-0-of-1.jsonl"
+      python3 scripts/shared_trials.py "$from" 14 > "$dir/$mode/trials-0-of-1.jsonl"
     fi
   done
   $b train --data "$data" --search --both-gradients --search-step-scale 1,2 --search-trials 16 --seeds 3 \

@@ -74,10 +74,7 @@ if [[ "${1:-}" == "--twins-step" ]]; then
   # minutes on two cores; a stopped run resumes from its logs.
   mkdir -p docs/results/search/raw1350-zero-stepscale/truncated
   log=docs/results/search/raw1350-zero-stepscale/truncated/trials-0-of-1.jsonl
-  [[ -e $log ]] || python3 -c 'import json, sys
-for line in open(sys.argv[1]):
-    if json.loads(line)["trial"] < 7:
-        sys.stdout.write(line)' docs/results/search/raw1350-zero/trials-0-of-1.jsonl > "$log"
+  [[ -e $log ]] || python3 scripts/shared_trials.py docs/results/search/raw1350-zero/trials-0-of-1.jsonl 7 > "$log"
   $b train --data data/icub_braille/raw1350 --reset zero --search --both-gradients --search-trials 16 --seeds 3 --eval-test \
     --out models/search/raw1350-zero-stepscale.safetensors --search-dir docs/results/search/raw1350-zero-stepscale --quiet --force
   exit 0

@@ -709,30 +709,22 @@ fn tiny_event_dataset(dir: &Path, classes: usize) {
     std::fs::write(dir.join("split.csv"), split).unwrap();
 }
 
+/// `braille train` searching the tiny dataset `d` with 8 hidden neurons, quietly, its trial logs
+/// in `logs` and its model written to `out`; `flags` set the search.
+fn tiny_search<'a>(d: &'a str, logs: &'a Path, out: &'a Path, flags: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["train", "--data", d, "--search", "--hidden", "8", "--quiet"];
+    args.extend_from_slice(&["--search-dir", logs.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    args.extend_from_slice(flags);
+    args
+}
+
 #[test]
 fn the_fixed_rule_searches_with_both_gradients_and_trains_the_better_on_validation() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     tiny_event_dataset(&data, 3);
     let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
-    let args = [
-        "train",
-        "--data",
-        d,
-        "--search",
-        "--both-gradients",
-        "--search-trials",
-        "1",
-        "--search-epochs",
-        "2",
-        "--hidden",
-        "8",
-        "--quiet",
-        "--search-dir",
-        logs.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let args = tiny_search(d, &logs, &out, &["--both-gradients", "--search-trials", "1", "--search-epochs", "2"]);
     let o = braille(&args);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");
@@ -765,27 +757,8 @@ fn a_search_over_the_step_trains_each_trial_on_data_encoded_at_its_step() {
     let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
     // trial 15 is the step's neighbour, the derived recipe at twice the step (after the other
     // dimensions' 15 neighbours, three of them widths as 8 is not in the space)
-    let args = [
-        "train",
-        "--data",
-        d,
-        "--search",
-        "--search-step-scale",
-        "1,2",
-        "--search-trials",
-        "16",
-        "--search-epochs",
-        "2",
-        "--trial-seeds",
-        "1",
-        "--hidden",
-        "8",
-        "--quiet",
-        "--search-dir",
-        logs.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let small = ["--search-trials", "16", "--search-epochs", "2", "--trial-seeds", "1"];
+    let args = tiny_search(d, &logs, &out, &[&small[..], &["--search-step-scale", "1,2"]].concat());
     let o = braille(&args);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");
@@ -805,17 +778,11 @@ fn a_search_over_the_step_trains_each_trial_on_data_encoded_at_its_step() {
     let won = trials.iter().find(|t| chosen.starts_with(&format!("| {} **chosen**", t["trial"]))).unwrap();
     assert_eq!(pipeline::models::load_snn(&out).unwrap().config.dt_us, dt(won));
     // a step that is not a positive multiple is refused before any trial
-    let mut bad = args.to_vec();
-    bad[5] = "1,0";
-    let o = braille(&bad);
+    let o = braille(&tiny_search(d, &logs, &out, &[&small[..], &["--search-step-scale", "1,0"]].concat()));
     assert!(!o.status.success() && text(&o).1.contains("step scale"), "{}", text(&o).1);
     // the fixed rule's searches (--both-gradients) search the step at 1 and 2 by themselves
     let rule_logs = dir.path().join("rule");
-    let mut rule: Vec<&str> = args.iter().copied().filter(|a| !["--search-step-scale", "1,2"].contains(a)).collect();
-    let at = rule.iter().position(|a| *a == "--search-dir").unwrap() + 1;
-    rule[at] = rule_logs.to_str().unwrap();
-    rule.extend(["--both-gradients", "--force"]);
-    let o = braille(&rule);
+    let o = braille(&tiny_search(d, &rule_logs, &out, &[&small[..], &["--both-gradients", "--force"]].concat()));
     assert!(o.status.success(), "{}", text(&o).1);
     for g in ["truncated", "exact"] {
         let log = std::fs::read_to_string(rule_logs.join(g).join("trials-0-of-1.jsonl")).unwrap();
@@ -841,26 +808,12 @@ fn a_successive_halving_search_promotes_its_best_points_and_resumes_from_its_log
     tiny_event_dataset(&data, 3);
     let (d, logs, out) = (data.to_str().unwrap(), dir.path().join("logs"), dir.path().join("m.safetensors"));
     // the budget of 2 trials of 9 epochs: 6 points of 1 epoch, the best 2 for 3, the best 1 for 9
-    let args = [
-        "train",
-        "--data",
+    let args = tiny_search(
         d,
-        "--search",
-        "--search-halving",
-        "--search-trials",
-        "2",
-        "--search-epochs",
-        "9",
-        "--trial-seeds",
-        "1",
-        "--hidden",
-        "8",
-        "--quiet",
-        "--search-dir",
-        logs.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
+        &logs,
+        &out,
+        &["--search-halving", "--search-trials", "2", "--search-epochs", "9", "--trial-seeds", "1"],
+    );
     let o = braille(&args);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");

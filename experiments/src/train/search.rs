@@ -1167,6 +1167,21 @@ pub fn report_markdown(
 mod tests {
     use super::*;
 
+    /// An events dataset of 10 training samples lasting 1 s.
+    fn events_profile() -> DataProfile {
+        DataProfile {
+            data: "x".into(),
+            kind: "events".into(),
+            channels: 3,
+            classes: 4,
+            train_samples: 10,
+            duration_us: 1_000_000,
+            events_per_sample: Some(40.0),
+            signal_step: None,
+            period_us: 0,
+        }
+    }
+
     /// A trial as its log would hold it, scored `score`.
     fn logged(trial: usize, point: SearchPoint, recipe: SnnRecipe, score: f64) -> Trial {
         Trial {
@@ -1183,17 +1198,7 @@ mod tests {
             val_accuracy: vec![score],
             seconds: 1.0,
             shard: "0/1".into(),
-            profile: DataProfile {
-                data: "x".into(),
-                kind: "events".into(),
-                channels: 3,
-                classes: 4,
-                train_samples: 10,
-                duration_us: 1_000_000,
-                events_per_sample: Some(40.0),
-                signal_step: None,
-                period_us: 0,
-            },
+            profile: events_profile(),
         }
     }
 
@@ -1281,17 +1286,7 @@ mod tests {
 
     #[test]
     fn the_derived_recipe_scales_with_the_samples_duration() {
-        let p = DataProfile {
-            data: "x".into(),
-            kind: "events".into(),
-            channels: 3,
-            classes: 4,
-            train_samples: 10,
-            duration_us: 1_300_000,
-            events_per_sample: Some(40.0),
-            signal_step: None,
-            period_us: 0,
-        };
+        let p = DataProfile { duration_us: 1_300_000, ..events_profile() };
         let r = derived_recipe(&p);
         assert_eq!(r.dt_us, 10_000);
         assert!((r.tau_mem_us - 108_333.3).abs() < 1.0);
@@ -1303,17 +1298,7 @@ mod tests {
 
     #[test]
     fn points_are_distinct_start_at_the_derived_recipe_and_shards_split_them() {
-        let base = derived_recipe(&DataProfile {
-            data: "x".into(),
-            kind: "events".into(),
-            channels: 3,
-            classes: 4,
-            train_samples: 10,
-            duration_us: 1_000_000,
-            events_per_sample: Some(40.0),
-            signal_step: None,
-            period_us: 0,
-        });
+        let base = derived_recipe(&events_profile());
         let space = SearchSpace { trials: 12, ..SearchSpace::default() };
         let pts = space.points(&base);
         assert_eq!(pts.len(), 12);
