@@ -411,22 +411,25 @@ fn every_neuron_of_eight_and_sixteen_channel_convolutions_firing_at_once_is_kept
 
 #[test]
 fn stepped_equals_dense_with_wide_and_narrow_dense_layers() {
-    // a step's spikes into a dense layer: up to 64 outputs summed in registers 16 at a time (one
-    // block and a part, two and a part), beyond that row by row
+    // a step's spikes into a dense layer: up to 64 outputs summed in registers (the portable
+    // code 16 at a time; with AVX2, all of them in 2, 4, 6 or 8 registers of eight: outputs padded
+    // to 16, 32, 48 and 64), beyond that row by row
     let net = Network::new(
         vec![30],
         vec![
             dense_layer(30, 90, 41, 1.6, NeuronParams::lif(0.8)),
             dense_layer(90, 70, 42, 1.2, NeuronParams::lif(0.85)),
             dense_layer(70, 37, 43, 1.0, NeuronParams::lif(0.9).with_reset(Reset::Subtract)),
-            dense_layer(37, 21, 44, 1.0, NeuronParams::lif(0.9)),
+            dense_layer(37, 60, 45, 1.4, NeuronParams::lif(0.9)),
+            dense_layer(60, 21, 44, 1.0, NeuronParams::lif(0.9)),
+            dense_layer(21, 10, 46, 1.6, NeuronParams::lif(0.9)),
         ],
     )
     .unwrap();
     for seed in 0..4 {
         let input = random_input(200 + seed, 30, net.n_inputs(), 0.3);
         let (reference, _) = assert_same_output(&net, &input, 30);
-        for k in 0..3 {
+        for k in 0..5 {
             let fired: usize = reference.spikes[k].iter().map(Vec::len).sum();
             assert!(fired > 0, "layer {k} must fire (seed {seed})");
         }

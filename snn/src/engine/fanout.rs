@@ -267,10 +267,26 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
         Fan::Dense { n_out, stride, wt } => {
             let n = *n_out;
             if n <= DENSE_IN_REGISTERS {
-                // the outputs held in registers, `DENSE_BLOCK` at a time, through the step's
-                // spikes: the same adds in the same order per output as adding each spike's row
-                // to them in memory, without a store and a load per spike (with a readout of a
-                // few dozen outputs each add would wait on the last one's store)
+                // the outputs held in registers through the step's spikes, all blocks of
+                // `DENSE_BLOCK` in one pass, so that each spike's adds form independent chains: the
+                // same adds in the same order per output as adding each spike's row to them in
+                // memory, without a store and a load per spike (with a readout of a few dozen
+                // outputs each add would wait on the last one's store)
+                #[cfg(target_arch = "x86_64")]
+                if super::simd::avx2() {
+                    let (acc, stride) = (&mut s.acc[..n], *stride);
+                    // SAFETY: this CPU has AVX2 (just checked).
+                    unsafe {
+                        match stride / 8 {
+                            2 => super::simd::avx::dense_spikes::<2>(acc, wt, stride, spikes),
+                            4 => super::simd::avx::dense_spikes::<4>(acc, wt, stride, spikes),
+                            6 => super::simd::avx::dense_spikes::<6>(acc, wt, stride, spikes),
+                            _ => super::simd::avx::dense_spikes::<8>(acc, wt, stride, spikes),
+                        }
+                    }
+                    s.touched.insert(0);
+                    return (spikes.len() * n) as u64;
+                }
                 for (c, chunk) in s.acc[..n].chunks_mut(DENSE_BLOCK).enumerate() {
                     let mut a = [0f32; DENSE_BLOCK];
                     a[..chunk.len()].copy_from_slice(chunk);

@@ -214,6 +214,43 @@ pub(in crate::engine) mod avx {
         (fired, carry != 0)
     }
 
+    /// A dense layer's spikes added to its outputs `acc` held in `B` registers of eight through
+    /// all the spikes, so that a spike's adds are `B` independent chains (the portable code holds
+    /// 16 outputs at a time): the same adds in the same order per output. Rows are `stride >= 8 B`
+    /// weights, zero past the outputs; `acc.len() <= 8 B`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(in crate::engine) unsafe fn dense_spikes<const B: usize>(
+        acc: &mut [f32],
+        wt: &[f32],
+        stride: usize,
+        spikes: &[u32],
+    ) {
+        const { assert!(B >= 1 && B <= 8, "at most eight registers") };
+        assert!(acc.len() <= 8 * B && 8 * B <= stride, "the outputs fit the registers and the rows");
+        let mut padded = [0f32; 64];
+        padded[..acc.len()].copy_from_slice(acc);
+        let mut a = [_mm256_setzero_ps(); B];
+        for (q, r) in a.iter_mut().enumerate() {
+            *r = load(&padded, q);
+        }
+        for &i in spikes {
+            let at = i as usize * stride;
+            let row = &wt[at..at + 8 * B];
+            for (q, r) in a.iter_mut().enumerate() {
+                *r = _mm256_add_ps(*r, load(row, q));
+            }
+        }
+        for (q, &r) in a.iter().enumerate() {
+            store(&mut padded, q, r);
+        }
+        let n = acc.len();
+        acc.copy_from_slice(&padded[..n]);
+    }
+
     /// For each set of eight lanes (as bits), the lanes in it in ascending order, then zeros: the
     /// permutation that packs the chosen lanes to the front of a register.
     static PACK: [[u32; 8]; 256] = {
