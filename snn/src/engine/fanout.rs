@@ -267,11 +267,11 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
         Fan::Dense { n_out, stride, wt } => {
             let n = *n_out;
             if n <= DENSE_IN_REGISTERS {
-                // the outputs held in registers through the step's spikes, all blocks of
-                // `DENSE_BLOCK` in one pass, so that each spike's adds form independent chains: the
-                // same adds in the same order per output as adding each spike's row to them in
-                // memory, without a store and a load per spike (with a readout of a few dozen
-                // outputs each add would wait on the last one's store)
+                // the outputs held in registers through the step's spikes (with AVX2 all of them
+                // at once, so that a spike's adds form independent chains; else `DENSE_BLOCK` at a
+                // time): the same adds in the same order per output as adding each spike's row to
+                // them in memory, without a store and a load per spike (with a readout of a few
+                // dozen outputs each add would wait on the last one's store)
                 #[cfg(target_arch = "x86_64")]
                 if super::simd::avx2() {
                     let (acc, stride) = (&mut s.acc[..n], *stride);
