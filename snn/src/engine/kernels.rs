@@ -317,8 +317,6 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     pending(touched, carry, every.is_some());
     let mut steps = 0u64;
     let mut n_fired = 0;
-    #[cfg(target_arch = "x86_64")]
-    let catch_up = super::simd::catch_up(p.beta);
     // one position's update (a macro, not a closure: a closure is compiled apart, without the
     // caller's AVX2)
     macro_rules! one {
@@ -340,7 +338,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
             #[cfg(target_arch = "x86_64")]
             let (fired, carried) = if AVX && (N == 8 || N == 16) {
                 // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
-                unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, &catch_up, v, acc, behind) }
+                unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind) }
             } else {
                 lif_lanes::<N, LEAK>(p, v, acc, behind)
             };

@@ -13,18 +13,6 @@ pub(in crate::engine) fn avx2() -> bool {
 #[cfg(target_arch = "x86_64")]
 const SURE: usize = 4;
 
-/// Per count of missed steps `b` (0 to [`SURE`]), the multipliers of the first `SURE` catch-up
-/// steps of a neuron without a resting level: `beta` for the `b` missed, 1 (the same number) for
-/// the rest; built once per layer and step, so that a position's catch-up loads its row instead
-/// of building a mask per step.
-#[cfg(target_arch = "x86_64")]
-pub(in crate::engine) type CatchUp = [[f32; SURE]; SURE + 1];
-
-#[cfg(target_arch = "x86_64")]
-pub(in crate::engine) fn catch_up(beta: f32) -> CatchUp {
-    std::array::from_fn(|b| std::array::from_fn(|j| if j < b { beta } else { 1.0 }))
-}
-
 #[cfg(target_arch = "x86_64")]
 pub(in crate::engine) mod sse {
     use crate::neuron::NeuronParams;
@@ -159,7 +147,6 @@ pub(in crate::engine) mod avx {
     #[target_feature(enable = "avx2")]
     pub(in crate::engine) unsafe fn lif_lanes<const N: usize, const LEAK: bool>(
         p: &NeuronParams,
-        catch_up: &super::CatchUp,
         v: &mut [f32; N],
         acc: &mut [f32; N],
         behind: i64,
@@ -169,6 +156,7 @@ pub(in crate::engine) mod avx {
         let leak = _mm256_set1_ps(p.leak_term());
         let th = _mm256_set1_ps(p.threshold());
         let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
         let subtract = p.reset == crate::neuron::Reset::Subtract;
         let after_zero = _mm256_set1_ps(p.v_reset);
         let step = |x: __m256, u: __m256| {
@@ -185,14 +173,13 @@ pub(in crate::engine) mod avx {
         // The missed steps, the first `SURE` without a branch, as in `sse::lif_lanes`.
         let behind = behind.max(0);
         for j in 0..super::SURE {
+            let keep = _mm256_castsi256_ps(_mm256_set1_epi32(-(((j as i64) < behind) as i32)));
             if LEAK {
-                let keep = _mm256_castsi256_ps(_mm256_set1_epi32(-(((j as i64) < behind) as i32)));
                 for r in x.iter_mut().take(N / 8) {
                     *r = _mm256_blendv_ps(*r, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(beta, *r), leak), zero), keep);
                 }
             } else {
-                // a step missed multiplies by `beta`, one not missed by 1 (the same number)
-                let m = _mm256_set1_ps(catch_up[(behind as usize).min(super::SURE)][j]);
+                let m = _mm256_blendv_ps(one, beta, keep);
                 for r in x.iter_mut().take(N / 8) {
                     *r = _mm256_mul_ps(m, *r);
                 }
@@ -349,8 +336,7 @@ mod tests {
             if super::avx2() {
                 let (mut v3, mut a3) = (v, acc);
                 // SAFETY: this CPU has AVX2 (just checked).
-                let wide =
-                    unsafe { super::avx::lif_lanes::<N, LEAK>(p, &super::catch_up(p.beta), &mut v3, &mut a3, behind) };
+                let wide = unsafe { super::avx::lif_lanes::<N, LEAK>(p, &mut v3, &mut a3, behind) };
                 assert_eq!(portable, wide, "AVX: spikes and carry; v {v:?}, input {acc:?}, behind {behind}");
                 assert_eq!(v1.map(f32::to_bits), v3.map(f32::to_bits), "AVX: membranes");
                 assert_eq!(a1.map(f32::to_bits), a3.map(f32::to_bits), "AVX: accumulators emptied");
