@@ -13,8 +13,15 @@ step_of() {
     *) echo "unknown dataset $1 (raw1350, th10 or taxels)" >&2; exit 2 ;;
   esac
 }
+# th10's fold has augmentation in its recipe since the second decision (docs/log/tactile-2026-11-30.md,
+# 20:24Z), so its searches with the step carry it too (models and logs named th10-aug-step2). The
+# search named th10-step2 (2026-12-01, session 64) ran without it: the headline's search with the
+# step alone, validation only, which serves no fold.
 if [[ "${1:-}" == "--search" ]]; then
   d=${2:?--search needs a dataset: raw1350, th10 or taxels}
+  if [[ $d == th10 ]]; then
+    exec bash scripts/lodo_candidate.sh --search th10 aug-step2 -- --stretch 0.1 --drop-events 0.1 --dt-us "$(step_of th10)"
+  fi
   exec bash scripts/lodo_candidate.sh --search "$d" step2 -- --dt-us "$(step_of "$d")"
 fi
 for d in raw1350 th10 taxels; do
