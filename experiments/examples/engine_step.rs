@@ -1,9 +1,11 @@
 //! The engine's stepped mode alone on the peer network and input of `braille bench` (the same
-//! 64 samples), for profiling it and for counting its cycles without the async part beside it:
+//! 64 samples), for profiling it and for timing a change against the build before it (the two
+//! binaries alternated), without the async part beside it:
 //!
 //! ```sh
 //! cargo build --release -p experiments --example engine_step
-//! perf stat -e cycles:u,instructions:u target/release/examples/engine_step 40   # 40 passes
+//! target/release/examples/engine_step 30                       # 30 passes over the samples
+//! perf record target/release/examples/engine_step 60
 //! ```
 //!
 //! Prints the fastest and median pass per sample and a checksum of the output spikes (the same
