@@ -8,8 +8,9 @@
 //! perf record target/release/examples/engine_step 60
 //! ```
 //!
-//! Prints the fastest and median pass per sample and a checksum of the output spikes (the same
-//! before and after a change that keeps the arithmetic).
+//! Prints the fastest and median pass per sample, a checksum of the output spikes (the same
+//! before and after a change that keeps the arithmetic), and the synaptic operations and neuron
+//! updates per sample (what a change of schedule moves).
 
 use experiments::bench::engine::{DT_US, PEER_GAIN, STEPS, sample_events};
 use snn::engine::{Engine, Mode};
@@ -22,9 +23,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let engine = Engine::new(&net, DT_US, Mode::Stepped)?;
     let samples: Vec<Vec<(i64, u32)>> = (0..64).map(|s| sample_events(1000 + s, net.n_inputs())).collect();
     let mut st = engine.state(0);
-    let (mut times, mut checksum) = (Vec::new(), 0u64);
+    let (mut times, mut checksum, mut updates, mut synops) = (Vec::new(), 0u64, 0u64, 0u64);
     for _ in 0..passes.max(1) {
-        checksum = 0;
+        (checksum, updates, synops) = (0, 0, 0);
         let start = Instant::now();
         for s in &samples {
             engine.reset(&mut st, 0);
@@ -32,6 +33,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 engine.push(&mut st, t, i, 1.0)?;
             }
             engine.finish(&mut st, STEPS as i64 * DT_US);
+            updates += st.stats.neuron_updates;
+            synops += st.stats.synops;
             for (k, &(t, j)) in st.output.iter().enumerate() {
                 checksum = checksum.wrapping_mul(31).wrapping_add(t as u64 ^ ((j as u64) << 32) ^ k as u64);
             }
@@ -40,9 +43,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     times.sort_by(f64::total_cmp);
     println!(
-        "ms per sample: fastest {:.4}, median {:.4}; output checksum {checksum:016x}",
+        "ms per sample: fastest {:.4}, median {:.4}; output checksum {checksum:016x}; per sample {} synaptic operations, {} neuron updates",
         times[0],
-        times[times.len() / 2]
+        times[times.len() / 2],
+        synops / samples.len() as u64,
+        updates / samples.len() as u64
     );
     Ok(())
 }
