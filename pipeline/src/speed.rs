@@ -212,6 +212,13 @@ impl SpeedEstimator {
         let window_us = (cfg.window_ms * 1e3) as i64;
         let max_shift_px = speeds_px_us[n - 1] * window_us as f64;
         let cols = ((resolution.width as f64 + 2.0 * max_shift_px) / cfg.bin_x_px as f64) as usize + 2;
+        if cols >= 1 << 24 {
+            return Err(Error::Setting {
+                name: "speed estimator configuration",
+                value: format!("{cfg:?}"),
+                expected: "a window and top speed whose image of moved events is under 2^24 columns",
+            });
+        }
         let rows = (resolution.height / cfg.bin_y_px + 1) as usize * 2;
         Ok(SpeedEstimator {
             width: resolution.width,
@@ -336,15 +343,13 @@ impl SpeedEstimator {
     /// the image.
     fn sharpness(&mut self, v: f64) -> f64 {
         let (v, off, inv_bx, last) =
-            (v as f32, self.max_shift_px as f32, 1.0 / self.cfg.bin_x_px as f32, self.cols - 1);
+            (v as f32, self.max_shift_px as f32, 1.0 / self.cfg.bin_x_px as f32, (self.cols - 1) as u32);
         let (hist, filled) = (&mut self.hist, &mut self.filled);
         // where each event's pixel content is at the update's time (a loop without dependencies,
         // which vectorises), then the counts, then the sum of their squares: the same integer
         // as adding `2 h + 1` at each event, without a chain through the sum
         filled.clear();
-        filled.extend(
-            self.sample.iter().map(|&(x, dt, row)| row + (((x + v * dt + off) * inv_bx) as usize).min(last) as u32),
-        );
+        filled.extend(self.sample.iter().map(|&(x, dt, row)| row + column_bin((x + v * dt + off) * inv_bx, last)));
         for &i in filled.iter() {
             hist[i as usize] += 1;
         }
@@ -472,6 +477,20 @@ impl SpeedEstimator {
         let speed_mm_s = self.cfg.min_mm_s * (step * (j as f64 + offset)).exp();
         Some(SpeedEstimate { t_us: t_ref, speed_mm_s, forward, gain })
     }
+}
+
+/// The image column of a moved event at `f` bins from the left: `f` truncated, within
+/// `0..=last` (`last < 2^24`, exact as an `f32`). The same as `(f as usize).min(last)` for every
+/// `f` (below zero and NaN give 0, past `last` gives `last`), clamped as a float first so that
+/// the conversion needs no saturation, which SSE does four at a time (a conversion to `usize`
+/// is one value at a time: the sharpness's loop ran scalar).
+#[inline(always)]
+fn column_bin(f: f32, last: u32) -> u32 {
+    debug_assert!(last < 1 << 24, "a column count an f32 holds exactly");
+    // `max` returns 0 for NaN
+    let clamped = f.max(0.0).min(last as f32);
+    // SAFETY: `clamped` is finite and within `0..=last`, which an i32 holds.
+    unsafe { clamped.to_int_unchecked::<i32>() as u32 }
 }
 
 /// The vertex of the parabola through three evenly spaced values around the largest, as an
@@ -636,6 +655,24 @@ pub(crate) mod tests {
         assert!(SpeedEstimator::new(cfg(65_535), Resolution::DVXPLORER).is_ok());
         let e = SpeedEstimator::new(cfg(65_536), Resolution::DVXPLORER).unwrap_err().to_string();
         assert!(e.contains("max_events in 1..=65535"), "{e}");
+    }
+
+    #[test]
+    fn a_column_bin_is_the_truncation_clamped_to_the_image() {
+        let last = 700u32;
+        let mut xs = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.0, -0.5, -1.0, 0.999_999_94, 1.0];
+        xs.extend([699.99994, 700.0, 700.5, 701.0, 2.0e9, 2_147_483_648.0, 1e20, -2.0e9, -1e20, f32::MAX, f32::MIN]);
+        let mut r = 0x9e37_79b9_u32;
+        for _ in 0..100_000 {
+            r ^= r << 13;
+            r ^= r >> 17;
+            r ^= r << 5;
+            xs.push(f32::from_bits(r));
+            xs.push((r % 1_000_000) as f32 / 997.0 - 100.0);
+        }
+        for f in xs {
+            assert_eq!(column_bin(f, last), (f as usize).min(last as usize) as u32, "{f:e}");
+        }
     }
 
     #[test]
