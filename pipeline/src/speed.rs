@@ -658,6 +658,17 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn an_image_too_wide_for_exact_float_columns_is_refused() {
+        // 10^7 mm/s over a 250 ms window moves the image by 86 million pixels (refused before
+        // anything is allocated)
+        let cfg = SpeedEstimatorConfig { max_mm_s: 1e7, ..SpeedEstimatorConfig::default() };
+        let e = SpeedEstimator::new(cfg, Resolution::DVXPLORER).unwrap_err().to_string();
+        assert!(e.contains("under 2^24 columns"), "{e}");
+        let cfg = SpeedEstimatorConfig { max_mm_s: 1e3, ..SpeedEstimatorConfig::default() };
+        assert!(SpeedEstimator::new(cfg, Resolution::DVXPLORER).is_ok());
+    }
+
+    #[test]
     fn a_column_bin_is_the_truncation_clamped_to_the_image() {
         let last = 700u32;
         let mut xs = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.0, -0.5, -1.0, 0.999_999_94, 1.0];
