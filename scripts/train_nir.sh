@@ -35,6 +35,9 @@ $b train --trainer dense --arch snn --recipe chars "${r[@]}" \
   --out "$sim/snn-chars.safetensors" --history "$hist/snn_chars_history.json"
 $b train --trainer "$trainer" --arch snn --recipe words "${r[@]}" \
   --out "$sim/snn-words.safetensors" --history "$hist/snn_words_history.json"
+# as scripts/words.sh does to the shipped classifier since 2026-11-30: at `nominal` it centres each
+# window in pooled rows 12..100 (weights as trained; docs/log/letters-2026-11-30.md)
+if [[ "$realism" == nominal ]]; then $b set-band "$sim/snn-words.safetensors" --rows 12,100; fi
 $b train --trainer "$trainer" --arch snn --recipe segment --blank-cells "$blank" "${r[@]}" \
   --out "$sim/snn-segment.safetensors" --history "$hist/snn_segment_history.json"
 # The twin reading pair's operating point, chosen on the validation words as the shipped pair's is
