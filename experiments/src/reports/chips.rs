@@ -487,18 +487,27 @@ fn arithmetic_rows(spec: &ChipSpec, chips: &[ChipRow], progress: &dyn Progress) 
     Ok(rows)
 }
 
-/// The fields in which two models' recipes differ, the reset apart (a twin's one change), and a
-/// centring band either was given after training (`braille set-band`). Each recipe is read as a
-/// recipe first, so that a field an older model left out counts as its default; a model that
-/// records no recipe is named instead.
+/// The centring band given to a model after training (`braille set-band`), the last one
+/// recorded in its provenance.
+fn band_after_training(p: &serde_json::Value) -> Option<&serde_json::Value> {
+    p["input_changes"].as_array().and_then(|c| c.last()).map(|last| &last["band_rows"])
+}
+
+/// How two models' inputs after training differ, if they do: the same band given to both (as
+/// `scripts/train_nir.sh` gives the words twin the shipped model's) is no difference.
+fn band_difference(shipped: &serde_json::Value, twin: &serde_json::Value) -> Option<String> {
+    let (a, b) = (band_after_training(shipped), band_after_training(twin));
+    let show = |b: Option<&serde_json::Value>| b.map_or("none".to_string(), |v| format!("band {v}"));
+    (a != b).then(|| format!("the input after training (shipped {}, twin {})", show(a), show(b)))
+}
+
+/// The fields in which two models' recipes differ, the reset apart (a twin's one change), and
+/// their centring bands given after training, when they differ. Each recipe is read as a recipe
+/// first, so that a field an older model left out counts as its default; a model that records no
+/// recipe is named instead.
 fn recipe_differences(trained: &Path, twin: &Path) -> Result<Vec<String>> {
     let (pa, pb) = (pipeline::models::load_snn(trained)?.provenance, pipeline::models::load_snn(twin)?.provenance);
-    let mut out = Vec::new();
-    for (p, which) in [(&pa, "shipped"), (&pb, "twin")] {
-        if let Some(last) = p["input_changes"].as_array().and_then(|c| c.last()) {
-            out.push(format!("the {which} model's input after training (band {})", last["band_rows"]));
-        }
-    }
+    let mut out: Vec<String> = band_difference(&pa, &pb).into_iter().collect();
     // a recipe as its fields read back (defaults for fields an older model left out)
     let read = |p: &serde_json::Value| {
         let raw = &p["recipe"];
@@ -693,4 +702,28 @@ pub fn markdown(r: &ChipReport) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::band_difference;
+    use serde_json::json;
+
+    #[test]
+    fn a_band_given_to_both_models_is_no_difference_and_one_given_to_one_is() {
+        let banded = json!({ "input_changes": [{ "band_rows": [4, 116] }, { "band_rows": [12, 100] }] });
+        let same = json!({ "input_changes": [{ "band_rows": [12, 100] }] });
+        let other = json!({ "input_changes": [{ "band_rows": [4, 116] }] });
+        let none = json!({});
+        assert_eq!(band_difference(&banded, &same), None);
+        assert_eq!(band_difference(&none, &none), None);
+        assert_eq!(
+            band_difference(&banded, &none).as_deref(),
+            Some("the input after training (shipped band [12,100], twin none)")
+        );
+        assert_eq!(
+            band_difference(&same, &other).as_deref(),
+            Some("the input after training (shipped band [12,100], twin band [4,116])")
+        );
+    }
 }
