@@ -800,6 +800,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             let (mut last, mut masked, start) = (self.last_t, 0u64, k);
             let (map, acc, touched, mut n_touched, mut est) =
                 (&self.map, &mut self.acc[..], &mut self.touched[..], self.touched_len, self.estimator.as_mut());
+            let (mut arrived, mut skipped) = est.as_deref().map_or((0, 0), SpeedEstimator::counters);
             while k < events.len() {
                 let e = &events[k];
                 if e.t_us >= end || e.t_us < last || e.t_us >= due {
@@ -807,10 +808,13 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
                 }
                 last = e.t_us;
                 if let Some(s) = est.as_deref_mut() {
-                    s.push(e);
+                    s.push_counted(&mut arrived, &mut skipped, e);
                 }
                 masked += u64::from(scatter(map, cells, acc, touched, &mut n_touched, e));
                 k += 1;
+            }
+            if let Some(s) = est {
+                s.set_counters((arrived, skipped));
             }
             self.last_t = last;
             self.touched_len = n_touched;
