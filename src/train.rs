@@ -150,8 +150,10 @@ pub struct Args {
     #[arg(long, conflicts_with = "data")]
     recordings: Option<PathBuf>,
     /// Start from this trained model's weights (fine-tuning; its network, input and classes must
-    /// be the recipe's), e.g. a shipped model fine-tuned on a lab's recordings, or a float model
-    /// fine-tuned for a chip (--chip; with --data, its neurons may differ from the recipe's).
+    /// be the recipe's, but for how its neurons reset: a subtracting model fine-tunes into its
+    /// twin with `--reset zero`), e.g. a shipped model fine-tuned on a lab's recordings, or a
+    /// float model fine-tuned for a chip (--chip; with --data, its neurons may differ from the
+    /// recipe's).
     #[arg(long)]
     init: Option<PathBuf>,
     /// Simulated windows: sum-pooling of the 64x80 crop [default: the recipe's (2) for the SNN, 1

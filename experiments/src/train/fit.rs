@@ -117,10 +117,18 @@ pub fn network_spec(r: &SnnRecipe, input_shape: &[usize], n_classes: usize) -> R
 }
 
 /// Whether a model of network `model` fine-tunes into the recipe's `spec`: the same network, or
-/// for a chip ([`SnnRecipe::chip`]) the same layers and sizes (its neurons become the chip's).
+/// the same but for how its neurons reset (a subtracting model fine-tuned into its twin that
+/// resets to zero, the reset NIR expresses: `--reset zero`), or for a chip
+/// ([`SnnRecipe::chip`]) the same layers and sizes (its neurons become the chip's).
 fn fine_tunes(model: &NetworkSpec, spec: &NetworkSpec, r: &SnnRecipe) -> bool {
     if r.chip.is_none() {
-        return model == spec;
+        let mut as_reset = model.clone();
+        for (l, s) in as_reset.layers.iter_mut().zip(&spec.layers) {
+            if let (Some(p), Some(q)) = (l.neurons.as_mut(), s.neurons) {
+                (p.reset, p.v_reset) = (q.reset, q.v_reset);
+            }
+        }
+        return model == spec || as_reset == *spec;
     }
     let shape = |s: &NetworkSpec| {
         let layers: Vec<_> = s.layers.iter().map(|l| (l.op, l.neurons.map(|p| p.kind), l.recurrent, l.bias)).collect();
@@ -721,5 +729,24 @@ pub fn conditions(scans: &corpus::windows::TrainingScans) -> String {
     match &scans.sweep {
         None => "8 mm/s, 1.5 mm".to_string(),
         Some(s) => format!("{:?} mm/s x {:?} mm, one pairing per trial", s.speeds_mm_s, s.depths_mm),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use snn::neuron::Reset;
+
+    #[test]
+    fn a_model_fine_tunes_into_its_twin_that_resets_to_zero_and_into_nothing_else() {
+        let sub = SnnRecipe { reset: Reset::Subtract, ..SnnRecipe::preset("raw1350").expect("a preset") };
+        let spec = |r: &SnnRecipe| network_spec(r, &[24], 27).expect("a network");
+        let zero = SnnRecipe { reset: Reset::Zero, ..sub.clone() };
+        assert!(fine_tunes(&spec(&sub), &spec(&sub), &sub));
+        assert!(fine_tunes(&spec(&sub), &spec(&zero), &zero), "the reset alone differs");
+        let wider = SnnRecipe { hidden: vec![sub.hidden[0] * 2], ..zero.clone() };
+        assert!(!fine_tunes(&spec(&sub), &spec(&wider), &wider), "the layers differ");
+        let slower = SnnRecipe { tau_mem_us: sub.tau_mem_us * 2.0, ..zero.clone() };
+        assert!(!fine_tunes(&spec(&sub), &spec(&slower), &slower), "the neurons' decay differs");
     }
 }

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# #50: twins fine-tuned from the subtracting headlines (the rule: docs/log/chips-2026-12-02.md).
+# Per dataset: the headline search's chosen trial, trained by its own recipe (the 20% hold-out
+# of seed 1, seeds 1-3) and then fine-tuned with reset to zero by the same recipe (`--init`,
+# `--reset zero`); its score, the search's (the mean validation accuracy of the last 5 epochs
+# run, over the three seeds), against the twin search's winner on the same hold-out. Only when
+# it is higher are the final headline models fine-tuned the same way on the whole training split
+# and scored once on the test split (`--eval-test`). Writes docs/results/twin-warm/ and, in that
+# case, models/search/{raw1350,th10}-zero-warm{,.seed2,.seed3}.safetensors.
+# About 10 (raw1350) and 25 (th10) minutes on two cores; what is written is not run again.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+b=target/release/braille
+out=docs/results/twin-warm
+mkdir -p "$out" models/search
+
+# the chosen trial's recipe from a search log, or a model file's recipe (its provenance)
+trial_recipe() { python3 -c '
+import json, sys
+for line in open(sys.argv[1]):
+    t = json.loads(line)
+    if t["trial"] == int(sys.argv[2]):
+        json.dump(t["recipe"], sys.stdout)
+        break
+else:
+    sys.exit("trial %s not in %s" % (sys.argv[2], sys.argv[1]))' "$1" "$2" > "$3"; }
+model_recipe() { python3 -c '
+import json, struct, sys
+f = open(sys.argv[1], "rb")
+n = struct.unpack("<Q", f.read(8))[0]
+json.dump(json.loads(json.loads(f.read(n))["__metadata__"]["provenance"])["recipe"], sys.stdout)' "$1" > "$2"; }
+# the search's score of three histories: each seed's mean validation accuracy over its last 5
+# epochs run and kept, then their mean
+score() { python3 -c '
+import json, sys
+s = []
+for f in sys.argv[1:]:
+    v = [e["val_accuracy"] for e in json.load(open(f)) if not e.get("undone")]
+    s.append(sum(v[-5:]) / len(v[-5:]))
+print("%.6f %s" % (sum(s) / len(s), " ".join("%.4f" % x for x in s)))' "$@"; }
+
+run() { # name data search-log trial twin-score headline-model
+  local name=$1 data=data/icub_braille/$2 log=$3 trial=$4 twin=$5 head=$6 d=$out/$1
+  mkdir -p "$d"
+  trial_recipe "$log" "$trial" "$d/trial-recipe.json"
+  for k in 1 2 3; do
+    [[ -f $d/sub-$k.safetensors ]] || $b train --data "$data" --recipe "$d/trial-recipe.json" --seed "$k" --quiet \
+      --out "$d/sub-$k.safetensors" --history "$d/sub-$k.json" --force
+    [[ -f $d/warm-$k.safetensors ]] || $b train --data "$data" --recipe "$d/trial-recipe.json" --seed "$k" --quiet \
+      --reset zero --init "$d/sub-$k.safetensors" --out "$d/warm-$k.safetensors" --history "$d/warm-$k.json" --force
+  done
+  read -r sub _ <<< "$(score "$d"/sub-{1,2,3}.json)"
+  read -r warm _ <<< "$(score "$d"/warm-{1,2,3}.json)"
+  {
+    echo "$name: subtracting trial (seeds 1-3) $(score "$d"/sub-{1,2,3}.json)"
+    echo "$name: fine-tuned with reset to zero  $(score "$d"/warm-{1,2,3}.json)"
+    echo "$name: the twin search's winner       $twin"
+  } | tee "$d/validation.txt"
+  if python3 -c "import sys; sys.exit(0 if float('$warm') > float('$twin') else 1)"; then
+    echo "$name: above the twin search's winner: the final models read the test split" | tee -a "$d/validation.txt"
+    for k in 1 2 3; do
+      local src=models/search/$head.safetensors dst=models/search/$name-zero-warm.safetensors
+      [[ $k == 1 ]] || { src=models/search/$head.seed$k.safetensors; dst=models/search/$name-zero-warm.seed$k.safetensors; }
+      model_recipe "$src" "$d/final-recipe-$k.json"
+      [[ -f $dst ]] || $b train --data "$data" --recipe "$d/final-recipe-$k.json" --seed "$k" --quiet \
+        --reset zero --init "$src" --eval-test --out "$dst" --history "$d/final-$k.json" 2>&1 | tee "$d/final-$k.log"
+    done
+  else
+    echo "$name: not above the twin search's winner: no test split read" | tee -a "$d/validation.txt"
+  fi
+}
+
+run raw1350 raw1350 docs/results/search/raw1350-stepscale/truncated/trials-0-of-1.jsonl 16 0.984877 raw1350-stepscale
+run th10 th10 docs/results/search/th10-warmup/trials-0-of-1.jsonl 9 0.762423 th10-warmup
