@@ -97,14 +97,29 @@ fn rows(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
 }
 
 /// [`rows`] in AVX registers, eight outputs at a time: the same multiplies and adds per output
-/// (no fused multiply-add), so the same floats.
+/// (no fused multiply-add), so the same floats. The next input's row is asked for while this
+/// one is added: a wide layer's rows do not fit the caches, and which row comes next is known.
 ///
 /// # Safety
 /// The CPU must have AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 unsafe fn rows_avx(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
-    rows(weight, stride, inputs, out)
+    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+    out.fill(0.0);
+    for (k, &(i, x)) in inputs.iter().enumerate() {
+        if let Some(&(next, _)) = inputs.get(k + 1) {
+            let row = weight.as_ptr().wrapping_add(next as usize * stride);
+            // a cache line holds 16 floats; a prefetch never faults, whatever the address
+            for line in (0..stride).step_by(16) {
+                _mm_prefetch::<_MM_HINT_T0>(row.wrapping_add(line).cast());
+            }
+        }
+        let at = i as usize * stride;
+        for (o, w) in out.iter_mut().zip(&weight[at..at + stride]) {
+            *o += x * w;
+        }
+    }
 }
 
 impl Sliding {
@@ -229,17 +244,9 @@ impl Sliding {
                                 *f = if spike { 1.0 } else { 0.0 };
                             }
                         }
-                        // the neurons that fired, in ascending order, listed without a branch on
-                        // the spike (a separate pass, so that the update above stays vectorised):
-                        // each neuron is written at the list's end, which moves on when it fired
-                        nz.clear();
-                        nz.resize(n, (0, 1.0));
-                        let mut fired = 0usize;
-                        for (j, &f) in x.iter().enumerate() {
-                            nz[fired].0 = j as u32;
-                            fired += usize::from(f != 0.0);
-                        }
-                        nz.truncate(fired);
+                        // the neurons that fired, in ascending order (a separate pass, so that
+                        // the update above stays vectorised)
+                        list_fired(x, nz);
                         if k == last {
                             for &(j, _) in nz.iter() {
                                 out.counts[j as usize] += 1;
@@ -256,6 +263,50 @@ impl Sliding {
         }
         out
     }
+}
+
+/// Lanes per mask of [`list_fired`].
+const FIRED_CHUNK: usize = 16;
+
+/// The neurons that fired (`x[j] != 0`) as `(j, 1.0)`, ascending. Spikes are sparse, so each
+/// [`FIRED_CHUNK`] lanes are compared at once into a mask and only its set bits are walked: one
+/// branch a chunk, mostly not taken, where a neuron at a time carried the list's length from
+/// each compare to the next.
+fn list_fired(x: &[f32], nz: &mut Vec<(u32, f32)>) {
+    nz.clear();
+    nz.reserve(x.len());
+    let mut chunks = x.chunks_exact(FIRED_CHUNK);
+    let mut base = 0u32;
+    for c in &mut chunks {
+        let mut m = nonzero_mask(c.try_into().expect("a whole chunk"));
+        while m != 0 {
+            nz.push((base + m.trailing_zeros(), 1.0));
+            m &= m - 1;
+        }
+        base += FIRED_CHUNK as u32;
+    }
+    nz.extend(chunks.remainder().iter().enumerate().filter(|(_, f)| **f != 0.0).map(|(i, _)| (base + i as u32, 1.0)));
+}
+
+/// Bit `i` set when `c[i] != 0` (NaN included, as `!=` has it): four SSE compares (part of the
+/// x86-64 baseline).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn nonzero_mask(c: &[f32; FIRED_CHUNK]) -> u32 {
+    use std::arch::x86_64::{_mm_cmpneq_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_setzero_ps};
+    let mut m = 0u32;
+    for (q, lanes) in c.chunks_exact(4).enumerate() {
+        // SAFETY: SSE is part of x86-64; `lanes` holds four floats.
+        let bits = unsafe { _mm_movemask_ps(_mm_cmpneq_ps(_mm_loadu_ps(lanes.as_ptr()), _mm_setzero_ps())) };
+        m |= (bits as u32) << (4 * q);
+    }
+    m
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn nonzero_mask(c: &[f32; FIRED_CHUNK]) -> u32 {
+    c.iter().enumerate().fold(0, |m, (i, &f)| m | (u32::from(f != 0.0) << i))
 }
 
 /// Memory [`Sliding::run_with`] reuses between windows.
@@ -336,6 +387,24 @@ mod tests {
                 let want = forward_dense(&net, &input[(end - window) * 40..end * 40], window).unwrap();
                 assert_eq!(got.v_max, want.v_max, "window ending at {end}");
                 assert_eq!(got.counts, want.output_counts(5), "window ending at {end}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_fired_list_is_every_nonzero_lane_in_order() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut nz = vec![(7, 2.0); 3];
+        for n in 0..70 {
+            for density in [0.0, 0.05, 0.5, 1.0] {
+                let mut x: Vec<f32> = (0..n).map(|_| if rng.random_bool(density) { 1.0 } else { 0.0 }).collect();
+                if n > 20 {
+                    (x[3], x[17], x[n - 1]) = (f32::NAN, -0.0, 1.0);
+                }
+                list_fired(&x, &mut nz);
+                let want: Vec<(u32, f32)> =
+                    x.iter().enumerate().filter(|(_, f)| **f != 0.0).map(|(j, _)| (j as u32, 1.0)).collect();
+                assert_eq!(nz, want, "{n} lanes at density {density}");
             }
         }
     }
