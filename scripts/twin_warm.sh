@@ -15,7 +15,7 @@ b=target/release/braille
 out=docs/results/twin-warm
 mkdir -p "$out" models/search
 
-# the chosen trial's recipe from a search log, or a model file's recipe (its provenance)
+# the chosen trial's recipe from a search log (a model file's: scripts/recipe_of.py)
 trial_recipe() { python3 -c '
 import json, sys
 for line in open(sys.argv[1]):
@@ -25,11 +25,6 @@ for line in open(sys.argv[1]):
         break
 else:
     sys.exit("trial %s not in %s" % (sys.argv[2], sys.argv[1]))' "$1" "$2" > "$3"; }
-model_recipe() { python3 -c '
-import json, struct, sys
-f = open(sys.argv[1], "rb")
-n = struct.unpack("<Q", f.read(8))[0]
-json.dump(json.loads(json.loads(f.read(n))["__metadata__"]["provenance"])["recipe"], sys.stdout)' "$1" > "$2"; }
 # the search's score of three histories: each seed's mean validation accuracy over its last 5
 # epochs run and kept, then their mean
 score() { python3 -c '
@@ -50,19 +45,21 @@ run() { # name data search-log trial twin-score headline-model
     [[ -f $d/warm-$k.safetensors ]] || $b train --data "$data" --recipe "$d/trial-recipe.json" --seed "$k" --quiet \
       --reset zero --init "$d/sub-$k.safetensors" --out "$d/warm-$k.safetensors" --history "$d/warm-$k.json" --force
   done
-  read -r sub _ <<< "$(score "$d"/sub-{1,2,3}.json)"
-  read -r warm _ <<< "$(score "$d"/warm-{1,2,3}.json)"
+  local sub warm
+  sub=$(score "$d"/sub-{1,2,3}.json)
+  warm=$(score "$d"/warm-{1,2,3}.json)
   {
-    echo "$name: subtracting trial (seeds 1-3) $(score "$d"/sub-{1,2,3}.json)"
-    echo "$name: fine-tuned with reset to zero  $(score "$d"/warm-{1,2,3}.json)"
+    echo "$name: subtracting trial (seeds 1-3) $sub"
+    echo "$name: fine-tuned with reset to zero  $warm"
     echo "$name: the twin search's winner       $twin"
   } | tee "$d/validation.txt"
+  warm=${warm%% *}
   if python3 -c "import sys; sys.exit(0 if float('$warm') > float('$twin') else 1)"; then
     echo "$name: above the twin search's winner: the final models read the test split" | tee -a "$d/validation.txt"
     for k in 1 2 3; do
       local src=models/search/$head.safetensors dst=models/search/$name-zero-warm.safetensors
       [[ $k == 1 ]] || { src=models/search/$head.seed$k.safetensors; dst=models/search/$name-zero-warm.seed$k.safetensors; }
-      model_recipe "$src" "$d/final-recipe-$k.json"
+      python3 scripts/recipe_of.py "$src" > "$d/final-recipe-$k.json"
       [[ -f $dst ]] || $b train --data "$data" --recipe "$d/final-recipe-$k.json" --seed "$k" --quiet \
         --reset zero --init "$src" --eval-test --out "$dst" --history "$d/final-$k.json" 2>&1 | tee "$d/final-$k.log"
     done

@@ -89,10 +89,15 @@ pub struct WindowOutput {
 fn rows(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
     out.fill(0.0);
     for &(i, x) in inputs {
-        let at = i as usize * stride;
-        for (o, w) in out.iter_mut().zip(&weight[at..at + stride]) {
-            *o += x * w;
-        }
+        add_row(out, x, &weight[i as usize * stride..][..stride]);
+    }
+}
+
+/// `out += x row`, output by output.
+#[inline(always)]
+fn add_row(out: &mut [f32], x: f32, row: &[f32]) {
+    for (o, w) in out.iter_mut().zip(row) {
+        *o += x * w;
     }
 }
 
@@ -115,10 +120,7 @@ unsafe fn rows_avx(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &m
                 _mm_prefetch::<_MM_HINT_T0>(row.wrapping_add(line).cast());
             }
         }
-        let at = i as usize * stride;
-        for (o, w) in out.iter_mut().zip(&weight[at..at + stride]) {
-            *o += x * w;
-        }
+        add_row(out, x, &weight[i as usize * stride..][..stride]);
     }
 }
 
