@@ -51,7 +51,11 @@ pub const SPARSE_BELOW: f64 = 0.2;
 /// above it, the tiny segmentation network 0.21 / 0.22 / 0.26 ms a window at 4.9 / 5.5 / 5.9%
 /// against the direct one's 0.24-0.26 ms at any density, the lite classifier 0.27 / 0.27-0.39 /
 /// 0.30-0.33 ms against 0.35-0.36 ms: about equal at 6% for the tiny one, the lite one ahead.
-pub const SPARSE_BELOW_DIRECT: f64 = 0.06;
+/// Raised to 8% on 2026-12-02, after the scatter was compiled for AVX and for the stems' widths
+/// (two runs of the same command at 5-16% non-zero, the scatter timed by the im2col row, whose
+/// threshold is 20%: the tiny network about equal at 7-9%, 0.20-0.32 against 0.23-0.29 ms, the
+/// direct one ahead from 12%; the lite one 0.24-0.37 against 0.37-0.49 ms at 7-9%, equal at 12%).
+pub const SPARSE_BELOW_DIRECT: f64 = 0.08;
 
 /// The most floats of im2col columns made at once (1 MiB; on 2026-11-28's 2-core EPYC the tiny
 /// preset's dense stem ran in 1.6 ms a window with it against 2.1 ms with 256 KiB, the lite
@@ -321,7 +325,37 @@ struct Scatter {
 /// Adds each non-zero input `nz` (in index order) times its weights (`[c_in][k][k][co]`) into
 /// every output it reaches, in `col` (`[oy][ox][co]`).
 fn scatter(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
-    let Scatter { h, w, k, s, p, co, oh, ow } = g;
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: this CPU has AVX (just checked).
+        return unsafe { scatter_avx(nz, weight_by_input, g, col) };
+    }
+    scatter_with(nz, weight_by_input, g, col)
+}
+
+/// [`scatter`] compiled for AVX: the same multiplies and adds (nothing fused), eight lanes a
+/// register instead of four, so the same floats.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn scatter_avx(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
+    scatter_with(nz, weight_by_input, g, col)
+}
+
+#[inline(always)]
+fn scatter_with(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
+    // the stems' widths (tiny 8, lite 16) compiled for their width, so each add unrolls
+    match g.co {
+        8 => scatter_co::<8>(nz, weight_by_input, g, col),
+        16 => scatter_co::<16>(nz, weight_by_input, g, col),
+        _ => scatter_co::<0>(nz, weight_by_input, g, col),
+    }
+}
+
+/// [`scatter`] for `CO` output channels, or any number with `CO` 0.
+#[inline(always)]
+fn scatter_co<const CO: usize>(nz: &[(u32, f32)], weight_by_input: &[f32], g: Scatter, col: &mut [f32]) {
+    let Scatter { h, w, k, s, p, oh, ow, .. } = g;
+    let co = if CO == 0 { g.co } else { CO };
     // The cells come in index order, so their row (and channel) is found by walking on from
     // the last one's rather than by dividing.
     let (mut c, mut y, mut row_start) = (0usize, 0usize, 0usize);
@@ -391,6 +425,7 @@ impl Iterator for Taps {
 }
 
 /// `y += a * x`, eight lanes at a time (fixed-width chunks, so that the compiler vectorises them).
+#[inline(always)]
 fn axpy(a: f32, x: &[f32], y: &mut [f32]) {
     let mut ys = y.chunks_exact_mut(8);
     let mut xs = x.chunks_exact(8);
@@ -407,28 +442,54 @@ fn axpy(a: f32, x: &[f32], y: &mut [f32]) {
 }
 
 /// The non-zero cells of `x` as `(index, value)` into `nz`, unless there are `limit` or more
-/// (then `false`). Runs of eight zeros (either sign) are skipped at once.
+/// (then `false`). Cells are compared eight at once and taken 64 to a mask, and only the non-zero
+/// ones visited: a window's heat map has 2-6% of its cells non-zero, scattered, so a branch per
+/// cell or per eight cells would often mispredict.
 fn nonzeros(x: &[f32], limit: usize, nz: &mut Vec<(u32, f32)>) -> bool {
-    // Every cell of a chunk is written and the count moves on by whether it is non-zero (no
-    // branch a sparse map's scattered cells would mispredict); room for one chunk past `limit`.
     nz.clear();
-    nz.resize(limit + 8, (0, 0.0));
-    let mut n = 0;
-    for (b, chunk) in x.chunks(8).enumerate() {
-        if chunk.iter().fold(0u32, |m, v| m | (v.to_bits() << 1)) == 0 {
+    nz.reserve(limit + 64);
+    let chunks = x.chunks_exact(64);
+    let mut last = [0.0; 64];
+    last[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
+    let whole = chunks.map(|c| <&[f32; 64]>::try_from(c).expect("64"));
+    for (b, chunk) in whole.chain(std::iter::once(&last)).enumerate() {
+        let mut bits = chunk
+            .chunks_exact(8)
+            .enumerate()
+            .fold(0u64, |m, (e, c)| m | u64::from(nonzero_bits(c.try_into().expect("eight"))) << (8 * e));
+        if bits == 0 {
             continue;
         }
-        for (j, &v) in chunk.iter().enumerate() {
-            nz[n] = ((b * 8 + j) as u32, v);
-            n += usize::from(v != 0.0);
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize;
+            nz.push(((b * 64 + j) as u32, chunk[j]));
+            bits &= bits - 1;
         }
-        if n >= limit {
-            nz.truncate(n);
+        if nz.len() >= limit {
             return false;
         }
     }
-    nz.truncate(n);
     true
+}
+
+/// Bit `j` set when `chunk[j] != 0.0` (so for NaN, not for either zero).
+#[inline(always)]
+fn nonzero_bits(chunk: &[f32; 8]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cmpneq_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_setzero_ps};
+        // SAFETY: SSE is part of x86-64's baseline; both loads read four floats inside `chunk`.
+        unsafe {
+            let zero = _mm_setzero_ps();
+            let lo = _mm_movemask_ps(_mm_cmpneq_ps(_mm_loadu_ps(chunk.as_ptr()), zero));
+            let hi = _mm_movemask_ps(_mm_cmpneq_ps(_mm_loadu_ps(chunk.as_ptr().add(4)), zero));
+            (lo | (hi << 4)) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        chunk.iter().enumerate().fold(0, |m, (j, v)| m | (u32::from(*v != 0.0) << j))
+    }
 }
 
 /// 3x3 max pooling, stride 2, padding 1 (padding never wins).
@@ -737,16 +798,50 @@ mod tests {
         }
     }
 
+    /// The non-zero cells are those a plain filter keeps (NaN kept, either zero dropped), for
+    /// lengths with and without a partial last chunk, or refused once as many as the limit.
+    #[test]
+    fn the_nonzero_cells_are_the_plain_filters() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        let mut nz = Vec::new();
+        for len in 0..70 {
+            for density in [0.0, 0.05, 0.3, 1.0] {
+                let x: Vec<f32> = (0..len)
+                    .map(|_| match rng.random_range(0..8) {
+                        _ if !rng.random_bool(density) => [0.0, -0.0][rng.random_range(0..2)],
+                        0 => f32::NAN,
+                        _ => rng.random_range(-2.0..2.0),
+                    })
+                    .collect();
+                let want: Vec<(u32, u32)> =
+                    x.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(i, v)| (i as u32, v.to_bits())).collect();
+                for limit in [0, want.len().saturating_sub(1), want.len(), want.len() + 1, len + 8] {
+                    let kept = nonzeros(&x, limit, &mut nz);
+                    assert_eq!(kept, want.is_empty() || want.len() < limit, "{len} cells, limit {limit}");
+                    if kept {
+                        let got: Vec<(u32, u32)> = nz.iter().map(|(i, v)| (*i, v.to_bits())).collect();
+                        assert_eq!(got, want, "{len} cells, limit {limit}");
+                    }
+                }
+            }
+        }
+    }
+
     /// The scatter equals a plain sum for strides 1, 2 and 3 (the constant and the general tap
     /// walks), paddings and kernels, on inputs with empty rows and empty channels between the
-    /// non-zero cells (the row walk), and finds the same non-zero cells as a filter.
+    /// non-zero cells (the row walk), at the widths compiled apart (8, 16) and another (12), and finds
+    /// the same non-zero cells as a filter.
     #[test]
     fn the_scatter_is_the_plain_convolution() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         // (c_in, h, w, k, s, p, c_out)
-        for (c_in, h, w, k, s, p, c_out) in
-            [(3, 9, 11, 7, 2, 3, 8), (4, 6, 5, 3, 1, 1, 16), (2, 10, 13, 5, 3, 2, 8), (5, 4, 7, 1, 2, 0, 8)]
-        {
+        for (c_in, h, w, k, s, p, c_out) in [
+            (3, 9, 11, 7, 2, 3, 8),
+            (4, 6, 5, 3, 1, 1, 16),
+            (2, 10, 13, 5, 3, 2, 8),
+            (5, 4, 7, 1, 2, 0, 8),
+            (3, 7, 9, 3, 2, 1, 12),
+        ] {
             let fan = c_in * k * k;
             let weight: Vec<f32> = (0..c_out * fan).map(|_| rng.random_range(-1.0..1.0)).collect();
             let bias: Vec<f32> = (0..c_out).map(|_| rng.random_range(-1.0..1.0)).collect();
