@@ -120,7 +120,7 @@ pub fn shift_of(mass: f64, moment: f64, h_out: usize) -> i64 {
 /// +0.0 stay +0.0, as the formula leaves them, without computing it (a window is mostly empty).
 pub fn normalise(map: &mut Heatmap) {
     let nonzero = |c: &f32| c.to_bits() != 0;
-    let table = LN_1P_COUNTS.get_or_init(|| std::array::from_fn(|i| (i as f32).ln_1p()));
+    let table = ln_1p_table();
     let ln_1p = |c: f32| ln_1p_count(c.max(0.0), table);
     let max = map.counts.iter().filter(|c| nonzero(c)).map(|&c| ln_1p(c)).fold(0.0f32, f32::max);
     if max > 0.0 {
@@ -130,7 +130,10 @@ pub fn normalise(map: &mut Heatmap) {
 
 /// `ln(1 + c)` of the whole counts below 256, made once: a window's cells count events, so the
 /// reader's maps hold whole numbers, and looking them up is cheaper than the logarithm.
-static LN_1P_COUNTS: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+fn ln_1p_table() -> &'static [f32; 256] {
+    static LN_1P_COUNTS: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    LN_1P_COUNTS.get_or_init(|| std::array::from_fn(|i| (i as f32).ln_1p()))
+}
 
 /// `c.ln_1p()`, looked up in `table` for the whole numbers 1-255 (the same floats: the table holds
 /// that function's values), computed for the rest (zeros keep their sign, NaN stays NaN).
@@ -264,11 +267,11 @@ mod tests {
     /// zeros, NaN, the table's edges and beyond.
     #[test]
     fn a_counts_logarithm_is_the_computed_one() {
-        let table = std::array::from_fn(|i| (i as f32).ln_1p());
+        let table = ln_1p_table();
         let mut values = vec![0.0, -0.0, 0.5, 1.0, 1.5, 254.5, 255.0, 256.0, 300.0, 1e9, f32::NAN, f32::INFINITY];
         values.extend((0..600).map(|i| i as f32 * 0.5));
         for c in values {
-            assert_eq!(ln_1p_count(c, &table).to_bits(), c.ln_1p().to_bits(), "{c}");
+            assert_eq!(ln_1p_count(c, table).to_bits(), c.ln_1p().to_bits(), "{c}");
         }
     }
 
