@@ -410,6 +410,47 @@ fn every_neuron_of_eight_and_sixteen_channel_convolutions_firing_at_once_is_kept
 }
 
 #[test]
+fn a_step_of_more_inputs_than_the_fan_in_takes_at_once_equals_dense() {
+    // The input fan-in into a convolution of 8 or 16 channels gathers a step's inputs 128 at a
+    // time (asking the cache for each one's targets two inputs ahead): steps of 288 inputs, all
+    // of them (graded values) and about half, cross the gathering's boundary twice.
+    let conv = |out_c: usize, seed: u64| Op::Conv2d {
+        in_shape: [2, 12, 12],
+        out_channels: out_c,
+        kernel: [3, 3],
+        stride: [1, 1],
+        padding: [1, 1],
+        weight: dense_w(2 * 9, out_c, seed, 0.9),
+        bias: None,
+    };
+    for (out_c, seed) in [(8, 51), (16, 52)] {
+        let net = Network::new(
+            vec![2, 12, 12],
+            vec![
+                layer(conv(out_c, seed), Some(NeuronParams::lif(0.8))),
+                layer(
+                    Op::Dense {
+                        n_in: out_c * 144,
+                        n_out: 6,
+                        weight: dense_w(out_c * 144, 6, seed + 10, 0.2),
+                        bias: None,
+                    },
+                    Some(NeuronParams::lif(0.9)),
+                ),
+            ],
+        )
+        .unwrap();
+        let steps = 8;
+        let all: Vec<f32> = (0..steps * net.n_inputs()).map(|k| 0.5 + (k % 5) as f32 * 0.25).collect();
+        for input in [all, random_input(seed, steps, net.n_inputs(), 0.5)] {
+            let (reference, _) = assert_same_output(&net, &input, steps);
+            let n: usize = reference.spikes[0].iter().map(Vec::len).sum();
+            assert!(n > 100, "the convolution must be active: {n} spikes");
+        }
+    }
+}
+
+#[test]
 fn stepped_equals_dense_with_wide_and_narrow_dense_layers() {
     // a step's spikes into a dense layer: up to 64 outputs summed in registers (the portable
     // code 16 at a time; with AVX2, all of them in 2, 4, 6 or 8 registers of eight: outputs padded

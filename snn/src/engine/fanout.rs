@@ -168,12 +168,36 @@ impl ConvTargets {
     /// Input `i`'s targets and the offset of its channel's weights.
     #[inline(always)]
     pub(super) fn of(&self, i: usize) -> (&[(u32, u32)], usize) {
+        let (c, p) = self.channel_and_pixel(i);
+        (&self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize], c * self.channel_stride)
+    }
+
+    /// Input `i`'s channel and its pixel in the channel's plane.
+    #[inline(always)]
+    fn channel_and_pixel(&self, i: usize) -> (usize, usize) {
         let c = match self.plane_recip {
             Some(m) => ((i as u64 * m) >> 32) as usize,
             None => i / self.plane,
         };
-        let p = i - c * self.plane;
-        (&self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize], c * self.channel_stride)
+        (c, i - c * self.plane)
+    }
+
+    /// Asks the cache for input `i`'s list of targets, to be read a few inputs later.
+    #[inline(always)]
+    pub(super) fn prefetch(&self, i: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(&o) = self.offsets.get(self.channel_and_pixel(i).1) {
+                // SAFETY: a prefetch reads nothing and faults on no address; SSE is baseline on x86_64.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                        self.targets.as_ptr().wrapping_add(o as usize).cast(),
+                    )
+                };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = i;
     }
 }
 
@@ -369,18 +393,50 @@ fn conv_inputs_with<const N: usize>(
     if !set.any {
         return 0;
     }
+    // the inputs gathered a chunk at a time, so that each one's list of targets is asked for
+    // `AHEAD` inputs before it is read (at 1.5% of inputs a step, most words of the set hold one)
+    const CHUNK: usize = 128;
+    const AHEAD: usize = 2;
+    let mut chunk = [0u32; CHUNK];
+    let mut len = 0;
     for (w, word) in set.words.iter_mut().enumerate() {
         let mut bits = std::mem::take(word);
         while bits != 0 {
-            let i = w * 64 + bits.trailing_zeros() as usize;
+            chunk[len] = (w * 64 + bits.trailing_zeros() as usize) as u32;
+            len += 1;
             bits &= bits - 1;
-            let (list, wc) = map.of(i);
-            conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
-            n += list.len();
+            if len == CHUNK {
+                n += conv_inputs_chunk::<N, AHEAD>(s, wt, map, &chunk, values);
+                len = 0;
+            }
         }
     }
+    n += conv_inputs_chunk::<N, AHEAD>(s, wt, map, &chunk[..len], values);
     set.any = false;
     (n * N) as u64
+}
+
+/// Inputs `chunk` (values in `values`, emptied) into a convolution of `N` channels, each one's
+/// list of targets asked for `AHEAD` inputs before it is read; returns the targets reached.
+#[inline(always)]
+fn conv_inputs_chunk<const N: usize, const AHEAD: usize>(
+    s: &mut LayerState,
+    wt: &[f32],
+    map: &ConvTargets,
+    chunk: &[u32],
+    values: &mut [f32],
+) -> usize {
+    let mut n = 0;
+    for (k, &i) in chunk.iter().enumerate() {
+        if let Some(&j) = chunk.get(k + AHEAD) {
+            map.prefetch(j as usize);
+        }
+        let i = i as usize;
+        let (list, wc) = map.of(i);
+        conv_fan_in::<N>(&mut s.acc, &mut s.touched, &wt[wc..], list, std::mem::take(&mut values[i]));
+        n += list.len();
+    }
+    n
 }
 
 /// The convolution fan-ins compiled for AVX2 (the same operations in wider registers: the
