@@ -1,7 +1,7 @@
-//! Golden tests of the README's REAL headlines: the search's final models, as shipped, scored
-//! again on their test splits on the event-driven engine, against the figures the committed
-//! search reports give (each seed to the hundredth of a point, and their mean), and the mean
-//! against the README's row.
+//! Golden tests of the README's headlines: the search's final models, as shipped, scored again
+//! on their test splits on the event-driven engine, against the figures the committed iCub
+//! report gives (each seed to the hundredth of a point, and their mean), and the mean against the
+//! README's row; Table I's row and the Xylo row run again likewise.
 
 use experiments::eval::tactile::{SplitChoice, eval_split};
 use snn::engine::Mode;
@@ -11,27 +11,24 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The per-seed test accuracies (percent, as printed) and their mean, from a committed
-/// `search.md`'s table of final models.
-fn committed(report: &str) -> (Vec<String>, String) {
-    let text = std::fs::read_to_string(root().join(report)).unwrap();
-    let table = text.split("| seed | final train accuracy | test accuracy (engine) | minutes |").nth(1).unwrap();
-    let seeds: Vec<String> = table
-        .lines()
-        .skip(2)
-        .take_while(|l| l.starts_with('|'))
-        .map(|l| l.split('|').nth(3).unwrap().trim().trim_end_matches('%').to_string())
-        .collect();
-    let mean = text.split("Mean test accuracy over 3 seeds: **").nth(1).unwrap().split('%').next().unwrap();
-    (seeds, mean.to_string())
+/// The headline's per-seed test accuracies (percent, as printed) and their mean, from the row of
+/// `set` in the committed iCub report (docs/results/icub.md, `braille icub-report`).
+fn committed(set: &str) -> (Vec<String>, String) {
+    let text = std::fs::read_to_string(root().join("docs/results/icub.md")).unwrap();
+    let row = text.lines().find(|l| l.starts_with(&format!("| {set} |"))).unwrap();
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    let mean = cells[3].split("**").nth(1).unwrap().trim_end_matches('%').to_string();
+    let seeds = cells[4].split(" / ").map(str::to_string).collect();
+    (seeds, mean)
 }
 
-fn check(set: &str, run: &str) {
-    let (seeds, mean) = committed(&format!("docs/results/search/{run}/search.md"));
-    assert_eq!(seeds.len(), 3, "{run}: {seeds:?}");
+/// `set`'s headline models (`models/search/{stem}`, seeds 1-3) against the report and the README.
+fn check(set: &str, stem: &str) {
+    let (seeds, mean) = committed(set);
+    assert_eq!(seeds.len(), 3, "{set}: {seeds:?}");
     let mut sum = 0.0;
     for (k, figure) in seeds.iter().enumerate() {
-        let file = if k == 0 { format!("{run}.safetensors") } else { format!("{run}.seed{}.safetensors", k + 1) };
+        let file = if k == 0 { format!("{stem}.safetensors") } else { format!("{stem}.seed{}.safetensors", k + 1) };
         let model = root().join("models/search").join(file);
         let (e, _) =
             eval_split(&model, &root().join("data/icub_braille").join(set), SplitChoice::Test, Mode::Stepped).unwrap();
@@ -40,14 +37,14 @@ fn check(set: &str, run: &str) {
         sum += pct;
     }
     let recomputed = format!("{:.2}", sum / 3.0);
-    assert_eq!(recomputed, mean, "{run}: the mean of the seeds");
+    assert_eq!(recomputed, mean, "{set}: the mean of the seeds");
     let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
-    assert!(readme.contains(&format!("{mean}%")), "the README quotes {run}'s mean {mean}%");
+    assert!(readme.contains(&format!("**{mean}%**")), "the README quotes {set}'s headline {mean}% ({stem})");
 }
 
 #[test]
 fn raw1350s_headline_is_the_mean_of_its_three_shipped_seeds() {
-    check("raw1350", "raw1350-warmup");
+    check("raw1350", "raw1350-stepscale");
 }
 
 #[test]
