@@ -412,8 +412,8 @@ fn every_neuron_of_eight_and_sixteen_channel_convolutions_firing_at_once_is_kept
 #[test]
 fn a_step_of_more_inputs_than_the_fan_in_takes_at_once_equals_dense() {
     // The input fan-in into a convolution of 8 or 16 channels gathers a step's inputs 128 at a
-    // time (asking the cache for each one's targets two inputs ahead): steps of 288 inputs, all
-    // of them (graded values) and about half, cross the gathering's boundary twice.
+    // time (asking the cache for each one's targets two inputs ahead): steps of all 288 inputs
+    // (graded values) cross the gathering's boundary twice, steps of about half of them once.
     let conv = |out_c: usize, seed: u64| Op::Conv2d {
         in_shape: [2, 12, 12],
         out_channels: out_c,
