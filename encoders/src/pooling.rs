@@ -70,8 +70,9 @@ impl PoolMap {
     #[inline]
     pub fn cell_or_max(&self, x: u16, y: u16) -> u32 {
         match (self.col_of_x.get(x as usize), self.row_of_y.get(y as usize)) {
-            // SKIP is u32::MAX, so a masked column saturates to it
-            (Some(&col), Some(&row)) => row.saturating_add(col),
+            // a masked column's `SKIP` is `u32::MAX` (an unpredictable select: a branch there is
+            // mispredicted about every other event)
+            (Some(&col), Some(&row)) => std::hint::select_unpredictable(col == SKIP, SKIP, row.wrapping_add(col)),
             _ => u32::MAX,
         }
     }

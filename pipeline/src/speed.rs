@@ -259,36 +259,51 @@ impl SpeedEstimator {
     /// Hands in one event (in time order; events outside the sensor are ignored).
     #[inline]
     pub fn push(&mut self, e: &Event) {
-        let (mut arrived, mut skipped) = self.counters();
-        self.push_counted(&mut arrived, &mut skipped, e);
-        self.set_counters((arrived, skipped));
-    }
-
-    /// Its two counters (events arrived, and skipped since the last kept), for a caller's loop of
-    /// [`push_counted`](Self::push_counted) to hold as its own locals (2026-12-01: the SNN reader
-    /// about 3.7% faster, docs/reading.md); [`set_counters`](Self::set_counters) hands them back.
-    #[inline]
-    pub(crate) fn counters(&self) -> (u64, u32) {
-        (self.arrived, self.skipped)
-    }
-
-    #[inline]
-    pub(crate) fn set_counters(&mut self, (arrived, skipped): (u64, u32)) {
-        (self.arrived, self.skipped) = (arrived, skipped);
-    }
-
-    /// [`push`](Self::push) with the counters of [`counters`](Self::counters) held by the caller.
-    #[inline(always)]
-    pub(crate) fn push_counted(&mut self, arrived: &mut u64, skipped: &mut u32, e: &Event) {
         if e.x >= self.width || e.y >= self.height {
             return;
         }
-        *arrived += 1;
-        *skipped += 1;
-        if *skipped < self.keep_every {
+        self.arrived += 1;
+        self.skipped += 1;
+        if self.skipped < self.keep_every {
             return;
         }
-        let weight = std::mem::take(skipped);
+        let weight = std::mem::take(&mut self.skipped);
+        self.keep(e, weight);
+    }
+
+    /// Hands in a run of events (in time order) with no update due inside it: the same as
+    /// [`push`](Self::push) for each, but when every event of the run is on the sensor only the
+    /// kept ones (one in `keep_every`) are visited. The readers' loop hands in each bin's run so,
+    /// instead of counting every event in its binning loop (2026-12-02, docs/reading.md).
+    pub fn push_run(&mut self, run: &[Event]) {
+        let (width, height) = (self.width, self.height);
+        let outside = run.iter().fold(0usize, |n, e| n + usize::from((e.x >= width) | (e.y >= height)));
+        if outside > 0 {
+            run.iter().for_each(|e| self.push(e));
+            return;
+        }
+        self.arrived += run.len() as u64;
+        let every = self.keep_every as usize;
+        let skipped = self.skipped as usize;
+        // the first kept is the event at which `skipped` reaches `keep_every` (the run's first
+        // when it already has: `keep_every` can fall at an update), standing for those before it
+        let first = every.saturating_sub(skipped + 1);
+        if first >= run.len() {
+            self.skipped += run.len() as u32;
+            return;
+        }
+        self.keep(&run[first], (skipped + first + 1) as u32);
+        let mut last = first;
+        for (k, e) in run.iter().enumerate().skip(first + every).step_by(every) {
+            self.keep(e, every as u32);
+            last = k;
+        }
+        self.skipped = (run.len() - 1 - last) as u32;
+    }
+
+    /// `e` into the window, standing for `weight` events.
+    #[inline]
+    fn keep(&mut self, e: &Event, weight: u32) {
         let yb = (e.y / self.cfg.bin_y_px) * 2 + e.polarity.index() as u16;
         self.events.push_back(Kept { t_us: e.t_us, x: e.x, yb, weight });
         if self.events.len() > self.cap {
@@ -620,30 +635,34 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn counters_held_by_the_caller_give_what_push_gives() {
-        // events outside the sensor too, and the thinning at work after the first updates
+    fn a_run_handed_in_at_once_gives_what_pushing_each_event_gives() {
+        // runs all on the sensor and runs with events outside it, runs shorter and longer than
+        // the thinning's step, and the thinning at work after the first updates
         let mut events = moving(32.0, true, 1.0, 1.5, 3);
-        for (k, e) in events.iter_mut().enumerate().filter(|(k, _)| k % 97 == 0) {
+        for (k, e) in events.iter_mut().enumerate().filter(|(k, _)| k % 9_973 < 3) {
             (e.x, e.y) = if k % 2 == 0 { (700, e.y) } else { (e.x, 500) };
         }
         let new = || SpeedEstimator::new(SpeedEstimatorConfig::default(), Resolution::DVXPLORER).unwrap();
         let (mut a, mut b) = (new(), new());
         let (mut est_a, mut est_b) = (Vec::new(), Vec::new());
+        let (mut outside, mut runs) = (0, 0);
         for run in events.chunk_by(|x, y| x.t_us / 40_000 == y.t_us / 40_000) {
-            for ev in run {
-                a.push(ev);
+            // split further into runs of 1 to 40 events (fewer than `keep_every` once thinned)
+            for part in run.chunks(1 + runs % 40) {
+                runs += 1;
+                outside += usize::from(part.iter().any(|e| e.x >= 640 || e.y >= 480));
+                part.iter().for_each(|e| a.push(e));
+                b.push_run(part);
+                assert_eq!((a.arrived, a.skipped, a.events.len()), (b.arrived, b.skipped, b.events.len()));
             }
-            let (mut arrived, mut skipped) = b.counters();
-            for ev in run {
-                b.push_counted(&mut arrived, &mut skipped, ev);
-            }
-            b.set_counters((arrived, skipped));
             let t = run[run.len() - 1].t_us;
             est_a.extend(a.update(t));
             est_b.extend(b.update(t));
         }
         assert!(a.keep_every > 1 && est_a.len() > 10, "keep 1 in {}, {} estimates", a.keep_every, est_a.len());
-        assert_eq!((a.counters(), a.events.len(), a.keep_every), (b.counters(), b.events.len(), b.keep_every));
+        assert!(outside > 10 && outside < runs / 2, "{outside} runs of {runs} with events outside");
+        let weights = |e: &SpeedEstimator| e.events.iter().map(|k| (k.t_us, k.x, k.yb, k.weight)).collect::<Vec<_>>();
+        assert_eq!(weights(&a), weights(&b));
         assert_eq!(format!("{est_a:?}"), format!("{est_b:?}"));
     }
 
