@@ -277,6 +277,7 @@ impl SpeedEstimator {
     /// instead of counting every event in its binning loop (2026-12-02, docs/reading.md).
     pub fn push_run(&mut self, run: &[Event]) {
         let (width, height) = (self.width, self.height);
+        // counted rather than `any`: a loop without an early exit vectorises
         let outside = run.iter().fold(0usize, |n, e| n + usize::from((e.x >= width) | (e.y >= height)));
         if outside > 0 {
             run.iter().for_each(|e| self.push(e));
