@@ -57,6 +57,18 @@ impl ByInput {
             rows(&self.weight, self.stride, inputs, out);
             return;
         }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY (each arm): the CPU has AVX (checked just above); `stride` is a multiple of
+            // `BLOCK` at least `out.len()`, so at most 64 here, and `8 B` of it.
+            match self.stride / 8 {
+                2 => return unsafe { regs_avx::<2>(&self.weight, self.stride, inputs, out) },
+                4 => return unsafe { regs_avx::<4>(&self.weight, self.stride, inputs, out) },
+                6 => return unsafe { regs_avx::<6>(&self.weight, self.stride, inputs, out) },
+                8 => return unsafe { regs_avx::<8>(&self.weight, self.stride, inputs, out) },
+                _ => {}
+            }
+        }
         for (c, chunk) in out.chunks_mut(BLOCK).enumerate() {
             let mut a = [0f32; BLOCK];
             for &(i, x) in inputs {
@@ -124,6 +136,41 @@ unsafe fn rows_avx(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &m
     }
 }
 
+/// [`ByInput::sum`]'s outputs all held in `B` AVX registers of eight through the inputs, so
+/// that each input's row is read once and its adds are `B` independent chains (the portable
+/// code holds [`BLOCK`] outputs at a time, one pass over the inputs each): the same multiplies
+/// and adds per output in the same order (no fused multiply-add), so the same floats. Rows are
+/// `stride >= 8 B` weights; `out.len() <= 8 B`.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn regs_avx<const B: usize>(weight: &[f32], stride: usize, inputs: &[(u32, f32)], out: &mut [f32]) {
+    use std::arch::x86_64::_mm256_storeu_ps;
+    use std::arch::x86_64::{_mm256_add_ps, _mm256_loadu_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps};
+    const { assert!(B >= 1 && B <= 8, "at most eight registers") };
+    assert!(out.len() <= 8 * B && 8 * B <= stride, "the outputs fit the registers and the rows");
+    let mut a = [_mm256_setzero_ps(); B];
+    for &(i, x) in inputs {
+        let row: &[f32] = &weight[i as usize * stride..][..8 * B];
+        let x = _mm256_set1_ps(x);
+        for (q, r) in a.iter_mut().enumerate() {
+            let w: &[f32; 8] = row[8 * q..8 * q + 8].try_into().expect("eight lanes");
+            // SAFETY: `w` is eight readable f32s; unaligned loads are allowed.
+            *r = _mm256_add_ps(*r, _mm256_mul_ps(x, unsafe { _mm256_loadu_ps(w.as_ptr()) }));
+        }
+    }
+    let mut padded = [0f32; 64];
+    for (q, &r) in a.iter().enumerate() {
+        let p: &mut [f32; 8] = (&mut padded[8 * q..8 * q + 8]).try_into().expect("eight lanes");
+        // SAFETY: `p` is eight writable f32s; unaligned stores are allowed.
+        unsafe { _mm256_storeu_ps(p.as_mut_ptr(), r) };
+    }
+    let n = out.len();
+    out.copy_from_slice(&padded[..n]);
+}
+
 impl Sliding {
     /// The first layer must not be recurrent (its current would depend on the past window).
     pub fn new(net: &Network) -> Result<Sliding> {
@@ -184,6 +231,27 @@ impl Sliding {
 
     /// [`run`](Self::run) reusing `scratch`'s memory between windows.
     pub fn run_with(&self, steps: &[&[f32]], scratch: &mut RunScratch) -> WindowOutput {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            return unsafe { self.run_avx2(steps, scratch) };
+        }
+        self.run_body(steps, scratch)
+    }
+
+    /// [`run_with`](Self::run_with) compiled for AVX2: the neurons' updates eight lanes a
+    /// register instead of four (the same operations, no fused multiply-add, so the same floats).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_avx2(&self, steps: &[&[f32]], scratch: &mut RunScratch) -> WindowOutput {
+        self.run_body(steps, scratch)
+    }
+
+    #[inline(always)]
+    fn run_body(&self, steps: &[&[f32]], scratch: &mut RunScratch) -> WindowOutput {
         let layers = &self.net.layers;
         let last = layers.len() - 1;
         let RunScratch { v, cur, x, nz, acc } = scratch;
@@ -366,7 +434,8 @@ mod tests {
 
     #[test]
     fn every_window_of_a_stream_equals_the_time_stepped_network() {
-        for (li, h) in [(true, 16), (false, 16), (true, 90), (false, 70)] {
+        // 16 to 64 hidden neurons: 2, 4, 6 and 8 registers (with AVX) or 16 at a time
+        for (li, h) in [(true, 16), (false, 16), (true, 26), (false, 33), (true, 64), (true, 90), (false, 70)] {
             let net = net_of(3, li, h);
             let s = Sliding::new(&net).unwrap();
             let (steps, window) = (60, 12);
