@@ -1282,6 +1282,37 @@ mod tests {
     }
 
     #[test]
+    fn events_handed_in_runs_read_as_events_handed_in_one_at_a_time() {
+        // `push_all`'s binning loop and the runs it hands the speed estimator, against `push`,
+        // on a stream with events off the sensor in some runs (the estimator's slow path)
+        let speller = Speller::new(Spell::None);
+        let mut ev = crate::speed::tests::moving(32.0, true, 0.05, 1.5, 5);
+        for (k, e) in ev.iter_mut().enumerate().filter(|(k, _)| k % 997 < 3) {
+            (e.x, e.y) = if k % 2 == 0 { (640, e.y) } else { (e.x, 481) };
+        }
+        let read = |all: bool| {
+            let cfg = ReaderConfig::new(Timing::ESTIMATED);
+            let mut r = StreamReader::new(cfg, Resolution::DVXPLORER, &Count(1.0), &Column, &speller).unwrap();
+            let mut out = Vec::new();
+            if all {
+                for chunk in ev.chunks(7_777) {
+                    r.push_all(chunk, &mut out).unwrap();
+                }
+            } else {
+                for e in &ev {
+                    r.push(e, &mut out).unwrap();
+                }
+            }
+            r.finish(&mut out).unwrap();
+            // the estimator's whole state: the events it kept, their weights, its counters
+            (format!("{:?}", r.stats), format!("{out:?}"), format!("{:?}", r.estimator))
+        };
+        let (one, all) = (read(false), read(true));
+        assert!(one.0.contains("speed_estimates: ") && !one.0.contains("speed_estimates: 0,"), "{}", one.0);
+        assert_eq!(one, all);
+    }
+
+    #[test]
     fn the_reader_reads_at_the_speed_it_estimates_and_loses_no_held_event() {
         let speller = Speller::new(Spell::None);
         for (speed, forward) in [(8.0, true), (32.0, false), (64.0, true)] {
