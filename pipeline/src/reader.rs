@@ -1305,10 +1305,10 @@ mod tests {
             }
             r.finish(&mut out).unwrap();
             // the estimator's whole state: the events it kept, their weights, its counters
-            (format!("{:?}", r.stats), format!("{out:?}"), format!("{:?}", r.estimator))
+            (r.stats.speed_estimates, format!("{:?}", r.stats), format!("{out:?}"), format!("{:?}", r.estimator))
         };
         let (one, all) = (read(false), read(true));
-        assert!(one.0.contains("speed_estimates: ") && !one.0.contains("speed_estimates: 0,"), "{}", one.0);
+        assert!(one.0 > 0, "{}", one.1);
         assert_eq!(one, all);
     }
 
