@@ -18,11 +18,27 @@
 # `--zero` (2026-11-30, #51's first leave-one-dataset-out decision) runs the `--current` search
 # with neurons that reset to zero, its test split not read (docs/results/search/sim-taxels-zero;
 # 16 minutes alone on two cores).
+# `--twins-step` (2026-12-02, #50): the taxels' exportable twin searched as the headline is (truncated
+# and exact gradients, the step at 1 and 2 times the derived one, 16 trials, 3 seeds) with reset
+# to zero a fixed part of the space; the truncated search starts from sim-taxels-zero's trials
+# 0-13; only the better one's final models are trained, and they read the test split once (rule
+# in docs/log/chips-2026-12-02.md). A stopped run resumes from its logs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 b=target/release/braille
 d=target/sim-taxels
+if [[ "${1:-}" == "--twins-step" ]]; then
+  [[ -d $d ]] || $b sim-dataset --out $d
+  l=docs/results/search/sim-taxels-zero-stepscale
+  mkdir -p "$l/truncated" "$l/exact" models/search
+  cp $d/dataset.json $l/dataset.json
+  [[ -e $l/truncated/trials-0-of-1.jsonl ]] \
+    || python3 scripts/shared_trials.py docs/results/search/sim-taxels-zero/trials-0-of-1.jsonl 14 > "$l/truncated/trials-0-of-1.jsonl"
+  $b train --data $d --reset zero --search --both-gradients --search-trials 16 --seeds 3 --eval-test \
+    --out models/search/sim-taxels-zero-stepscale.safetensors --search-dir "$l" --quiet --force
+  exit 0
+fi
 case "${1:-}" in
   --defaults) name=sim-taxels-warmup warmup=() ;;
   --current) name=sim-taxels-2026-11-28 warmup=() ;;
