@@ -15,25 +15,8 @@ b=target/release/braille
 out=docs/results/twin-warm
 mkdir -p "$out" models/search
 
-# the chosen trial's recipe from a search log (a model file's: scripts/recipe_of.py)
-trial_recipe() { python3 -c '
-import json, sys
-for line in open(sys.argv[1]):
-    t = json.loads(line)
-    if t["trial"] == int(sys.argv[2]):
-        json.dump(t["recipe"], sys.stdout)
-        break
-else:
-    sys.exit("trial %s not in %s" % (sys.argv[2], sys.argv[1]))' "$1" "$2" > "$3"; }
-# the search's score of three histories: each seed's mean validation accuracy over its last 5
-# epochs run and kept, then their mean
-score() { python3 -c '
-import json, sys
-s = []
-for f in sys.argv[1:]:
-    v = [e["val_accuracy"] for e in json.load(open(f)) if not e.get("undone")]
-    s.append(sum(v[-5:]) / len(v[-5:]))
-print("%.6f %s" % (sum(s) / len(s), " ".join("%.4f" % x for x in s)))' "$@"; }
+# trial_recipe, score
+source scripts/twin_lib.sh
 
 run() { # name data search-log trial twin-score headline-model
   local name=$1 data=data/icub_braille/$2 log=$3 trial=$4 twin=$5 head=$6 d=$out/$1

@@ -156,6 +156,18 @@ pub struct Args {
     /// recipe's).
     #[arg(long)]
     init: Option<PathBuf>,
+    /// Knowledge distillation (Hinton et al. 2015; a dataset folder, the sparse trainer): each
+    /// training sample also learns from this trained SNN's logits on it (run on the engine, each
+    /// sample encoded as that model was trained), e.g. a twin that resets to zero taught by its
+    /// subtracting headline. Validation and checkpoints stay the cross-entropy's.
+    #[arg(long, requires = "data", conflicts_with_all = ["search", "collect"])]
+    distill_from: Option<PathBuf>,
+    /// The distillation term's share of the loss, in [0, 1].
+    #[arg(long, default_value_t = 0.5, requires = "distill_from")]
+    distill_weight: f32,
+    /// The distillation's temperature: both networks' logits divided by it before the softmax.
+    #[arg(long, default_value_t = 4.0, requires = "distill_from")]
+    distill_temperature: f32,
     /// Simulated windows: sum-pooling of the 64x80 crop [default: the recipe's (2) for the SNN, 1
     /// for the ResNet].
     #[arg(long)]
@@ -440,6 +452,9 @@ pub fn run(args: Args) -> Result<()> {
     if out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }
+    if args.distill_from.is_some() && args.arch != Arch::Snn {
+        bail!("--distill-from trains an SNN (--arch snn)");
+    }
     let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
     let mut epochs = Epochs::new(args.quiet);
     let bar = Bar::default();
@@ -503,7 +518,12 @@ pub fn run(args: Args) -> Result<()> {
             {
                 eprintln!("{p}; the recipe derived from it (--print-recipe shows it)");
             }
-            train_on(&r, &TactileData::encode(dataset, &r)?, eval_test, args.init.as_deref(), &mut epochs)?
+            let distill = args.distill_from.clone().map(|path| experiments::train::fit::DistillFrom {
+                path,
+                distill: learn::sparse::Distill { weight: args.distill_weight, temperature: args.distill_temperature },
+            });
+            let data = TactileData::encode(dataset, &r)?;
+            train_on(&r, &data, eval_test, args.init.as_deref(), distill.as_ref(), &mut epochs)?
         }
     };
     eprint!("{trained}");

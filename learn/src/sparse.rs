@@ -33,6 +33,7 @@
 //! the engine's layouts.
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use snn::engine::{conv_positions, pool_targets};
 use snn::model_file::Readout;
 use snn::network::PoolKind;
@@ -1072,21 +1073,47 @@ impl SparseSnn {
         samples: &[(&StepEvents, usize)],
         masks: &[Vec<Option<Vec<f32>>>],
     ) -> BatchGradient {
+        self.float_gradient(params, samples, masks, |_, logits, label| cross_entropy(logits, label))
+    }
+
+    /// [`Self::batch_gradient`] of the distillation loss ([`distillation`]): sample `j` learns
+    /// from its label and from `teacher[j]`, a trained network's logits on the same sample.
+    pub fn distilled_gradient(
+        &self,
+        params: &Params,
+        samples: &[(&StepEvents, usize)],
+        masks: &[Vec<Option<Vec<f32>>>],
+        teacher: &[&[f32]],
+        d: Distill,
+    ) -> BatchGradient {
+        assert_eq!(teacher.len(), samples.len(), "a teacher's logits for each sample");
+        self.float_gradient(params, samples, masks, |j, logits, label| distillation(logits, label, teacher[j], d))
+    }
+
+    /// The float network's gradient of `loss` (of sample `j`'s logits and label).
+    fn float_gradient(
+        &self,
+        params: &Params,
+        samples: &[(&StepEvents, usize)],
+        masks: &[Vec<Option<Vec<f32>>>],
+        loss: impl Fn(usize, &[f32], usize) -> (f64, Vec<f32>, bool) + Sync,
+    ) -> BatchGradient {
         let forward = |x: &StepEvents, m: &[Option<Vec<f32>>], spare: Vec<LayerTape>| {
             Ok(self.forward_into(params, x, m, true, spare))
         };
-        let Ok(g) = self.gradient_with::<std::convert::Infallible>(params, samples, masks, forward);
+        let Ok(g) = self.gradient_with::<std::convert::Infallible>(params, samples, masks, forward, loss);
         g
     }
 
     /// [`Self::batch_gradient`] with the forward pass `forward` (taped): the float network's, or
-    /// a chip's ([`chip`]).
+    /// a chip's ([`chip`]); `loss` of sample `j` (its index in `samples`), its logits and label.
     fn gradient_with<E: Send>(
         &self,
         params: &Params,
         samples: &[(&StepEvents, usize)],
         masks: &[Vec<Option<Vec<f32>>>],
         forward: impl Fn(&StepEvents, &[Option<Vec<f32>>], Vec<LayerTape>) -> Result<SampleOutput, E> + Sync,
+        loss: impl Fn(usize, &[f32], usize) -> (f64, Vec<f32>, bool) + Sync,
     ) -> Result<BatchGradient, E> {
         let b = samples.len().max(1);
         let chunk = b.div_ceil(CHUNKS);
@@ -1112,7 +1139,7 @@ impl SparseSnn {
                     for (j, &(input, label)) in part.iter().enumerate() {
                         let m: &[Option<Vec<f32>>] = masks.get(c * chunk + j).map_or(&[], Vec::as_slice);
                         let out = forward(input, m, std::mem::take(spare))?;
-                        let (loss, mut g, hit) = cross_entropy(&out.logits, label);
+                        let (loss, mut g, hit) = loss(c * chunk + j, &out.logits, label);
                         g.iter_mut().for_each(|g| *g /= b as f32);
                         self.backward_by(&mut work, input, m, &out, &g, &mut acc.grads);
                         acc.loss_sum += loss;
@@ -1165,6 +1192,42 @@ pub fn cross_entropy(logits: &[f32], label: usize) -> (f64, Vec<f32>, bool) {
     let g = e.iter().enumerate().map(|(c, &e)| (e / s) as f32 - (c == label) as u32 as f32).collect();
     let best = logits.iter().enumerate().fold(0, |b, (c, &l)| if l > logits[b] { c } else { b });
     (loss, g, best == label)
+}
+
+/// Knowledge distillation's mix of losses (Hinton, Vinyals and Dean 2015): `1 - weight` of the
+/// cross-entropy against the label and `weight` of `temperature^2` times the Kullback-Leibler
+/// divergence of the student's softened distribution (`softmax(logits / T)`) from the teacher's
+/// (`softmax(teacher / T)`); `T^2` keeps the soft term's gradient at the hard term's scale.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Distill {
+    /// The soft term's share, in [0, 1].
+    pub weight: f32,
+    /// `T`, above 0.
+    pub temperature: f32,
+}
+
+/// [`Distill`]'s loss of `logits` against `label` and the teacher's logits: the loss, its
+/// gradient by the logits, and whether the highest logit (the first of ties) is the label.
+pub fn distillation(logits: &[f32], label: usize, teacher: &[f32], d: Distill) -> (f64, Vec<f32>, bool) {
+    let (hard, g_hard, hit) = cross_entropy(logits, label);
+    let t = d.temperature as f64;
+    let soft = |z: &[f32]| -> Vec<f64> {
+        let m = z.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+        let e: Vec<f64> = z.iter().map(|&l| ((l as f64 - m) / t).exp()).collect();
+        let s: f64 = e.iter().sum();
+        e.into_iter().map(|e| e / s).collect()
+    };
+    let (q, p) = (soft(logits), soft(teacher));
+    let kl: f64 = p.iter().zip(&q).filter(|(p, _)| **p > 0.0).map(|(p, q)| p * (p.ln() - q.ln())).sum();
+    let w = d.weight as f64;
+    let loss = (1.0 - w) * hard + w * t * t * kl;
+    // d(T^2 KL)/dz = T (q - p)
+    let g = g_hard
+        .iter()
+        .zip(q.iter().zip(&p))
+        .map(|(&h, (q, p))| ((1.0 - w) * h as f64 + w * t * (q - p)) as f32)
+        .collect();
+    (loss, g, hit)
 }
 
 /// `|x|` beyond which `surrogate`'s derivative is below `cutoff` times its peak (infinite for 0).
@@ -1698,6 +1761,33 @@ mod tests {
     fn two_layers(w0: f32, w1: f32) -> Params {
         let t = |w: f32| Tensors { weight: vec![w; 4], bias: vec![w; 2], recurrent: Vec::new() };
         Params { layers: vec![t(w0), t(w1)] }
+    }
+
+    #[test]
+    fn distillation_is_the_cross_entropy_at_weight_zero_and_its_gradient_matches_the_loss() {
+        let (logits, teacher) = ([1.5f32, -0.3, 4.0, 0.2], [3.0f32, 0.5, 2.0, -1.0]);
+        let d = |weight, temperature| Distill { weight, temperature };
+        assert_eq!(distillation(&logits, 1, &teacher, d(0.0, 4.0)), cross_entropy(&logits, 1));
+        // a teacher equal to the student adds nothing at any weight
+        let (l, g, _) = distillation(&logits, 2, &logits, d(1.0, 3.0));
+        assert!(l.abs() < 1e-12 && g.iter().all(|g| g.abs() < 1e-6), "{l} {g:?}");
+        // the gradient by central differences, at a mix
+        for (w, t) in [(0.5, 4.0), (0.9, 2.0), (1.0, 1.0)] {
+            let (_, g, hit) = distillation(&logits, 1, &teacher, d(w, t));
+            assert!(!hit, "logit 2 is the highest");
+            for k in 0..logits.len() {
+                let at = |e: f32| {
+                    let mut z = logits;
+                    z[k] += e;
+                    distillation(&z, 1, &teacher, d(w, t)).0
+                };
+                let numeric = (at(1e-3) - at(-1e-3)) / 2e-3;
+                assert!((numeric - g[k] as f64).abs() < 1e-3, "weight {w}, T {t}, logit {k}: {numeric} vs {}", g[k]);
+            }
+        }
+        // the soft term pulls toward the teacher's favourite even against the label
+        let (_, g, _) = distillation(&[0.0, 0.0, 0.0, 0.0], 1, &[0.0, 0.0, 0.0, 9.0], d(1.0, 2.0));
+        assert!(g[3] < 0.0 && g[1] > 0.0, "{g:?}");
     }
 
     #[test]

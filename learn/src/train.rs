@@ -4,7 +4,7 @@
 use crate::data::SpikeSet;
 use crate::snn::{SnnParams, SnnTwin};
 use crate::sparse::chip::ChipTarget;
-use crate::sparse::{Adam, Params, SparseSnn, StepEvents};
+use crate::sparse::{Adam, Distill, Params, SparseSnn, StepEvents};
 use burn::module::Module;
 use burn::nn::loss::CrossEntropyLossConfig;
 use burn::optim::grad_clipping::GradientClippingConfig;
@@ -453,6 +453,8 @@ struct SparseFitter {
     checked: Vec<(f64, f64)>,
     /// Quantisation-aware: the chip every forward pass runs on.
     chip: Option<ChipTarget>,
+    /// Knowledge distillation: the teacher's logits for each training sample.
+    teacher: Option<Teacher>,
 }
 
 impl SparseFitter {
@@ -467,12 +469,16 @@ impl Fitter for SparseFitter {
         let events: Vec<StepEvents> = idx.iter().map(|&s| self.events(set, s, Some((&augment, &mut *rng)))).collect();
         let masks: Vec<_> = idx.iter().map(|_| self.net.dropout_masks(self.dropout, &mut self.masks)).collect();
         let samples: Vec<(&StepEvents, usize)> = events.iter().zip(idx.iter().map(|&s| set.labels[s])).collect();
-        let g = match self.chip {
-            Some(target) => {
+        let g = match (self.chip, &self.teacher) {
+            (Some(target), _) => {
                 let chip = self.net.chip_forward(&self.params, target)?;
                 self.net.chip_batch_gradient(&self.params, &chip, &samples)?
             }
-            None => self.net.batch_gradient(&self.params, &samples, &masks),
+            (None, Some(t)) => {
+                let logits: Vec<&[f32]> = idx.iter().map(|&s| t.logits[s].as_slice()).collect();
+                self.net.distilled_gradient(&self.params, &samples, &masks, &logits, t.distill)
+            }
+            (None, None) => self.net.batch_gradient(&self.params, &samples, &masks),
         };
         if let Some(exact) = &self.exact {
             let e = exact.batch_gradient(&self.params, &samples, &masks);
@@ -523,6 +529,14 @@ impl Fitter for SparseFitter {
     }
 }
 
+/// A trained network's logits for each training sample (in the training set's order), to
+/// distil from: the loss is [`crate::sparse::distillation`]'s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Teacher {
+    pub logits: Vec<Vec<f32>>,
+    pub distill: Distill,
+}
+
 /// Trains from `init` on `train`, keeping the weights that do best on `val`, with the trainer
 /// `cfg.trainer` asks for.
 pub fn train(
@@ -531,6 +545,58 @@ pub fn train(
     train: &SpikeSet,
     val: &SpikeSet,
     cfg: &TrainConfig,
+    observer: &mut dyn Observer,
+) -> snn::Result<Outcome> {
+    train_from(twin, init, train, val, cfg, None, observer)
+}
+
+/// [`train`] with knowledge distillation from `teacher` (the sparse trainer, no chip): each
+/// training sample learns from its label and from the teacher's logits on it. Validation,
+/// checkpoints and the reported validation loss stay the cross-entropy's.
+pub fn train_distilled(
+    twin: &SnnTwin,
+    init: &[LayerWeights],
+    train: &SpikeSet,
+    val: &SpikeSet,
+    cfg: &TrainConfig,
+    teacher: &Teacher,
+    observer: &mut dyn Observer,
+) -> snn::Result<Outcome> {
+    let Distill { weight, temperature } = teacher.distill;
+    if !(0.0..=1.0).contains(&weight) || !(temperature > 0.0 && temperature.is_finite()) {
+        return Err(snn::Error::input(format!(
+            "distillation weight {weight} must lie in [0, 1] and its temperature {temperature} above 0"
+        )));
+    }
+    if teacher.logits.len() != train.len() {
+        return Err(snn::Error::input(format!(
+            "the teacher has logits for {} samples, the training set {}",
+            teacher.logits.len(),
+            train.len()
+        )));
+    }
+    let n_out: usize = twin.spec.shapes()?.last().map_or(0, |s| s.output.iter().product());
+    if let Some((s, l)) = teacher.logits.iter().enumerate().find(|(_, l)| l.len() != n_out) {
+        return Err(snn::Error::input(format!(
+            "the teacher's logits for training sample {s} are {}, the network has {n_out} outputs",
+            l.len()
+        )));
+    }
+    if cfg.trainer != Trainer::Sparse || cfg.chip.is_some() {
+        return Err(snn::Error::input(
+            "knowledge distillation runs on the sparse trainer (--trainer sparse), without a chip",
+        ));
+    }
+    train_from(twin, init, train, val, cfg, Some(teacher), observer)
+}
+
+fn train_from(
+    twin: &SnnTwin,
+    init: &[LayerWeights],
+    train: &SpikeSet,
+    val: &SpikeSet,
+    cfg: &TrainConfig,
+    teacher: Option<&Teacher>,
     observer: &mut dyn Observer,
 ) -> snn::Result<Outcome> {
     if train.is_empty() || cfg.batch_size == 0 || cfg.epochs == 0 {
@@ -625,6 +691,7 @@ pub fn train(
                 exact: None,
                 checked: Vec::new(),
                 chip: cfg.chip,
+                teacher: teacher.cloned(),
             };
             fit(&mut fitter, init, train, val, cfg, observer)
         }

@@ -5,7 +5,8 @@ use burn::tensor::{Device, Tensor, TensorData};
 use encoders::spike_train::SpikeTrain;
 use learn::data::SpikeSet;
 use learn::snn::{SnnParams, SnnTwin};
-use learn::train::{Silent, TrainConfig, Trainer, train};
+use learn::sparse::Distill;
+use learn::train::{Silent, Teacher, TrainConfig, Trainer, train, train_distilled};
 use snn::model_file::Readout;
 use snn::network::{PoolKind, forward_dense, random_input};
 use snn::neuron::{NeuronParams, Reset, Surrogate};
@@ -164,6 +165,46 @@ fn learns_and_repeats_exactly(trainer: Trainer) {
         a.history.iter().map(|h| h.train_loss).collect::<Vec<_>>(),
         b.history.iter().map(|h| h.train_loss).collect::<Vec<_>>()
     );
+}
+
+#[test]
+fn distillation_at_weight_zero_trains_as_the_cross_entropy_and_a_teacher_is_followed() {
+    let spec = small_spec(false);
+    let twin = SnnTwin::new(spec.clone(), Surrogate::FastSigmoid { slope: 10.0 }, Readout::MaxMembrane).unwrap();
+    let cfg = TrainConfig {
+        epochs: 6,
+        batch_size: 8,
+        lr: 1e-2,
+        seed: 3,
+        trainer: Trainer::Sparse,
+        dropout: 0.1,
+        ..TrainConfig::default()
+    };
+    let (train_set, val) = (toy_set(48, 1), toy_set(16, 2));
+    let init = spec.init(3, 1.0).unwrap();
+    let plain = train(&twin, &init, &train_set, &val, &cfg, &mut Silent).unwrap();
+    // a teacher that calls every sample the other class than its label
+    let swapped: Vec<Vec<f32>> =
+        train_set.labels.iter().map(|&l| if l == 0 { vec![0.0, 6.0] } else { vec![6.0, 0.0] }).collect();
+    let teacher = |weight| Teacher { logits: swapped.clone(), distill: Distill { weight, temperature: 2.0 } };
+    let zero = train_distilled(&twin, &init, &train_set, &val, &cfg, &teacher(0.0), &mut Silent).unwrap();
+    assert_eq!(plain.weights, zero.weights, "weight 0 is the cross-entropy, step for step");
+    // all soft: the student learns the teacher's labels, so it is wrong on validation
+    let all = train_distilled(&twin, &init, &train_set, &val, &cfg, &teacher(1.0), &mut Silent).unwrap();
+    let last = all.history.last().unwrap();
+    assert!(plain.best_val_accuracy >= 0.9, "{}", plain.best_val_accuracy);
+    assert!(last.val_accuracy <= 0.2, "taught the swapped classes: {}", last.val_accuracy);
+    // refused: logits for another number of samples or outputs, a weight out of [0, 1], the dense trainer
+    let short = Teacher { logits: swapped[1..].to_vec(), ..teacher(0.5) };
+    let narrow = Teacher { logits: vec![vec![0.0]; swapped.len()], ..teacher(0.5) };
+    for (t, c) in [
+        (short, cfg.clone()),
+        (narrow, cfg.clone()),
+        (teacher(1.5), cfg.clone()),
+        (teacher(0.5), TrainConfig { trainer: Trainer::Dense, ..cfg.clone() }),
+    ] {
+        assert!(train_distilled(&twin, &init, &train_set, &val, &c, &t, &mut Silent).is_err(), "{t:?}");
+    }
 }
 
 #[test]

@@ -233,11 +233,7 @@ impl TactileData {
     /// (and the recipe validates at all), else a stratified hold-out of `val_fraction` of the
     /// training split with `val_seed`.
     pub fn train_val(&self, r: &SnnRecipe) -> (SpikeSet, SpikeSet) {
-        match &self.validation {
-            _ if r.val_fraction <= 0.0 => (self.train.clone(), self.train.subset(&[])),
-            Some(v) => (self.train.clone(), v.clone()),
-            None => self.train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed)),
-        }
+        split_as(&self.train, self.validation.as_ref(), r)
     }
 
     /// The SNN search's hold-out (`val_fraction` of the training split, stratified, drawn with
@@ -253,6 +249,55 @@ impl TactileData {
     }
 }
 
+/// [`TactileData::train_val`] of a training split `train` encoded in any way (the samples chosen
+/// depend on the labels alone, so two encodings of one split give the same samples).
+fn split_as(train: &SpikeSet, validation: Option<&SpikeSet>, r: &SnnRecipe) -> (SpikeSet, SpikeSet) {
+    match validation {
+        _ if r.val_fraction <= 0.0 => (train.clone(), train.subset(&[])),
+        Some(v) => (train.clone(), v.clone()),
+        None => train.stratified_split(r.val_fraction, r.val_seed.unwrap_or(r.seed)),
+    }
+}
+
+/// Knowledge distillation from a trained SNN (`braille train --distill-from`): the model file and
+/// the mix of losses ([`learn::sparse::Distill`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DistillFrom {
+    pub path: std::path::PathBuf,
+    pub distill: learn::sparse::Distill,
+}
+
+/// The teacher's logits for each sample of `train` (the recipe's training set of `data`): the
+/// teacher runs on the event-driven engine, each sample encoded as the teacher was trained (its
+/// own step and encoding), and must know the same classes. Also its accuracy on them.
+fn teacher_logits(
+    t: &DistillFrom,
+    data: &TactileData,
+    r: &SnnRecipe,
+    train: &SpikeSet,
+) -> Result<(Vec<Vec<f32>>, f64)> {
+    let m = pipeline::models::load_snn(&t.path)?;
+    let bad = |what: String| Error::Model { path: t.path.clone(), what };
+    if m.classes != data.classes {
+        return Err(bad(format!("a teacher of classes {:?}, the data's are {:?}", m.classes, data.classes)));
+    }
+    let encoding = crate::eval::tactile::encoding_of(&m, &t.path)?;
+    let dataset = Dataset::load(&data.dir, encoding.period_us)?;
+    let theirs = encoding.encode(&dataset, Some(Split::Train))?;
+    let validation = encoding.encode(&dataset, Some(Split::Validation))?;
+    let (theirs, _) = split_as(&theirs, (!validation.is_empty()).then_some(&validation), r);
+    if theirs.labels != train.labels {
+        return Err(bad(format!(
+            "its encoding of {} gives other training samples than the recipe's ({} against {})",
+            data.dir.display(),
+            theirs.len(),
+            train.len()
+        )));
+    }
+    let scored = snn_accuracy(&m.network, &m.config, &theirs, Mode::Stepped)?;
+    Ok((scored.predictions.into_iter().map(|(_, logits)| logits).collect(), scored.accuracy))
+}
+
 /// Trains the recipe on a tactile dataset folder (iCub layout: any channel and class count).
 pub fn train_tactile(
     r: &SnnRecipe,
@@ -260,18 +305,21 @@ pub fn train_tactile(
     eval_test: EvalTest,
     observer: &mut dyn Observer,
 ) -> Result<TrainedSnn> {
-    train_on(r, &TactileData::load(data_dir, r)?, eval_test, None, observer)
+    train_on(r, &TactileData::load(data_dir, r)?, eval_test, None, None, observer)
 }
 
 /// Trains the recipe on an encoded tactile dataset (its encoding must be the recipe's). With
 /// `init`, training starts from that model's weights (fine-tuning): its layers and sizes must be
 /// the recipe's and its input this encoding; its neurons may differ (a float model fine-tuned
-/// for a chip takes the chip's decays and reset, [`SnnRecipe::chip`]).
+/// for a chip takes the chip's decays and reset, [`SnnRecipe::chip`]). With `distill`, each
+/// training sample learns from its label and from a trained model's logits on it
+/// ([`learn::train::train_distilled`]).
 pub fn train_on(
     r: &SnnRecipe,
     data: &TactileData,
     eval_test: EvalTest,
     init: Option<&Path>,
+    distill: Option<&DistillFrom>,
     observer: &mut dyn Observer,
 ) -> Result<TrainedSnn> {
     if data.encoding.dt_us != r.dt_us {
@@ -314,7 +362,14 @@ pub fn train_on(
         }
         None => None,
     };
-    let fit = fit(r, spec, &train, &val, start, observer)?;
+    let teacher = match distill {
+        Some(d) => {
+            let (logits, accuracy) = teacher_logits(d, data, r, &train)?;
+            Some((learn::train::Teacher { logits, distill: d.distill }, accuracy))
+        }
+        None => None,
+    };
+    let fit = fit(r, spec, &train, &val, start, teacher.as_ref().map(|t| &t.0), observer)?;
     let scored = match eval_test {
         EvalTest::Yes => Some(snn_accuracy(&fit.network, &fit.config, &data.test, Mode::Stepped)?),
         EvalTest::No => None,
@@ -330,6 +385,14 @@ pub fn train_on(
     }
     if let Some(p) = init {
         extra["init"] = p.display().to_string().into();
+    }
+    if let (Some(d), Some((_, accuracy))) = (distill, &teacher) {
+        extra["distill"] = serde_json::json!({
+            "teacher": d.path.display().to_string(),
+            "weight": d.distill.weight,
+            "temperature": d.distill.temperature,
+            "teacher_train_accuracy": accuracy,
+        });
     }
     let model = SnnModel {
         preprocess: serde_json::to_value(&data.encoding).map_err(|source| Error::Json { path: out_name(), source })?,
@@ -469,7 +532,7 @@ pub fn train_windows(
         }
         None => None,
     };
-    let fit = fit(r, spec, &train, &val, start, observer)?;
+    let fit = fit(r, spec, &train, &val, start, None, observer)?;
     let scored = snn_accuracy(&fit.network, &fit.config, &val, Mode::Stepped)?;
     let model = SnnModel {
         preprocess: serde_json::to_value(&input).map_err(|source| Error::Json { path: out_name(), source })?,
@@ -573,6 +636,7 @@ fn fit(
     train: &SpikeSet,
     val: &SpikeSet,
     start: Option<Vec<snn::spec::LayerWeights>>,
+    teacher: Option<&learn::train::Teacher>,
     observer: &mut dyn Observer,
 ) -> Result<Fit> {
     let cfg = r.train_config();
@@ -583,7 +647,10 @@ fn fit(
         None => spec.init_with_recurrent_gain(r.seed, r.init_gain, r.recurrent_init_gain.unwrap_or(r.init_gain))?,
     };
     let started = std::time::Instant::now();
-    let outcome = learn::train::train(&twin, &init, train, val, &cfg, observer)?;
+    let outcome = match teacher {
+        Some(t) => learn::train::train_distilled(&twin, &init, train, val, &cfg, t, observer)?,
+        None => learn::train::train(&twin, &init, train, val, &cfg, observer)?,
+    };
     let seconds = started.elapsed().as_secs_f64();
     let network = spec.build(outcome.weights.clone())?;
     Ok(Fit {

@@ -849,7 +849,7 @@ fn run_point(
     let runs = (0..space.trial_seeds.max(1))
         .map(|i| {
             let r = SnnRecipe { seed: recipe.seed + i, ..recipe.clone() };
-            train_on(&r, &data, EvalTest::No, None, &mut EpochsTo(observer))
+            train_on(&r, &data, EvalTest::No, None, None, &mut EpochsTo(observer))
         })
         .collect::<Result<Vec<_>>>()?;
     let trial = trial_of(k, p, recipe, &runs, space, shard, profile);
@@ -1085,7 +1085,7 @@ pub fn final_models(
     observer: &mut dyn Observer,
 ) -> Result<Vec<(u64, TrainedSnn)>> {
     (1..=seeds.max(1))
-        .map(|seed| Ok((seed, train_on(&final_recipe(winner, seed), data, eval_test, None, observer)?)))
+        .map(|seed| Ok((seed, train_on(&final_recipe(winner, seed), data, eval_test, None, None, observer)?)))
         .collect()
 }
 

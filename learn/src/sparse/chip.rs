@@ -171,7 +171,13 @@ impl SparseSnn {
         chip: &ChipForward,
         samples: &[(&StepEvents, usize)],
     ) -> snn::Result<super::BatchGradient> {
-        self.gradient_with(params, samples, &[], |x, _, _| self.forward_on_chip(chip, x, true))
+        self.gradient_with(
+            params,
+            samples,
+            &[],
+            |x, _, _| self.forward_on_chip(chip, x, true),
+            |_, logits, label| super::cross_entropy(logits, label),
+        )
     }
 }
 
