@@ -709,6 +709,63 @@ fn tiny_event_dataset(dir: &Path, classes: usize) {
     std::fs::write(dir.join("split.csv"), split).unwrap();
 }
 
+#[test]
+fn train_distils_from_a_teacher_of_another_step_and_refuses_one_of_other_classes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, other) = (dir.path().join("data"), dir.path().join("other"));
+    tiny_event_dataset(&data, 3);
+    tiny_event_dataset(&other, 4);
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (d, o4) = (data.to_str().unwrap(), other.to_str().unwrap());
+    let (teacher, student, wrong) =
+        (path("teacher.safetensors"), path("student.safetensors"), path("wrong.safetensors"));
+    let base = ["train", "--hidden", "8", "--epochs", "3", "--quiet"];
+    let o = braille(&[&base[..], &["--data", d, "--dt-us", "20000", "--out", &teacher]].concat());
+    assert!(o.status.success(), "{}", text(&o).1);
+    let student_args = |t: &str| {
+        [
+            &base[..],
+            &[
+                "--data",
+                d,
+                "--reset",
+                "zero",
+                "--distill-from",
+                t,
+                "--distill-weight",
+                "0.7",
+                "--out",
+                &student,
+                "--force",
+            ],
+        ]
+        .concat()
+        .iter()
+        .map(|s| s.to_string())
+        .collect::<Vec<String>>()
+    };
+    let args = student_args(&teacher);
+    let o = braille(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", text(&o).1);
+    let header = pipeline::models::load_snn(Path::new(&student)).unwrap().provenance;
+    let distill = &header["distill"];
+    assert_eq!(distill["teacher"].as_str(), Some(teacher.as_str()), "{header}");
+    assert_eq!((distill["weight"].as_f64(), distill["temperature"].as_f64()), (Some(0.7f32 as f64), Some(4.0)));
+    assert!(distill["teacher_train_accuracy"].as_f64().is_some_and(|a| (0.0..=1.0).contains(&a)), "{header}");
+    // a teacher of other classes is refused, naming its file; so is a weight out of [0, 1]
+    let o = braille(&[&base[..], &["--data", o4, "--out", &wrong]].concat());
+    assert!(o.status.success(), "{}", text(&o).1);
+    let args = student_args(&wrong);
+    let o = braille(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = text(&o).1;
+    assert!(!o.status.success() && err.contains("wrong.safetensors") && err.contains("classes"), "{err}");
+    let mut args = student_args(&teacher);
+    let at = args.iter().position(|a| a == "0.7").unwrap();
+    args[at] = "1.5".into();
+    let o = braille(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!o.status.success() && text(&o).1.contains("distillation weight"), "{}", text(&o).1);
+}
+
 /// `braille train` searching the tiny dataset `d` with 8 hidden neurons, quietly, its trial logs
 /// in `logs` and its model written to `out`; `flags` set the search.
 fn tiny_search<'a>(d: &'a str, logs: &'a Path, out: &'a Path, flags: &[&'a str]) -> Vec<&'a str> {
