@@ -35,17 +35,8 @@ run() { # name data headline-log headline-trial twin-log twin-trial twin-score h
       --quiet --distill-from "$m/teacher-$k.safetensors" "${distill[@]}" --out "$m/student-$k.safetensors" \
       --history "$d/student-$k.json" --force
   done
-  local teacher student
-  teacher=$(score "$d"/teacher-{1,2,3}.json)
-  student=$(score "$d"/student-{1,2,3}.json)
-  {
-    echo "$name: teachers, the headline's trial (seeds 1-3) $teacher"
-    echo "$name: students, the twin's trial distilled     $student"
-    echo "$name: the twin search's winner                 $twin"
-  } | tee "$d/validation.txt"
-  student=${student%% *}
-  if python3 -c "import sys; sys.exit(0 if float('$student') > float('$twin') else 1)"; then
-    echo "$name: above the twin search's winner: the final models read the test split" | tee -a "$d/validation.txt"
+  if above_twin "$name" "$d" "$twin" "teachers, the headline's trial (seeds 1-3)" teacher \
+    "students, the twin's trial distilled    " student; then
     for k in 1 2 3; do
       local sfx="" ; [[ $k == 1 ]] || sfx=.seed$k
       local teach=models/search/$head$sfx.safetensors dst=models/search/$name-zero-distill$sfx.safetensors
@@ -54,8 +45,6 @@ run() { # name data headline-log headline-trial twin-log twin-trial twin-score h
         --distill-from "$teach" "${distill[@]}" --eval-test --out "$dst" --history "$d/final-$k.json" 2>&1 \
         | tee "$d/final-$k.log"
     done
-  else
-    echo "$name: not above the twin search's winner: no test split read" | tee -a "$d/validation.txt"
   fi
 }
 

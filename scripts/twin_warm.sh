@@ -15,7 +15,7 @@ b=target/release/braille
 out=docs/results/twin-warm
 mkdir -p "$out" models/search
 
-# trial_recipe, score
+# trial_recipe, above_twin
 source scripts/twin_lib.sh
 
 run() { # name data search-log trial twin-score headline-model
@@ -28,17 +28,7 @@ run() { # name data search-log trial twin-score headline-model
     [[ -f $d/warm-$k.safetensors ]] || $b train --data "$data" --recipe "$d/trial-recipe.json" --seed "$k" --quiet \
       --reset zero --init "$d/sub-$k.safetensors" --out "$d/warm-$k.safetensors" --history "$d/warm-$k.json" --force
   done
-  local sub warm
-  sub=$(score "$d"/sub-{1,2,3}.json)
-  warm=$(score "$d"/warm-{1,2,3}.json)
-  {
-    echo "$name: subtracting trial (seeds 1-3) $sub"
-    echo "$name: fine-tuned with reset to zero  $warm"
-    echo "$name: the twin search's winner       $twin"
-  } | tee "$d/validation.txt"
-  warm=${warm%% *}
-  if python3 -c "import sys; sys.exit(0 if float('$warm') > float('$twin') else 1)"; then
-    echo "$name: above the twin search's winner: the final models read the test split" | tee -a "$d/validation.txt"
+  if above_twin "$name" "$d" "$twin" "subtracting trial (seeds 1-3)" sub "fine-tuned with reset to zero " warm; then
     for k in 1 2 3; do
       local src=models/search/$head.safetensors dst=models/search/$name-zero-warm.safetensors
       [[ $k == 1 ]] || { src=models/search/$head.seed$k.safetensors; dst=models/search/$name-zero-warm.seed$k.safetensors; }
@@ -46,8 +36,6 @@ run() { # name data search-log trial twin-score headline-model
       [[ -f $dst ]] || $b train --data "$data" --recipe "$d/final-recipe-$k.json" --seed "$k" --quiet \
         --reset zero --init "$src" --eval-test --out "$dst" --history "$d/final-$k.json" 2>&1 | tee "$d/final-$k.log"
     done
-  else
-    echo "$name: not above the twin search's winner: no test split read" | tee -a "$d/validation.txt"
   fi
 }
 
