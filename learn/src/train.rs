@@ -563,7 +563,7 @@ pub fn train_distilled(
     observer: &mut dyn Observer,
 ) -> snn::Result<Outcome> {
     let Distill { weight, temperature } = teacher.distill;
-    if !(0.0..=1.0).contains(&weight) || !(temperature > 0.0 && temperature.is_finite()) {
+    if !((0.0..=1.0).contains(&weight) && temperature > 0.0 && temperature.is_finite()) {
         return Err(snn::Error::input(format!(
             "distillation weight {weight} must lie in [0, 1] and its temperature {temperature} above 0"
         )));
