@@ -1078,6 +1078,10 @@ impl SparseSnn {
 
     /// [`Self::batch_gradient`] of the distillation loss ([`distillation`]): sample `j` learns
     /// from its label and from `teacher[j]`, a trained network's logits on the same sample.
+    ///
+    /// # Panics
+    /// When `teacher` and `samples` differ in length (a caller's bug:
+    /// [`crate::train::train_distilled`] checks its teacher before training).
     pub fn distilled_gradient(
         &self,
         params: &Params,
