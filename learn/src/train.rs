@@ -469,19 +469,22 @@ impl Fitter for SparseFitter {
         let events: Vec<StepEvents> = idx.iter().map(|&s| self.events(set, s, Some((&augment, &mut *rng)))).collect();
         let masks: Vec<_> = idx.iter().map(|_| self.net.dropout_masks(self.dropout, &mut self.masks)).collect();
         let samples: Vec<(&StepEvents, usize)> = events.iter().zip(idx.iter().map(|&s| set.labels[s])).collect();
-        let g = match (self.chip, &self.teacher) {
-            (Some(target), _) => {
+        let teacher: Option<(Vec<&[f32]>, Distill)> =
+            self.teacher.as_ref().map(|t| (idx.iter().map(|&s| t.logits[s].as_slice()).collect(), t.distill));
+        // the float network's gradient of the run's loss (the exact one too, when checked)
+        let float = |net: &SparseSnn| match &teacher {
+            Some((logits, d)) => net.distilled_gradient(&self.params, &samples, &masks, logits, *d),
+            None => net.batch_gradient(&self.params, &samples, &masks),
+        };
+        let g = match self.chip {
+            Some(target) => {
                 let chip = self.net.chip_forward(&self.params, target)?;
                 self.net.chip_batch_gradient(&self.params, &chip, &samples)?
             }
-            (None, Some(t)) => {
-                let logits: Vec<&[f32]> = idx.iter().map(|&s| t.logits[s].as_slice()).collect();
-                self.net.distilled_gradient(&self.params, &samples, &masks, &logits, t.distill)
-            }
-            (None, None) => self.net.batch_gradient(&self.params, &samples, &masks),
+            None => float(&self.net),
         };
         if let Some(exact) = &self.exact {
-            let e = exact.batch_gradient(&self.params, &samples, &masks);
+            let e = float(exact);
             self.checked.push(gradient_agreement(&g.grads, &e.grads));
         }
         self.adam.step(&mut self.params, &g.grads, lr);
