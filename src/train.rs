@@ -159,9 +159,10 @@ pub struct Args {
     /// Knowledge distillation (Hinton et al. 2015; a dataset folder, the sparse trainer): each
     /// training sample also learns from this trained SNN's logits on it (run on the engine, each
     /// sample encoded as that model was trained), e.g. a twin that resets to zero taught by its
-    /// subtracting headline. Validation and checkpoints stay the cross-entropy's.
-    #[arg(long, requires = "data", conflicts_with_all = ["search", "collect"])]
-    distill_from: Option<PathBuf>,
+    /// subtracting headline; several models, comma separated, teach as an ensemble (their softened
+    /// distributions averaged). Validation and checkpoints stay the cross-entropy's.
+    #[arg(long, value_delimiter = ',', requires = "data", conflicts_with_all = ["search", "collect"])]
+    distill_from: Vec<PathBuf>,
     /// The distillation term's share of the loss, in [0, 1].
     #[arg(long, default_value_t = 0.5, requires = "distill_from")]
     distill_weight: f32,
@@ -452,7 +453,7 @@ pub fn run(args: Args) -> Result<()> {
     if out.exists() && !args.force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }
-    if args.distill_from.is_some() && args.arch != Arch::Snn {
+    if !args.distill_from.is_empty() && args.arch != Arch::Snn {
         bail!("--distill-from trains an SNN (--arch snn)");
     }
     let eval_test = if args.eval_test { EvalTest::Yes } else { EvalTest::No };
@@ -518,8 +519,8 @@ pub fn run(args: Args) -> Result<()> {
             {
                 eprintln!("{p}; the recipe derived from it (--print-recipe shows it)");
             }
-            let distill = args.distill_from.clone().map(|path| experiments::train::fit::DistillFrom {
-                path,
+            let distill = (!args.distill_from.is_empty()).then(|| experiments::train::fit::DistillFrom {
+                paths: args.distill_from.clone(),
                 distill: learn::sparse::Distill { weight: args.distill_weight, temperature: args.distill_temperature },
             });
             let data = TactileData::encode(dataset, &r)?;

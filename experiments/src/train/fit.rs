@@ -259,29 +259,63 @@ fn split_as(train: &SpikeSet, validation: Option<&SpikeSet>, r: &SnnRecipe) -> (
     }
 }
 
-/// Knowledge distillation from a trained SNN (`braille train --distill-from`): the model file and
-/// the mix of losses ([`learn::sparse::Distill`]).
+/// Knowledge distillation from trained SNNs (`braille train --distill-from`): the model files and
+/// the mix of losses ([`learn::sparse::Distill`]). Several teachers teach as an ensemble: their
+/// softened distributions averaged (Hinton et al. 2015), as the logits `T ln(mean_k softmax(z_k /
+/// T))`, whose softmax at `T` is that mean.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DistillFrom {
-    pub path: std::path::PathBuf,
+    pub paths: Vec<std::path::PathBuf>,
     pub distill: learn::sparse::Distill,
 }
 
-/// The teacher's logits for each sample of `train` (the recipe's training set of `data`): the
-/// teacher runs on the event-driven engine, each sample encoded as the teacher was trained (its
-/// own step and encoding), and must know the same classes. Also its accuracy on them.
+/// The logits whose softmax at `temperature` is the mean of the members' softmaxes at it.
+fn ensemble_logits(members: &[Vec<f32>], temperature: f32) -> Vec<f32> {
+    let t = temperature as f64;
+    let n = members.first().map_or(0, Vec::len);
+    let mut mean = vec![0.0f64; n];
+    for z in members {
+        let m = z.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+        let e: Vec<f64> = z.iter().map(|&l| ((l as f64 - m) / t).exp()).collect();
+        let sum: f64 = e.iter().sum();
+        mean.iter_mut().zip(&e).for_each(|(a, e)| *a += e / sum / members.len() as f64);
+    }
+    mean.into_iter().map(|p| (t * p.ln()) as f32).collect()
+}
+
+/// The teachers' logits for each sample of `train` (the recipe's training set of `data`; several
+/// teachers as [`DistillFrom`] says), and their mean accuracy on them.
 fn teacher_logits(
     t: &DistillFrom,
     data: &TactileData,
     r: &SnnRecipe,
     train: &SpikeSet,
 ) -> Result<(Vec<Vec<f32>>, f64)> {
-    let m = pipeline::models::load_snn(&t.path)?;
-    let bad = |what: String| Error::Model { path: t.path.clone(), what };
+    let each: Vec<(Vec<Vec<f32>>, f64)> =
+        t.paths.iter().map(|p| one_teacher(p, data, r, train)).collect::<Result<_>>()?;
+    let accuracy = each.iter().map(|e| e.1).sum::<f64>() / each.len().max(1) as f64;
+    if let [(logits, _)] = &each[..] {
+        return Ok((logits.clone(), accuracy));
+    }
+    let logits = (0..train.len())
+        .map(|s| {
+            let members: Vec<Vec<f32>> = each.iter().map(|e| e.0[s].clone()).collect();
+            ensemble_logits(&members, t.distill.temperature)
+        })
+        .collect();
+    Ok((logits, accuracy))
+}
+
+/// One teacher's logits for each sample of `train` and its accuracy on them: the teacher runs on
+/// the event-driven engine, each sample encoded as the teacher was trained (its own step and
+/// encoding), and must know the same classes.
+fn one_teacher(path: &Path, data: &TactileData, r: &SnnRecipe, train: &SpikeSet) -> Result<(Vec<Vec<f32>>, f64)> {
+    let m = pipeline::models::load_snn(path)?;
+    let bad = |what: String| Error::Model { path: path.to_path_buf(), what };
     if m.classes != data.classes {
         return Err(bad(format!("a teacher of classes {:?}, the data's are {:?}", m.classes, data.classes)));
     }
-    let encoding = crate::eval::tactile::encoding_of(&m, &t.path)?;
+    let encoding = crate::eval::tactile::encoding_of(&m, path)?;
     let dataset = Dataset::load(&data.dir, encoding.period_us)?;
     let theirs = encoding.encode(&dataset, Some(Split::Train))?;
     let validation = encoding.encode(&dataset, Some(Split::Validation))?;
@@ -387,8 +421,9 @@ pub fn train_on(
         extra["init"] = p.display().to_string().into();
     }
     if let (Some(d), Some((_, accuracy))) = (distill, &teacher) {
+        let teachers: Vec<String> = d.paths.iter().map(|p| p.display().to_string()).collect();
         extra["distill"] = serde_json::json!({
-            "teacher": d.path.display().to_string(),
+            "teacher": teachers.join(", "),
             "weight": d.distill.weight,
             "temperature": d.distill.temperature,
             "teacher_train_accuracy": accuracy,
@@ -803,6 +838,27 @@ pub fn conditions(scans: &corpus::windows::TrainingScans) -> String {
 mod tests {
     use super::*;
     use snn::neuron::Reset;
+
+    #[test]
+    fn an_ensembles_logits_soften_to_the_mean_of_its_members_distributions() {
+        let soft = |z: &[f32], t: f64| -> Vec<f64> {
+            let e: Vec<f64> = z.iter().map(|&l| (l as f64 / t).exp()).collect();
+            let s: f64 = e.iter().sum();
+            e.into_iter().map(|e| e / s).collect()
+        };
+        let members = vec![vec![1.0f32, 5.0, -2.0], vec![4.0, 0.5, 0.0], vec![-1.0, 2.0, 3.0]];
+        for t in [1.0f32, 4.0] {
+            let z = super::ensemble_logits(&members, t);
+            let want: Vec<f64> =
+                (0..3).map(|c| members.iter().map(|m| soft(m, t as f64)[c]).sum::<f64>() / 3.0).collect();
+            for (got, want) in soft(&z, t as f64).iter().zip(&want) {
+                assert!((got - want).abs() < 1e-6, "T {t}: {got} against {want}");
+            }
+        }
+        // one member is itself, up to a constant
+        let z = super::ensemble_logits(&members[..1], 2.0);
+        assert!((z[1] - z[0] - 4.0).abs() < 1e-5 && (z[1] - z[2] - 7.0).abs() < 1e-5, "{z:?}");
+    }
 
     #[test]
     fn a_model_fine_tunes_into_its_twin_that_resets_to_zero_and_into_nothing_else() {
