@@ -752,6 +752,12 @@ fn train_distils_from_a_teacher_of_another_step_and_refuses_one_of_other_classes
     assert_eq!(distill["teacher"].as_str(), Some(teacher.as_str()), "{header}");
     assert_eq!((distill["weight"].as_f64(), distill["temperature"].as_f64()), (Some(0.7f32 as f64), Some(4.0)));
     assert!(distill["teacher_train_accuracy"].as_f64().is_some_and(|a| (0.0..=1.0).contains(&a)), "{header}");
+    // two teachers teach as an ensemble, both named in the provenance
+    let args = student_args(&format!("{teacher},{teacher}"));
+    let o = braille(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", text(&o).1);
+    let header = pipeline::models::load_snn(Path::new(&student)).unwrap().provenance;
+    assert_eq!(header["distill"]["teacher"].as_str(), Some(format!("{teacher}, {teacher}").as_str()), "{header}");
     // a teacher of other classes is refused, naming its file; so is a weight out of [0, 1]
     let o = braille(&[&base[..], &["--data", o4, "--out", &wrong]].concat());
     assert!(o.status.success(), "{}", text(&o).1);
