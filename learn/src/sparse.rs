@@ -1215,13 +1215,7 @@ pub struct Distill {
 pub fn distillation(logits: &[f32], label: usize, teacher: &[f32], d: Distill) -> (f64, Vec<f32>, bool) {
     let (hard, g_hard, hit) = cross_entropy(logits, label);
     let t = d.temperature as f64;
-    let soft = |z: &[f32]| -> Vec<f64> {
-        let m = z.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-        let e: Vec<f64> = z.iter().map(|&l| ((l as f64 - m) / t).exp()).collect();
-        let s: f64 = e.iter().sum();
-        e.into_iter().map(|e| e / s).collect()
-    };
-    let (q, p) = (soft(logits), soft(teacher));
+    let (q, p) = (softmax_at(logits, d.temperature), softmax_at(teacher, d.temperature));
     let kl: f64 = p.iter().zip(&q).filter(|(p, _)| **p > 0.0).map(|(p, q)| p * (p.ln() - q.ln())).sum();
     let w = d.weight as f64;
     let loss = (1.0 - w) * hard + w * t * t * kl;
@@ -1232,6 +1226,14 @@ pub fn distillation(logits: &[f32], label: usize, teacher: &[f32], d: Distill) -
         .map(|(&h, (q, p))| ((1.0 - w) * h as f64 + w * t * (q - p)) as f32)
         .collect();
     (loss, g, hit)
+}
+
+/// `softmax(z / temperature)`, in f64 (the distributions [`distillation`] compares).
+pub fn softmax_at(z: &[f32], temperature: f32) -> Vec<f64> {
+    let (m, t) = (z.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64, temperature as f64);
+    let e: Vec<f64> = z.iter().map(|&l| ((l as f64 - m) / t).exp()).collect();
+    let s: f64 = e.iter().sum();
+    e.into_iter().map(|e| e / s).collect()
 }
 
 /// `|x|` beyond which `surrogate`'s derivative is below `cutoff` times its peak (infinite for 0).

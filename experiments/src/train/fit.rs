@@ -271,16 +271,13 @@ pub struct DistillFrom {
 
 /// The logits whose softmax at `temperature` is the mean of the members' softmaxes at it.
 fn ensemble_logits(members: &[Vec<f32>], temperature: f32) -> Vec<f32> {
-    let t = temperature as f64;
     let n = members.first().map_or(0, Vec::len);
     let mut mean = vec![0.0f64; n];
     for z in members {
-        let m = z.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-        let e: Vec<f64> = z.iter().map(|&l| ((l as f64 - m) / t).exp()).collect();
-        let sum: f64 = e.iter().sum();
-        mean.iter_mut().zip(&e).for_each(|(a, e)| *a += e / sum / members.len() as f64);
+        let p = learn::sparse::softmax_at(z, temperature);
+        mean.iter_mut().zip(&p).for_each(|(a, p)| *a += p / members.len() as f64);
     }
-    mean.into_iter().map(|p| (t * p.ln()) as f32).collect()
+    mean.into_iter().map(|p| (temperature as f64 * p.ln()) as f32).collect()
 }
 
 /// The teachers' logits for each sample of `train` (the recipe's training set of `data`; several
