@@ -1,5 +1,5 @@
-//! The raw1350 twin (iCub raw1350 test split, 270 samples of 193 steps; 24 inputs, 256 CubaLIF,
-//! 27 leaky integrators) in Loihi 2's arithmetic (Lava's fixed-point LIF: 24-bit state, 8-bit
+//! The raw1350 twin (iCub raw1350 test split, 270 samples of 193 steps; 24 inputs, 256 recurrent
+//! CubaLIF with a bias, 27 leaky integrators) in Loihi 2's arithmetic (Lava's fixed-point LIF: 24-bit state, 8-bit
 //! weights, 12-bit decays; stepped over every neuron, and event-driven; each sample with the two
 //! latency steps) against the floating-point engine (stepped) on the same samples, one core.
 //! Throughput in samples per second: the fixed-point engine's target is at most 1.5x the float

@@ -17,8 +17,9 @@
 #   about 15 s each.
 # - icub/nir/qat/snn-raw1350-seed{1,2,3}: the raw1350 twin (models/icub/nir/, scripts/train_nir.sh) fine-tuned
 #   for Loihi 2 (quantisation-aware, `--chip loihi2` on the dense trainer: the weights on Lava's 8-bit grid at
-#   the mapper's scale and exponents, the integer threshold, 12-bit decays), 30 epochs (half the recipe's, as
-#   for Xylo, not tuned), one per fine-tuning seed (validation hold-out the twin's, seed 2); about 30 s each.
+#   the mapper's scale and exponents, the integer threshold, 12-bit decays) by the twin's own recipe, with no
+#   dropout (the chip as it is), 30 epochs (half the recipe's, as for Xylo, not tuned), one per fine-tuning seed
+#   (validation hold-out seed 2).
 #   `--loihi2-qat-only` runs only these.
 # Then the chip table and the cost of the faithful export: `braille chip-report`
 # (docs/results/chips.md). About 40 minutes on two cores (the SIMULATED model alone about 15).
@@ -37,9 +38,12 @@ hist="docs/results/$realism/chip"
 mkdir -p models/icub/chip docs/results/icub/chip "$sim" "$hist"
 mkdir -p models/icub/nir/qat
 if [[ "${1:-}" != "--simulated-only" && "${1:-}" != "--speck-qat-only" ]]; then
+  # the twin's own recipe, as its file records it
+  python3 scripts/recipe_of.py models/icub/nir/snn-raw1350.safetensors > docs/results/icub/nir/snn_raw1350_recipe.json
   for seed in 1 2 3; do
-    $b train --trainer dense --data data/icub_braille/raw1350 --recipe raw1350 --reset zero --chip loihi2 \
-      --init models/icub/nir/snn-raw1350.safetensors --epochs 30 --seed "$seed" --val-seed 2 \
+    $b train --trainer dense --data data/icub_braille/raw1350 --recipe docs/results/icub/nir/snn_raw1350_recipe.json \
+      --dropout 0 --chip loihi2 --init models/icub/nir/snn-raw1350.safetensors --epochs 30 --seed "$seed" \
+      --val-fraction 0.1 --val-seed 2 \
       --out "models/icub/nir/qat/snn-raw1350-seed$seed.safetensors" \
       --history "docs/results/icub/nir/qat_snn_raw1350_seed${seed}_history.json" --force --quiet
   done

@@ -165,8 +165,9 @@ CASES = [
      {"norse": "Norse 1.1's importer maps AvgPool2d to nothing"}),
     ("Braille recurrent CubaLIF fixture", f"{FIXTURES}/braille/braille_noDelay_bias_zero.nir", 100, 0.05,
      {"snntorch": "snnTorch 1.0's importer wires a recurrent subgraph's input into its recurrent weights"}),
-    ("models/icub/nir/snn-raw1350 (CubaLIF)", "models/icub/nir/snn-raw1350.safetensors", 100, 0.05, {}),
-    ("models/icub/nir/snn-th10 (recurrent CubaLIF)", "models/icub/nir/snn-th10.safetensors", 100, 0.05,
+    ("models/icub/nir/snn-raw1350 (recurrent CubaLIF, bias)", "models/icub/nir/snn-raw1350.safetensors", 100, 0.05,
+     {"snntorch": "snnTorch 1.0's importer wires a recurrent subgraph's input into its recurrent weights"}),
+    ("models/icub/nir/snn-th10 (recurrent CubaLIF, bias)", "models/icub/nir/snn-th10.safetensors", 100, 0.05,
      {"snntorch": "snnTorch 1.0's importer wires a recurrent subgraph's input into its recurrent weights"}),
     ("models/clean/nir/snn-chars (LIF)", "models/clean/nir/snn-chars.safetensors", 40, 0.05, {}),
     ("models/icub/chip/xylo-braille7 (CubaLIF)", "models/icub/chip/xylo-braille7.safetensors", 100, 0.05, {}),
@@ -177,7 +178,7 @@ CASES = [
 
 # Also exported in NIR's own convention (the model's step, r = tau / dt), to show what each
 # importer makes of it.
-SHOW_NIR_CONVENTION = {"models/icub/nir/snn-raw1350.safetensors", "models/clean/nir/snn-chars.safetensors"}
+SHOW_NIR_CONVENTION = {"models/icub/chip/xylo-braille7.safetensors", "models/clean/nir/snn-chars.safetensors"}
 
 
 def main():

@@ -501,6 +501,18 @@ fn band_difference(shipped: &serde_json::Value, twin: &serde_json::Value) -> Opt
     (a != b).then(|| format!("the input after training (shipped {}, twin {})", show(a), show(b)))
 }
 
+/// How a model was taught, if it was distilled (`train --distill-from`): its teachers and mix,
+/// read from its provenance.
+fn distilled_from(p: &serde_json::Value) -> Option<String> {
+    let d = p.get("distill")?;
+    Some(format!(
+        "its training: the twin was distilled from {} (weight {}, temperature {})",
+        d["teacher"].as_str().unwrap_or("teachers not recorded"),
+        d["weight"],
+        d["temperature"]
+    ))
+}
+
 /// The fields in which two models' recipes differ, the reset apart (a twin's one change), and
 /// their centring bands given after training, when they differ. Each recipe is read as a recipe
 /// first, so that a field an older model left out counts as its default; a model that records no
@@ -508,6 +520,7 @@ fn band_difference(shipped: &serde_json::Value, twin: &serde_json::Value) -> Opt
 fn recipe_differences(trained: &Path, twin: &Path) -> Result<Vec<String>> {
     let (pa, pb) = (pipeline::models::load_snn(trained)?.provenance, pipeline::models::load_snn(twin)?.provenance);
     let mut out: Vec<String> = band_difference(&pa, &pb).into_iter().collect();
+    out.extend(distilled_from(&pb));
     // a recipe as its fields read back (defaults for fields an older model left out)
     let read = |p: &serde_json::Value| {
         let raw = &p["recipe"];
@@ -558,7 +571,7 @@ pub fn markdown(r: &ChipReport) -> String {
     let _ = writeln!(s, "## What the faithful export costs\n");
     let _ = writeln!(
         s,
-        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into a `nir/` folder beside it (`models/icub/nir/`, `models/REALISM/nir/`); nothing else was chosen. Accuracy on the same test. Where a shipped model was retrained or given a centring band (`braille set-band`) after its twin was made, the pair differs in more than the reset, and the row says in what (the recipes' fields and the bands, read from the models' files): such a row is not the reset's cost.\n"
+        "Every shipped SNN resets by subtraction, which NIR cannot write. Each was retrained by the same recipe with one change, neurons that reset to zero (NIR's reset to `v_reset`), into a `nir/` folder beside it (`models/icub/nir/`, `models/REALISM/nir/`); nothing else was chosen. The iCub twins are instead, since 2026-12-04, each dataset's twin of record: its searched twin recipe distilled from the subtracting headline's models (docs/nir.md, where the like-for-like searched pairs give the reset's cost). Accuracy on the same test. Where a shipped model was retrained or given a centring band (`braille set-band`) after its twin was made, the pair differs in more than the reset, and the row says in what (the recipes' fields and the bands, read from the models' files): such a row is not the reset's cost.\n"
     );
     let _ = writeln!(
         s,
@@ -706,8 +719,21 @@ pub fn markdown(r: &ChipReport) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::band_difference;
+    use super::{band_difference, distilled_from};
     use serde_json::json;
+
+    #[test]
+    fn a_distilled_twin_names_its_teachers_and_a_plain_one_nothing() {
+        let taught =
+            json!({ "distill": { "teacher": "a.safetensors, b.safetensors", "weight": 0.5, "temperature": 4.0 } });
+        assert_eq!(
+            distilled_from(&taught).as_deref(),
+            Some(
+                "its training: the twin was distilled from a.safetensors, b.safetensors (weight 0.5, temperature 4.0)"
+            )
+        );
+        assert_eq!(distilled_from(&json!({ "recipe": {} })), None);
+    }
 
     #[test]
     fn a_band_given_to_both_models_is_no_difference_and_one_given_to_one_is() {
