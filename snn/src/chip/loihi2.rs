@@ -514,9 +514,10 @@ enum Block {
     Rows(Rows),
 }
 
-/// The share of non-zero synapses from which a dense block runs as whole rows: a row's add is
-/// several times cheaper per synapse than a target list's scattered one (measured by `cargo bench
-/// --bench chip_loihi2`), so rows win well below full density.
+/// The share of non-zero synapses from which a dense block runs as whole rows. On the raw1350
+/// twin (nearly every synapse non-zero) rows cut the chip's time per sample by about 45% (`cargo
+/// bench --bench chip_loihi2`, 2026-12-04), so a row's add costs a fraction of a scattered one's
+/// per synapse; a quarter is a cautious guess at the break-even, which was not measured.
 const ROWS_MIN_DENSITY: f64 = 0.25;
 
 /// A dense block as rows: `weight[pre][post]` (zeros included), each row's non-zero targets as
