@@ -1,6 +1,6 @@
 //! Models for neuromorphic chips (`braille chip-report`): what the faithful export costs (every
-//! shipped SNN retrained to reset to zero, NIR's reset, against the shipped subtracting model on
-//! the same test), and the chip table: each exportable model against each chip's rules, with its
+//! shipped SNN's twin that resets to zero, NIR's reset, against the shipped subtracting model on
+//! the same test; a pair that differs in more than the reset is marked), and the chip table: each exportable model against each chip's rules, with its
 //! accuracy, work and energy estimates per sample.
 
 use crate::Progress;
@@ -38,9 +38,9 @@ pub struct FaithfulRow {
     pub difference: f64,
     /// The same with the conditional metric beside it, where there is one.
     pub detail: String,
-    /// Where the twin's recipe differs from the shipped model's in more than the reset (a
-    /// shipped model retrained after its twin): the fields, or why the recipes could not be
-    /// compared; empty for a like-for-like pair.
+    /// Where the twin differs from the shipped model in more than the reset (a shipped model
+    /// retrained after its twin, a twin distilled from other models): the recipe's fields, the
+    /// teachers, or why the recipes could not be compared; empty for a like-for-like pair.
     pub recipe_differences: Vec<String>,
 }
 
