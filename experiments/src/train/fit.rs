@@ -270,8 +270,8 @@ pub struct DistillFrom {
 }
 
 /// The logits whose softmax at `temperature` is the mean of the members' softmaxes at it.
-fn ensemble_logits(members: &[Vec<f32>], temperature: f32) -> Vec<f32> {
-    let n = members.first().map_or(0, Vec::len);
+fn ensemble_logits(members: &[&[f32]], temperature: f32) -> Vec<f32> {
+    let n = members.first().map_or(0, |z| z.len());
     let mut mean = vec![0.0f64; n];
     for z in members {
         let p = learn::sparse::softmax_at(z, temperature);
@@ -288,15 +288,15 @@ fn teacher_logits(
     r: &SnnRecipe,
     train: &SpikeSet,
 ) -> Result<(Vec<Vec<f32>>, f64)> {
-    let each: Vec<(Vec<Vec<f32>>, f64)> =
+    let mut each: Vec<(Vec<Vec<f32>>, f64)> =
         t.paths.iter().map(|p| one_teacher(p, data, r, train)).collect::<Result<_>>()?;
-    let accuracy = each.iter().map(|e| e.1).sum::<f64>() / each.len().max(1) as f64;
-    if let [(logits, _)] = &each[..] {
-        return Ok((logits.clone(), accuracy));
+    if each.len() == 1 {
+        return Ok(each.remove(0));
     }
+    let accuracy = each.iter().map(|e| e.1).sum::<f64>() / each.len().max(1) as f64;
     let logits = (0..train.len())
         .map(|s| {
-            let members: Vec<Vec<f32>> = each.iter().map(|e| e.0[s].clone()).collect();
+            let members: Vec<&[f32]> = each.iter().map(|e| e.0[s].as_slice()).collect();
             ensemble_logits(&members, t.distill.temperature)
         })
         .collect();
@@ -843,7 +843,7 @@ mod tests {
             let s: f64 = e.iter().sum();
             e.into_iter().map(|e| e / s).collect()
         };
-        let members = vec![vec![1.0f32, 5.0, -2.0], vec![4.0, 0.5, 0.0], vec![-1.0, 2.0, 3.0]];
+        let members: [&[f32]; 3] = [&[1.0, 5.0, -2.0], &[4.0, 0.5, 0.0], &[-1.0, 2.0, 3.0]];
         for t in [1.0f32, 4.0] {
             let z = super::ensemble_logits(&members, t);
             let want: Vec<f64> =
