@@ -638,7 +638,7 @@ impl SparseSnn {
             // SAFETY: this CPU has AVX2 (just checked).
             return unsafe { self.forward_avx2(params, input, masks, tape, spare) };
         }
-        self.forward_with(params, input, masks, tape, spare)
+        self.forward_with::<false>(params, input, masks, tape, spare)
     }
 
     /// [`Self::forward`] compiled for AVX2: the same operations (nothing fused or reordered), in
@@ -653,11 +653,11 @@ impl SparseSnn {
         tape: bool,
         spare: Vec<LayerTape>,
     ) -> SampleOutput {
-        self.forward_with(params, input, masks, tape, spare)
+        self.forward_with::<true>(params, input, masks, tape, spare)
     }
 
     #[inline(always)]
-    fn forward_with(
+    fn forward_with<const AVX: bool>(
         &self,
         params: &Params,
         input: &StepEvents,
@@ -688,14 +688,17 @@ impl SparseSnn {
                 v_max = vec![f32::NEG_INFINITY; n];
                 lt.argmax = vec![0; n];
             }
+            // whether `u` is all zeros already (the spiking layers' update empties it with AVX2)
+            let mut emptied = true;
             for t in 0..steps {
                 if plan.bias_len > 0 {
                     for (o, u) in u.iter_mut().enumerate() {
                         *u = w.bias[o % plan.bias_len];
                     }
-                } else {
+                } else if !emptied {
                     u.fill(0.0);
                 }
+                emptied = false;
                 let (xi, xv) = x.at(t);
                 for (&i, &xv) in xi.iter().zip(xv) {
                     scatter(plan, &w.weight, i as usize, xv, &mut u);
@@ -737,18 +740,17 @@ impl SparseSnn {
                                 *u = *c;
                             }
                         }
-                        // exact: every neuron's derivative, densely (it vectorises); else those
-                        // of the neurons near threshold, below
-                        for (v, &drive) in v.iter_mut().zip(&u) {
-                            *v = *v * np.beta + leak + drive;
-                        }
+                        // the membranes updated and those above `low` listed (with AVX2 in one
+                        // pass, which also empties `u`); exact: every neuron's derivative,
+                        // densely (it vectorises); else those of the neurons near threshold, below
+                        let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
+                        let found = update_above::<AVX>(&mut v, &mut u, np.beta, leak, low, &mut near_buf);
+                        emptied = AVX;
                         if all {
                             let start = lt.surr_all.len();
                             lt.surr_all.extend(v.iter().map(|&v| v - np.v_th));
                             derivatives_in_place(self.surrogate, &mut lt.surr_all[start..]);
                         }
-                        let low = if tape && !all { np.v_th - self.x_cut } else { np.v_th };
-                        let found = above(&v, low, &mut near_buf);
                         let near = &near_buf[..found];
                         // their distances to threshold
                         dist.clear();
@@ -939,9 +941,13 @@ impl SparseSnn {
             let mask = masks.get(k).and_then(Option::as_deref);
             let below = k.checked_sub(1).map(|b| (&self.plans[b], &tape[b]));
             let nb = below.map_or(0, |(b, _)| b.n_out);
+            // The layer below reads at each step only what is written into this buffer at that
+            // step below: the gradient of its inputs that keep a surrogate (it reads only theirs),
+            // or of all of them. So the buffer is not zeroed (zeroing a sample's worth was a
+            // few percent of a step), but for the last `delay` steps, which no step writes.
             let mut g_below = pool.pop().unwrap_or_default();
-            g_below.clear();
             g_below.resize(steps * nb, 0.0);
+            g_below[steps.saturating_sub(delay) * nb..].fill(0.0);
             // the weights laid out by input, for the steps where every input keeps a surrogate
             // (the exact gradient): eight inputs gathered at once
             let by_input = work.by_input[k].as_ref();
@@ -1279,6 +1285,99 @@ fn above(v: &[f32], low: f32, out: &mut Vec<u32>) -> usize {
     k
 }
 
+/// The membranes' update `v <- v beta + leak + u` and [`above`] of the new membranes: the
+/// indices of `v` above `low`, ascending, into the front of `out`; returns how many. With `AVX`
+/// (set only in code compiled for AVX2 and run where the CPU has it) in one pass over both,
+/// eight lanes at a time, `u` emptied on the way.
+#[inline(always)]
+fn update_above<const AVX: bool>(
+    v: &mut [f32],
+    u: &mut [f32],
+    beta: f32,
+    leak: f32,
+    low: f32,
+    out: &mut Vec<u32>,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is set only by `forward_avx2`, which runs where AVX2 is.
+        return unsafe { avx_update_above(v, u, beta, leak, low, out) };
+    }
+    for (v, &drive) in v.iter_mut().zip(u.iter()) {
+        *v = *v * beta + leak + drive;
+    }
+    above(v, low, out)
+}
+
+/// For each set of eight lanes (as bits), the lanes in it in ascending order, then zeros.
+#[cfg(target_arch = "x86_64")]
+static PACK8: [[u32; 8]; 256] = {
+    let mut t = [[0u32; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut j, mut k) = (0, 0);
+        while j < 8 {
+            if (m >> j) & 1 == 1 {
+                t[m][k] = j as u32;
+                k += 1;
+            }
+            j += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// [`update_above`] in AVX registers: per eight membranes, the same operations in the same order
+/// (nothing fused), one compare, and the lanes above `low` packed to the front of a register (a
+/// permutation from [`PACK8`]) and stored at the list's end, which advances by their number.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn avx_update_above(v: &mut [f32], u: &mut [f32], beta: f32, leak: f32, low: f32, out: &mut Vec<u32>) -> usize {
+    use std::arch::x86_64::{
+        __m256i, _CMP_GT_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_loadu_si256,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+        _mm256_storeu_si256,
+    };
+    assert_eq!(v.len(), u.len(), "a drive per membrane");
+    if out.len() < v.len() + 8 {
+        out.resize(v.len() + 8, 0);
+    }
+    let (b, l, lo) = (_mm256_set1_ps(beta), _mm256_set1_ps(leak), _mm256_set1_ps(low));
+    let mut k = 0;
+    let whole = v.len() / 8 * 8;
+    for (q, (x, d)) in v.chunks_exact_mut(8).zip(u.chunks_exact_mut(8)).enumerate() {
+        let slot: &mut [u32; 8] = (&mut out[k..k + 8]).try_into().expect("eight slots");
+        // SAFETY: `x`, `d` and `slot` are eight f32s or u32s each (unaligned access allowed);
+        // AVX2 (this function's contract).
+        let mask = unsafe {
+            let nv = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(_mm256_loadu_ps(x.as_ptr()), b), l),
+                _mm256_loadu_ps(d.as_ptr()),
+            );
+            _mm256_storeu_ps(x.as_mut_ptr(), nv);
+            _mm256_storeu_ps(d.as_mut_ptr(), _mm256_setzero_ps());
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(nv, lo)) as usize;
+            let lanes = _mm256_loadu_si256(PACK8[mask].as_ptr().cast::<__m256i>());
+            let at = _mm256_add_epi32(lanes, _mm256_set1_epi32((8 * q) as i32));
+            _mm256_storeu_si256(slot.as_mut_ptr().cast::<__m256i>(), at);
+            mask
+        };
+        k += mask.count_ones() as usize;
+    }
+    for j in whole..v.len() {
+        v[j] = v[j] * beta + leak + u[j];
+        u[j] = 0.0;
+        out[k] = j as u32;
+        k += (v[j] > low) as usize;
+    }
+    k
+}
+
 /// Which of four lanes are above `low`, as a 4-bit mask (lane 0 the lowest bit).
 #[inline(always)]
 fn lanes_above(x: &[f32; 4], low: f32) -> usize {
@@ -1346,7 +1445,17 @@ fn axpy_width<const WIDTH: usize>(y: &mut [f32], x: &[f32], a: f32) {
 
 #[inline(always)]
 fn dot(a: &[f32], b: &[f32]) -> f32 {
-    // four partial sums, so that the compiler vectorises it
+    debug_assert_eq!(a.len(), b.len(), "a dot product of equal lengths");
+    #[cfg(target_arch = "x86_64")]
+    return sse_dot(a, b);
+    #[cfg(not(target_arch = "x86_64"))]
+    portable_dot(a, b)
+}
+
+/// [`dot`] in portable code: four running sums, so that the compiler vectorises it, and a tail.
+#[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
+#[inline(always)]
+fn portable_dot(a: &[f32], b: &[f32]) -> f32 {
     let mut s = [0f32; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
     let (ra, rb) = (ca.remainder(), cb.remainder());
@@ -1360,6 +1469,35 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
         tail += x * y;
     }
     (s[0] + s[1]) + (s[2] + s[3]) + tail
+}
+
+/// [`portable_dot`] with its four running sums in one SSE register (SSE is part of x86-64): the
+/// same operations in the same order, so the same to the bit (tested). Left to the compiler, the
+/// sums were not kept in one register: it shuffled lanes at each step.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn sse_dot(a: &[f32], b: &[f32]) -> f32 {
+    use std::arch::x86_64::{
+        _mm_add_ps, _mm_add_ss, _mm_cvtss_f32, _mm_loadu_ps, _mm_movehl_ps, _mm_mul_ps, _mm_setzero_ps, _mm_shuffle_ps,
+    };
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    // SAFETY: SSE is part of the x86-64 baseline; each chunk is four readable f32s (unaligned
+    // loads allowed).
+    let s = unsafe {
+        let mut s = _mm_setzero_ps();
+        for (x, y) in ca.zip(cb) {
+            s = _mm_add_ps(s, _mm_mul_ps(_mm_loadu_ps(x.as_ptr()), _mm_loadu_ps(y.as_ptr())));
+        }
+        // lane 0: s0 + s1, lane 2: s2 + s3; then their sum
+        let t = _mm_add_ps(s, _mm_shuffle_ps::<0b10_11_00_01>(s, s));
+        _mm_cvtss_f32(_mm_add_ss(t, _mm_movehl_ps(t, t)))
+    };
+    let mut tail = -0.0f32;
+    for (x, y) in ra.iter().zip(rb) {
+        tail += x * y;
+    }
+    s + tail
 }
 
 /// Adds input `i`'s fan-out, times `x`, into `u`.
@@ -1435,8 +1573,15 @@ impl ConvOf<'_> {
     /// Input `i`'s channel and its targets (output pixel, kernel position).
     #[inline(always)]
     fn targets_of(&self, i: usize) -> (usize, &[(u32, u32)]) {
-        let p = i / self.ic;
-        (i % self.ic, &self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize])
+        // a shift where the channels are a power of two (a division per input costs more than
+        // the rest of finding its targets)
+        let (p, c) = if self.ic.is_power_of_two() {
+            let s = self.ic.trailing_zeros();
+            (i >> s, i & (self.ic - 1))
+        } else {
+            (i / self.ic, i % self.ic)
+        };
+        (c, &self.targets[self.offsets[p] as usize..self.offsets[p + 1] as usize])
     }
 }
 
@@ -1750,6 +1895,23 @@ impl Adam {
     }
 }
 
+#[cfg(test)]
+impl SparseSnn {
+    /// Every entry of the backward's kept buffers made NaN, so that a gradient computed after
+    /// would show any entry it read without writing it first (tests). Returns how many.
+    fn poison_buffers(&self) -> usize {
+        let mut workers = self.scratch.workers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut n = 0;
+        for (_, pool) in workers.iter_mut() {
+            for b in pool.iter_mut() {
+                b.fill(f32::NAN);
+                n += b.len();
+            }
+        }
+        n
+    }
+}
+
 #[cfg(all(test, feature = "train"))]
 mod tests {
     use super::*;
@@ -2040,6 +2202,76 @@ mod tests {
     /// The batched gathers of a convolution's and a dense layer's every input equal [`gather`]
     /// input by input, to the bit (zeros included), so the exact trainer's gradients are
     /// unchanged by them.
+    /// The backward's buffers are not zeroed between samples: each step's gradient by the layer
+    /// below is read only where that step wrote it. With every kept entry made NaN before the
+    /// second of two computations of one gradient, both give the same bits.
+    #[test]
+    fn gradients_read_nothing_left_in_the_kept_buffers() {
+        let steps = 14;
+        for (case, (spec, readout)) in networks().into_iter().enumerate() {
+            let n_in: usize = spec.input_shape.iter().product();
+            let n_out = spec.shapes().unwrap().last().unwrap().output.iter().product::<usize>();
+            let weights = spec.init(10 + case as u64, 3.0).unwrap();
+            let batch = inputs(20 + case as u64, 3, steps, n_in, 0.12);
+            let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
+            for cutoff in [0.0, 1e-30, 0.05] {
+                let net = SparseSnn::new(spec.clone(), Surrogate::FastSigmoid { slope: 5.0 }, readout, cutoff).unwrap();
+                let params = net.params(&weights).unwrap();
+                let events: Vec<StepEvents> =
+                    batch.iter().map(|e| net.input_events(StepEvents::from_entries(steps, &mut e.clone()))).collect();
+                let samples: Vec<(&StepEvents, usize)> = events.iter().zip(labels.iter().copied()).collect();
+                let bits = |g: &BatchGradient| g.grads.tensors().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+                let first = net.batch_gradient(&params, &samples, &[]);
+                assert!(net.poison_buffers() > 0, "case {case}: buffers kept");
+                let second = net.batch_gradient(&params, &samples, &[]);
+                assert_eq!(bits(&first), bits(&second), "case {case}, cutoff {cutoff}");
+            }
+        }
+    }
+
+    /// The SSE dot product and the fused AVX update of the membranes give the portable code's
+    /// bits, at every length (lanes and a rest), with zeros of both signs among the entries.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn vector_kernels_equal_the_portable_code_to_the_bit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let draw = |n: usize, rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f32> {
+            (0..n)
+                .map(|_| match rng.random_range(0..6) {
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => rng.random_range(-2.0..2.0),
+                })
+                .collect()
+        };
+        for n in 0..70 {
+            for _ in 0..20 {
+                let (a, b) = (draw(n, &mut rng), draw(n, &mut rng));
+                assert_eq!(sse_dot(&a, &b).to_bits(), portable_dot(&a, &b).to_bits(), "{a:?} . {b:?}");
+            }
+        }
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut above = 0;
+        for n in 0..70 {
+            for (beta, leak, low) in [(0.9f32, 0.0f32, 0.6f32), (0.75, 0.13, -0.2), (1.0, -0.05, 1.0)] {
+                let (v, u) = (draw(n, &mut rng), draw(n, &mut rng));
+                let (mut v1, mut u1, mut out1) = (v.clone(), u.clone(), Vec::new());
+                let k1 = update_above::<false>(&mut v1, &mut u1, beta, leak, low, &mut out1);
+                let (mut v2, mut u2, mut out2) = (v.clone(), u.clone(), Vec::new());
+                // SAFETY: this CPU has AVX2 (just checked).
+                let k2 = unsafe { avx_update_above(&mut v2, &mut u2, beta, leak, low, &mut out2) };
+                let bits = |x: &[f32]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&v1), bits(&v2), "membranes, n {n}");
+                assert_eq!(out1[..k1], out2[..k2], "indices above {low}, n {n}");
+                assert!(u2.iter().all(|x| x.to_bits() == 0), "inputs emptied, n {n}");
+                above += k1;
+            }
+        }
+        assert!(above > 1000, "membranes above the line: {above}");
+    }
+
     #[test]
     fn batched_gathers_equal_gather_to_the_bit() {
         let net = snn::network::peers_conv(1, snn::network::PEER_GAIN);

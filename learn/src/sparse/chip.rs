@@ -274,6 +274,25 @@ mod tests {
         }
     }
 
+    /// As `gradients_read_nothing_left_in_the_kept_buffers` (the float forward's), on the chip's
+    /// forward pass, whose layers take the output of the layer below one step late: the same
+    /// gradient to the bit with every entry of the kept buffers made NaN before it.
+    #[test]
+    fn chip_gradients_read_nothing_left_in_the_kept_buffers() {
+        let (net, p) = xylo_net();
+        let target = ChipTarget { chip: Chip::Xylo, quantisation: Quantisation::Global };
+        let chip = net.chip_forward(&p, target).unwrap();
+        let xs: Vec<StepEvents> = (0..6).map(|s| input(200 + s, 40)).collect();
+        let samples: Vec<(&StepEvents, usize)> = xs.iter().enumerate().map(|(j, x)| (x, j % 3)).collect();
+        let bits =
+            |g: &super::super::BatchGradient| g.grads.tensors().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let first = net.chip_batch_gradient(&p, &chip, &samples).unwrap();
+        assert!(first.grads.tensors().flatten().any(|g| *g != 0.0));
+        assert!(net.poison_buffers() > 0, "buffers kept");
+        let second = net.chip_batch_gradient(&p, &chip, &samples).unwrap();
+        assert_eq!(bits(&first), bits(&second));
+    }
+
     #[test]
     fn quantisation_aware_gradients_lower_the_chips_loss() {
         // a small step against the straight-through gradient lowers the loss the chip gives
