@@ -1309,24 +1309,9 @@ fn update_above<const AVX: bool>(
     above(v, low, out)
 }
 
-/// For each set of eight lanes (as bits), the lanes in it in ascending order, then zeros.
+/// [`snn::engine::packed_lanes`], built once.
 #[cfg(target_arch = "x86_64")]
-static PACK8: [[u32; 8]; 256] = {
-    let mut t = [[0u32; 8]; 256];
-    let mut m = 0;
-    while m < 256 {
-        let (mut j, mut k) = (0, 0);
-        while j < 8 {
-            if (m >> j) & 1 == 1 {
-                t[m][k] = j as u32;
-                k += 1;
-            }
-            j += 1;
-        }
-        m += 1;
-    }
-    t
-};
+static PACK8: [[u32; 8]; 256] = snn::engine::packed_lanes();
 
 /// [`update_above`] in AVX registers: per eight membranes, the same operations in the same order
 /// (nothing fused), one compare, and the lanes above `low` packed to the front of a register (a
@@ -2033,6 +2018,21 @@ mod tests {
     }
 
     /// Random input counts (C order) of `batch` samples over `steps` steps.
+    /// Test case `case`'s weights (gain 3), a batch of three inputs of `steps` steps, and labels.
+    #[allow(clippy::type_complexity)]
+    fn case_data(
+        case: usize,
+        spec: &NetworkSpec,
+        steps: usize,
+    ) -> (Vec<LayerWeights>, Vec<Vec<(u32, u32, f32)>>, Vec<usize>) {
+        let n_in: usize = spec.input_shape.iter().product();
+        let n_out = spec.shapes().unwrap().last().unwrap().output.iter().product::<usize>();
+        let weights = spec.init(10 + case as u64, 3.0).unwrap();
+        let batch = inputs(20 + case as u64, 3, steps, n_in, 0.12);
+        let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
+        (weights, batch, labels)
+    }
+
     fn inputs(seed: u64, batch: usize, steps: usize, n: usize, p: f64) -> Vec<Vec<(u32, u32, f32)>> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..batch)
@@ -2117,11 +2117,7 @@ mod tests {
     fn exact_gradients_equal_the_burn_twins_and_truncated_ones_stay_close() {
         let steps = 14;
         for (case, (spec, readout)) in networks().into_iter().enumerate() {
-            let n_in: usize = spec.input_shape.iter().product();
-            let n_out = spec.shapes().unwrap().last().unwrap().output.iter().product::<usize>();
-            let weights = spec.init(10 + case as u64, 3.0).unwrap();
-            let batch = inputs(20 + case as u64, 3, steps, n_in, 0.12);
-            let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
+            let (weights, batch, labels) = case_data(case, &spec, steps);
             let want = flat(&burn_gradient(&spec, readout, &weights, &batch, &labels, steps));
             let surrogate = Surrogate::FastSigmoid { slope: 5.0 };
             let grad_masked = |cutoff: f32, dropout: f64| {
@@ -2199,9 +2195,6 @@ mod tests {
         }
     }
 
-    /// The batched gathers of a convolution's and a dense layer's every input equal [`gather`]
-    /// input by input, to the bit (zeros included), so the exact trainer's gradients are
-    /// unchanged by them.
     /// The backward's buffers are not zeroed between samples: each step's gradient by the layer
     /// below is read only where that step wrote it. With every kept entry made NaN before the
     /// second of two computations of one gradient, both give the same bits.
@@ -2209,11 +2202,7 @@ mod tests {
     fn gradients_read_nothing_left_in_the_kept_buffers() {
         let steps = 14;
         for (case, (spec, readout)) in networks().into_iter().enumerate() {
-            let n_in: usize = spec.input_shape.iter().product();
-            let n_out = spec.shapes().unwrap().last().unwrap().output.iter().product::<usize>();
-            let weights = spec.init(10 + case as u64, 3.0).unwrap();
-            let batch = inputs(20 + case as u64, 3, steps, n_in, 0.12);
-            let labels: Vec<usize> = (0..batch.len()).map(|j| j % n_out).collect();
+            let (weights, batch, labels) = case_data(case, &spec, steps);
             for cutoff in [0.0, 1e-30, 0.05] {
                 let net = SparseSnn::new(spec.clone(), Surrogate::FastSigmoid { slope: 5.0 }, readout, cutoff).unwrap();
                 let params = net.params(&weights).unwrap();
@@ -2272,6 +2261,9 @@ mod tests {
         assert!(above > 1000, "membranes above the line: {above}");
     }
 
+    /// The batched gathers of a convolution's and a dense layer's every input equal [`gather`]
+    /// input by input, to the bit (zeros included), so the exact trainer's gradients are
+    /// unchanged by them.
     #[test]
     fn batched_gathers_equal_gather_to_the_bit() {
         let net = snn::network::peers_conv(1, snn::network::PEER_GAIN);

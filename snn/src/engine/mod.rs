@@ -26,6 +26,7 @@ use compile::{Compiled, Fan, compile, decay};
 pub use compile::{conv_positions, pool_targets};
 use fanout::{BitSet, Buckets, conv_inputs, fan_in, fan_in_spikes, fan_out};
 use kernels::evaluate;
+pub use simd::packed_lanes;
 
 /// When thresholds are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -9,6 +9,27 @@ pub(in crate::engine) fn avx2() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
 }
 
+/// For each set of eight lanes (as the bits of a byte), the lanes in it in ascending order, then
+/// zeros: the permutation that packs the chosen lanes of an eight-lane register to its front
+/// (`_mm256_permutevar8x32_*` on x86-64). The engine buckets spikes with it; the trainer
+/// (`learn::sparse`) lists the neurons near threshold with it.
+pub const fn packed_lanes() -> [[u32; 8]; 256] {
+    let mut t = [[0u32; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut j, mut k) = (0, 0);
+        while j < 8 {
+            if (m >> j) & 1 == 1 {
+                t[m][k] = j as u32;
+                k += 1;
+            }
+            j += 1;
+        }
+        m += 1;
+    }
+    t
+}
+
 /// Missed steps caught up without a branch (see [`sse::lif_lanes`]).
 #[cfg(target_arch = "x86_64")]
 const SURE: usize = 4;
@@ -251,24 +272,8 @@ pub(in crate::engine) mod avx {
         acc.copy_from_slice(&padded[..n]);
     }
 
-    /// For each set of eight lanes (as bits), the lanes in it in ascending order, then zeros: the
-    /// permutation that packs the chosen lanes to the front of a register.
-    static PACK: [[u32; 8]; 256] = {
-        let mut t = [[0u32; 8]; 256];
-        let mut m = 0;
-        while m < 256 {
-            let (mut j, mut k) = (0, 0);
-            while j < 8 {
-                if (m >> j) & 1 == 1 {
-                    t[m][k] = j as u32;
-                    k += 1;
-                }
-                j += 1;
-            }
-            m += 1;
-        }
-        t
-    };
+    /// [`super::packed_lanes`], built once.
+    static PACK: [[u32; 8]; 256] = super::packed_lanes();
 
     /// [`Buckets::push_masks`] eight positions a step: for each channel, the positions whose bit
     /// is set are packed to the front of a register (a permutation from [`PACK`]) and all eight
