@@ -342,6 +342,23 @@ fn bench_reports_the_engines_speed() {
 }
 
 #[test]
+fn bench_streams_report_the_hosts_own_scaling_beside_the_engines() {
+    let o = braille(&["bench", "--json", "--samples", "2", "--repeats", "1", "--streams", "2"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for (list, key) in [("streams", "streams"), ("register_loop", "threads")] {
+        let rows = v[list].as_array().unwrap_or_else(|| panic!("{list}: {v}"));
+        assert_eq!(rows.len(), 2, "{list}: {v}");
+        for (k, r) in rows.iter().enumerate() {
+            assert_eq!(r[key], k + 1, "{list}: {v}");
+            assert!(r["speedup"].as_f64().is_some_and(|x| x > 0.0), "{list}: {v}");
+        }
+        assert_eq!(rows[0]["speedup"], 1.0, "{list}: one thread is the unit");
+    }
+}
+
+#[test]
 fn bench_train_reports_both_trainers_and_the_truncations_error() {
     let o = braille(&["bench", "--train", "--json", "--batch", "4", "--repeats", "1", "--gradient-cutoff", "0.05"]);
     let (out, err) = text(&o);

@@ -3,8 +3,9 @@
 # one round of scripts/perf/two_cores.c (independent vector multiplies and adds in registers, no
 # memory) and then one `braille bench --json --streams 2` (the engine, one stream against two).
 # Prints both scalings per round, then how many rounds each fell below #52's 1.8x. When the
-# register-only loop itself falls below 1.8x, the host, not the engine, is what limits two
-# streams at that moment (docs/peers.md, 2026-12-04).
+# register-only loop itself falls below 1.8x, the host is sharing its cores at that moment
+# (docs/peers.md, 2026-12-04). `braille bench --streams N` times such a loop in the same rounds
+# as the streams (`register_loop`), which pairs them more closely than these rounds do.
 #
 #   bash scripts/perf/two_cores.sh [ROUNDS]     # default 40; about 2 s a round
 set -euo pipefail

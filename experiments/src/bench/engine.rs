@@ -241,6 +241,19 @@ pub struct EngineReport {
     /// Stepped mode with 1 to N independent streams at once, one per thread, each its own state
     /// over the shared engine and every sample: the throughput of all streams together.
     pub streams: Vec<StreamsRow>,
+    /// The host itself, in the same rounds as `streams`: 1 to N threads of arithmetic that
+    /// touches no memory (vector multiply-adds held in registers), each row's speedup over one
+    /// thread. Where two threads of it fall short of 2x, the host shares its cores, and the
+    /// engine's streams cannot scale past it.
+    pub register_loop: Vec<ThreadsRow>,
+}
+
+/// [`EngineReport::register_loop`]: `threads` threads of register-only arithmetic at once.
+#[derive(Debug, Clone, Serialize)]
+pub struct ThreadsRow {
+    pub threads: usize,
+    /// Their work per second over one thread's, measured in the same call.
+    pub speedup: f64,
 }
 
 /// The peer benchmark with `streams` streams at once (stepped mode).
@@ -299,10 +312,60 @@ fn run_samples(engine: &Engine, st: &mut snn::engine::EngineState, samples: &[Ve
     Ok(())
 }
 
+/// What a bench thread runs in one entry of [`stream_scaling`]'s plan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Work {
+    /// Every sample through the engine, from a reset each.
+    Engine,
+    /// [`register_work`]: arithmetic that touches no memory.
+    Registers,
+}
+
+/// Multiply-adds of [`register_work`] per call: about as long as a round of the engine's samples.
+const REGISTER_ITERATIONS: u64 = 2_000_000;
+
+/// Arithmetic that touches no memory: twelve independent chains of multiplies and adds, eight
+/// lanes each, held in vector registers (`iterations` steps of each). Two free cores run two
+/// threads of it in the time of one; two hardware threads of one core, or cores the hypervisor
+/// shares, take longer. Returns a sum of the lanes, so that nothing is optimised away.
+fn register_work(iterations: u64) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: this CPU has AVX2 (just checked).
+        return unsafe { register_work_avx2(iterations) };
+    }
+    register_work_with(iterations)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn register_work_avx2(iterations: u64) -> f32 {
+    register_work_with(iterations)
+}
+
+#[inline(always)]
+fn register_work_with(iterations: u64) -> f32 {
+    let mut a = [[0f32; 8]; 12];
+    for (j, a) in a.iter_mut().enumerate() {
+        *a = [1.0 + j as f32 * 1e-3; 8];
+    }
+    let (m, c) = (std::hint::black_box(0.999_999_9f32), std::hint::black_box(1e-7f32));
+    for _ in 0..iterations {
+        for a in a.iter_mut() {
+            for x in a.iter_mut() {
+                *x = *x * m + c;
+            }
+        }
+    }
+    a.iter().map(|a| a[0]).sum()
+}
+
 /// 1 to `streams` streams at once, one per thread, each its own state through all the samples:
 /// `repeats` rounds, each timing 1, 2, .. `streams` streams in turn (so that the machine's drift
 /// hits every row alike), after one untimed round; per row the median round's wall time (the
-/// slowest stream's: a barrier starts them together).
+/// slowest stream's: a barrier starts them together). Each round also times 1 to `streams`
+/// threads of [`register_work`], so that the host's own scaling on arithmetic that touches no
+/// memory stands beside the engine's, measured in the same rounds (the second list).
 ///
 /// The threads live through every round, as a server's workers would: a thread spawned per
 /// round starts on its parent's core and waits for the scheduler to move it, which in a round
@@ -312,10 +375,12 @@ fn stream_scaling(
     samples: &[Vec<(i64, u32)>],
     repeats: usize,
     streams: usize,
-) -> Result<Vec<StreamsRow>> {
+) -> Result<(Vec<StreamsRow>, Vec<ThreadsRow>)> {
     let k_max = streams.max(1);
-    // every round's rows in turn: how many streams run at once
-    let plan: Vec<usize> = (0..repeats.max(1) + 1).flat_map(|_| 1..=k_max).collect();
+    // every round's rows in turn: what runs, on how many threads at once
+    let plan: Vec<(Work, usize)> = (0..repeats.max(1) + 1)
+        .flat_map(|_| [Work::Engine, Work::Registers].into_iter().flat_map(move |w| (1..=k_max).map(move |k| (w, k))))
+        .collect();
     let start = std::sync::Barrier::new(k_max + 1);
     let done = std::sync::Barrier::new(k_max + 1);
     // per thread, its time in each entry of the plan it ran
@@ -327,11 +392,18 @@ fn stream_scaling(
                     let mut st = engine.state(0);
                     let mut times = Vec::with_capacity(plan.len());
                     let mut failed = None;
-                    for &k in plan {
+                    for &(work, k) in plan {
                         start.wait();
                         let t = if j < k && failed.is_none() {
                             let t0 = Instant::now();
-                            match run_samples(engine, &mut st, samples) {
+                            let ran = match work {
+                                Work::Engine => run_samples(engine, &mut st, samples),
+                                Work::Registers => {
+                                    std::hint::black_box(register_work(REGISTER_ITERATIONS));
+                                    Ok(())
+                                }
+                            };
+                            match ran {
                                 Ok(()) => Some(t0.elapsed().as_secs_f64()),
                                 Err(e) => {
                                     failed = Some(e);
@@ -355,21 +427,36 @@ fn stream_scaling(
         handles.into_iter().map(|h| h.join().expect("a bench stream panicked")).collect()
     });
     let times = times.into_iter().collect::<Result<Vec<_>>>()?;
-    let mut walls = vec![Vec::new(); k_max];
-    for (e, &k) in plan.iter().enumerate() {
-        // the first round is untimed
-        if e >= k_max {
-            walls[k - 1].push(times[..k].iter().filter_map(|t| t[e]).fold(0f64, f64::max));
+    // per kind of work and thread count, the median round's wall; the first round is untimed
+    let rates = |kind: Work, per_thread: f64| -> Vec<f64> {
+        let mut walls = vec![Vec::new(); k_max];
+        for (e, &(work, k)) in plan.iter().enumerate().skip(2 * k_max) {
+            if work == kind {
+                walls[k - 1].push(times[..k].iter().filter_map(|t| t[e]).fold(0f64, f64::max));
+            }
         }
-    }
-    let mut rows: Vec<StreamsRow> = Vec::new();
-    for (k, mut w) in walls.into_iter().enumerate() {
-        w.sort_by(f64::total_cmp);
-        let rate = ((k + 1) * samples.len()) as f64 / w[w.len() / 2].max(1e-12);
-        let base = rows.first().map_or(rate, |r| r.samples_per_s);
-        rows.push(StreamsRow { streams: k + 1, samples_per_s: rate, speedup: rate / base });
-    }
-    Ok(rows)
+        walls
+            .into_iter()
+            .enumerate()
+            .map(|(k, mut w)| {
+                w.sort_by(f64::total_cmp);
+                (k + 1) as f64 * per_thread / w[w.len() / 2].max(1e-12)
+            })
+            .collect()
+    };
+    let engine_rates = rates(Work::Engine, samples.len() as f64);
+    let rows = engine_rates
+        .iter()
+        .enumerate()
+        .map(|(k, &rate)| StreamsRow { streams: k + 1, samples_per_s: rate, speedup: rate / engine_rates[0] })
+        .collect();
+    let register_rates = rates(Work::Registers, 1.0);
+    let ceiling = register_rates
+        .iter()
+        .enumerate()
+        .map(|(k, &rate)| ThreadsRow { threads: k + 1, speedup: rate / register_rates[0] })
+        .collect();
+    Ok((rows, ceiling))
 }
 
 /// The event-driven engine on the peer benchmark's network: `samples` random inputs, the median
@@ -392,7 +479,7 @@ pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineRepo
     let n = samples.len() as f64;
     let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
     // the time per sample is the one-stream row's
-    let streams = stream_scaling(&engine, &samples, repeats, streams)?;
+    let (streams, register_loop) = stream_scaling(&engine, &samples, repeats, streams)?;
     let per_sample = 1.0 / streams[0].samples_per_s;
     Ok(EngineReport {
         network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
@@ -410,6 +497,7 @@ pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineRepo
         async_event_latency_ns_max: Some(async_max as f64),
         async_input_events_per_s: async_rate,
         streams,
+        register_loop,
     })
 }
 
@@ -480,6 +568,13 @@ impl std::fmt::Display for EngineReport {
                     r.streams, r.samples_per_s, r.speedup
                 )?;
             }
+            let host: Vec<String> =
+                self.register_loop.iter().skip(1).map(|r| format!("{} threads {:.2}x", r.threads, r.speedup)).collect();
+            writeln!(
+                f,
+                "the host in the same rounds, on arithmetic that touches no memory (vector registers only): {} one thread",
+                host.join(", ")
+            )?;
         }
         Ok(())
     }
