@@ -347,7 +347,7 @@ fn bench_streams_report_the_hosts_own_scaling_beside_the_engines() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    for (list, key) in [("streams", "streams"), ("register_loop", "threads")] {
+    for (list, key) in [("streams", "streams"), ("register_loop", "threads"), ("cache_loop", "threads")] {
         let rows = v[list].as_array().unwrap_or_else(|| panic!("{list}: {v}"));
         assert_eq!(rows.len(), 2, "{list}: {v}");
         for (k, r) in rows.iter().enumerate() {

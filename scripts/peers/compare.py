@@ -39,10 +39,11 @@ if batched and len(streams) > 1:
         r = batched.get(fw)
         if r:
             print(f"| {names[fw]}, batch {r['batch']} | {1e3 / r['per_sample_ms']:.0f} | |")
-    host = ours_infer.get("register_loop") or []
-    if len(host) > 1:
-        rows = ", ".join(f"{h['threads']} threads {h['speedup']:.2f}x" for h in host[1:])
-        print(f"\nthe host in the same rounds as the streams, on arithmetic that touches no memory (vector registers only): {rows} one thread")
+    for key, what in (("register_loop", "arithmetic in vector registers, no memory"), ("cache_loop", "loads from each thread's own 1 MiB")):
+        host = ours_infer.get(key) or []
+        if len(host) > 1:
+            rows = ", ".join(f"{h['threads']} threads {h['speedup']:.2f}x" for h in host[1:])
+            print(f"\nthe host in the same rounds as the streams, {what}: {rows} one thread")
 print("\n| conv SNN training step, batch 32 (forward, BPTT, Adam) | ms | spike rate per layer | against plain PyTorch |")
 print("| --- | --- | --- | --- |")
 torch_train = peers.get(("train", "torch"))

@@ -246,12 +246,18 @@ pub struct EngineReport {
     /// thread. Where two threads of it fall short of 2x, the host shares its cores, and the
     /// engine's streams cannot scale past it.
     pub register_loop: Vec<ThreadsRow>,
+    /// The same for 1 to N threads each reading its own 1 MiB buffer by dependent loads (eight
+    /// walks at once), which the second-level cache serves: where two threads of it fall short
+    /// of 2x, the host shares the caches the streams' state lives in.
+    pub cache_loop: Vec<ThreadsRow>,
 }
 
-/// [`EngineReport::register_loop`]: `threads` threads of register-only arithmetic at once.
+/// [`EngineReport::register_loop`] and [`EngineReport::cache_loop`]: `threads` threads at once.
 #[derive(Debug, Clone, Serialize)]
 pub struct ThreadsRow {
     pub threads: usize,
+    /// The median round's wall time (the slowest thread's).
+    pub ms_per_round: f64,
     /// Their work per second over one thread's, measured in the same call.
     pub speedup: f64,
 }
@@ -319,6 +325,8 @@ enum Work {
     Engine,
     /// [`register_work`]: arithmetic that touches no memory.
     Registers,
+    /// [`cache_work`]: loads from the thread's own cache-sized buffer.
+    Cache,
 }
 
 /// Steps of [`register_work`] per call: about 12 ms on a 2.6 GHz AVX2 core (4.1 ms for 2 million
@@ -343,6 +351,43 @@ fn register_work(iterations: u64) -> f32 {
 #[target_feature(enable = "avx2")]
 fn register_work_avx2(iterations: u64) -> f32 {
     register_work_with(iterations)
+}
+
+/// Entries of each thread's buffer for [`cache_work`]: 1 MiB of `u32`, within a core's
+/// second-level cache here (2 MiB) and about twice the engine's state and maps per stream.
+const CACHE_ENTRIES: usize = 1 << 18;
+
+/// Steps of each of [`cache_work`]'s eight walks per call: on the order of the engine's round.
+const CACHE_STEPS: u64 = 1_500_000;
+
+/// A random cycle through `n` entries: `next[i]` is the entry after `i` in a seeded shuffle of
+/// them (taken as a ring), so following it from any entry visits all of them.
+fn cache_cycle(n: usize, seed: u64) -> Vec<u32> {
+    use rand::SeedableRng;
+    use rand::seq::SliceRandom;
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+    let mut next = vec![0u32; n];
+    for w in 0..n {
+        next[order[w] as usize] = order[(w + 1) % n];
+    }
+    next
+}
+
+/// Memory the thread owns, read as fast as the caches serve it: eight independent walks through
+/// the random cycle `next` ([`cache_cycle`]), `steps` steps each (each load's address is the last
+/// load's value, so nothing can be fetched ahead). Two threads on two cores with private caches
+/// take the time of one; where a core's caches are shared with other work, longer. Returns where
+/// the walks ended, so that nothing is optimised away.
+fn cache_work(next: &[u32], steps: u64) -> [u32; 8] {
+    let n = next.len() as u32;
+    let mut at: [u32; 8] = std::array::from_fn(|j| j as u32 * (n / 8));
+    for _ in 0..steps {
+        for a in at.iter_mut() {
+            *a = next[*a as usize];
+        }
+    }
+    at
 }
 
 #[inline(always)]
@@ -372,16 +417,13 @@ fn register_work_with(iterations: u64) -> f32 {
 /// The threads live through every round, as a server's workers would: a thread spawned per
 /// round starts on its parent's core and waits for the scheduler to move it, which in a round
 /// of a few milliseconds is part of the time.
-fn stream_scaling(
-    engine: &Engine,
-    samples: &[Vec<(i64, u32)>],
-    repeats: usize,
-    streams: usize,
-) -> Result<(Vec<StreamsRow>, Vec<ThreadsRow>)> {
+fn stream_scaling(engine: &Engine, samples: &[Vec<(i64, u32)>], repeats: usize, streams: usize) -> Result<HostScaling> {
     let k_max = streams.max(1);
     // every round's rows in turn: what runs, on how many threads at once
     let plan: Vec<(Work, usize)> = (0..repeats.max(1) + 1)
-        .flat_map(|_| [Work::Engine, Work::Registers].into_iter().flat_map(move |w| (1..=k_max).map(move |k| (w, k))))
+        .flat_map(|_| {
+            [Work::Engine, Work::Registers, Work::Cache].into_iter().flat_map(move |w| (1..=k_max).map(move |k| (w, k)))
+        })
         .collect();
     let start = std::sync::Barrier::new(k_max + 1);
     let done = std::sync::Barrier::new(k_max + 1);
@@ -392,6 +434,7 @@ fn stream_scaling(
                 let (start, done, plan) = (&start, &done, &plan);
                 scope.spawn(move || -> Result<Vec<Option<f64>>> {
                     let mut st = engine.state(0);
+                    let cycle = cache_cycle(CACHE_ENTRIES, j as u64);
                     let mut times = Vec::with_capacity(plan.len());
                     let mut failed = None;
                     for &(work, k) in plan {
@@ -402,6 +445,10 @@ fn stream_scaling(
                                 Work::Engine => run_samples(engine, &mut st, samples),
                                 Work::Registers => {
                                     std::hint::black_box(register_work(REGISTER_ITERATIONS));
+                                    Ok(())
+                                }
+                                Work::Cache => {
+                                    std::hint::black_box(cache_work(&cycle, CACHE_STEPS));
                                     Ok(())
                                 }
                             };
@@ -430,35 +477,39 @@ fn stream_scaling(
     });
     let times = times.into_iter().collect::<Result<Vec<_>>>()?;
     // per kind of work and thread count, the median round's wall; the first round is untimed
-    let rates = |kind: Work, per_thread: f64| -> Vec<f64> {
+    let walls = |kind: Work| -> Vec<f64> {
         let mut walls = vec![Vec::new(); k_max];
-        for (e, &(work, k)) in plan.iter().enumerate().skip(2 * k_max) {
+        for (e, &(work, k)) in plan.iter().enumerate().skip(3 * k_max) {
             if work == kind {
                 walls[k - 1].push(times[..k].iter().filter_map(|t| t[e]).fold(0f64, f64::max));
             }
         }
         walls
             .into_iter()
-            .enumerate()
-            .map(|(k, mut w)| {
+            .map(|mut w| {
                 w.sort_by(f64::total_cmp);
-                (k + 1) as f64 * per_thread / w[w.len() / 2].max(1e-12)
+                w[w.len() / 2].max(1e-12)
             })
             .collect()
     };
-    let engine_rates = rates(Work::Engine, samples.len() as f64);
-    let rows = engine_rates
-        .iter()
-        .enumerate()
-        .map(|(k, &rate)| StreamsRow { streams: k + 1, samples_per_s: rate, speedup: rate / engine_rates[0] })
-        .collect();
-    let register_rates = rates(Work::Registers, 1.0);
-    let ceiling = register_rates
-        .iter()
-        .enumerate()
-        .map(|(k, &rate)| ThreadsRow { threads: k + 1, speedup: rate / register_rates[0] })
-        .collect();
-    Ok((rows, ceiling))
+    let engine_walls = walls(Work::Engine);
+    let rate = |k: usize| (k + 1) as f64 * samples.len() as f64 / engine_walls[k];
+    let rows =
+        (0..k_max).map(|k| StreamsRow { streams: k + 1, samples_per_s: rate(k), speedup: rate(k) / rate(0) }).collect();
+    let loops = |kind: Work| -> Vec<ThreadsRow> {
+        let w = walls(kind);
+        (0..k_max)
+            .map(|k| ThreadsRow { threads: k + 1, ms_per_round: w[k] * 1e3, speedup: (k + 1) as f64 * w[0] / w[k] })
+            .collect()
+    };
+    Ok(HostScaling { streams: rows, register_loop: loops(Work::Registers), cache_loop: loops(Work::Cache) })
+}
+
+/// What [`stream_scaling`] measures: the engine's streams, and the host's own scaling beside them.
+struct HostScaling {
+    streams: Vec<StreamsRow>,
+    register_loop: Vec<ThreadsRow>,
+    cache_loop: Vec<ThreadsRow>,
 }
 
 /// The event-driven engine on the peer benchmark's network: `samples` random inputs, the median
@@ -481,7 +532,7 @@ pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineRepo
     let n = samples.len() as f64;
     let (latency, async_rate, async_max) = async_latency(&net, &samples)?;
     // the time per sample is the one-stream row's
-    let (streams, register_loop) = stream_scaling(&engine, &samples, repeats, streams)?;
+    let HostScaling { streams, register_loop, cache_loop } = stream_scaling(&engine, &samples, repeats, streams)?;
     let per_sample = 1.0 / streams[0].samples_per_s;
     Ok(EngineReport {
         network: "peers conv SNN: 2x60x80 -> conv5x5s2(8) -> LIF -> conv3x3s2(16) -> LIF -> dense(26) -> LIF, 20 steps, 1.5% input",
@@ -500,6 +551,7 @@ pub fn engine(samples: u64, repeats: usize, streams: usize) -> Result<EngineRepo
         async_input_events_per_s: async_rate,
         streams,
         register_loop,
+        cache_loop,
     })
 }
 
@@ -570,14 +622,38 @@ impl std::fmt::Display for EngineReport {
                     r.streams, r.samples_per_s, r.speedup
                 )?;
             }
-            let host: Vec<String> =
-                self.register_loop.iter().skip(1).map(|r| format!("{} threads {:.2}x", r.threads, r.speedup)).collect();
+            let host = |rows: &[ThreadsRow]| -> String {
+                rows.iter()
+                    .skip(1)
+                    .map(|r| format!("{} threads {:.2}x", r.threads, r.speedup))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
             writeln!(
                 f,
-                "the host in the same rounds, on arithmetic that touches no memory (vector registers only): {} one thread",
-                host.join(", ")
+                "the host in the same rounds: arithmetic in registers {} one thread; loads from each thread's own 1 MiB {} one thread",
+                host(&self.register_loop),
+                host(&self.cache_loop)
             )?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The cache walk's cycle visits every entry once before it comes back.
+    #[test]
+    fn the_cache_cycle_is_one_cycle_through_every_entry() {
+        for (n, seed) in [(1, 0), (2, 1), (7, 2), (1000, 3)] {
+            let next = super::cache_cycle(n, seed);
+            let (mut at, mut seen) = (0u32, vec![false; n]);
+            for _ in 0..n {
+                assert!(!seen[at as usize], "entry {at} of {n} visited twice");
+                seen[at as usize] = true;
+                at = next[at as usize];
+            }
+            assert_eq!(at, 0, "back at the start after {n} steps");
+        }
     }
 }
