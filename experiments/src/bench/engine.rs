@@ -243,8 +243,8 @@ pub struct EngineReport {
     pub streams: Vec<StreamsRow>,
     /// The host itself, in the same rounds as `streams`: 1 to N threads of arithmetic that
     /// touches no memory (vector multiply-adds held in registers), each row's speedup over one
-    /// thread. Where two threads of it fall short of 2x, the host shares its cores, and the
-    /// engine's streams cannot scale past it.
+    /// thread. Where two threads of it fall short of 2x, the host shares its cores in those
+    /// rounds.
     pub register_loop: Vec<ThreadsRow>,
     /// The same for 1 to N threads each reading its own 1 MiB buffer by dependent loads (eight
     /// walks at once), which the second-level cache serves: where two threads of it fall short
@@ -329,9 +329,9 @@ enum Work {
     Cache,
 }
 
-/// Steps of [`register_work`] per call: about 12 ms on a 2.6 GHz AVX2 core (4.1 ms for 2 million
-/// measured), about as long as a round of the engine's 64 samples at one stream (13 ms), so that
-/// both are as exposed to the host's interruptions.
+/// Steps of [`register_work`] per call: 12.3 ms a round on one thread of the machine of
+/// 2026-12-04 (AMD EPYC, AVX2), about as long as a round of the engine's 64 samples at one stream
+/// (13 ms), so that both are as exposed to the host's interruptions.
 const REGISTER_ITERATIONS: u64 = 6_000_000;
 
 /// Arithmetic that touches no memory: twelve independent chains of multiplies and adds, eight
@@ -354,10 +354,11 @@ fn register_work_avx2(iterations: u64) -> f32 {
 }
 
 /// Entries of each thread's buffer for [`cache_work`]: 1 MiB of `u32`, within a core's
-/// second-level cache here (2 MiB) and about twice the engine's state and maps per stream.
+/// second-level cache on the machine of 2026-12-04 (2 MiB).
 const CACHE_ENTRIES: usize = 1 << 18;
 
-/// Steps of each of [`cache_work`]'s eight walks per call: on the order of the engine's round.
+/// Steps of each of [`cache_work`]'s eight walks per call: 11.7 ms a round on one thread of that
+/// machine, about as long as the engine's round.
 const CACHE_STEPS: u64 = 1_500_000;
 
 /// A random cycle through `n` entries: `next[i]` is the entry after `i` in a seeded shuffle of
@@ -411,8 +412,9 @@ fn register_work_with(iterations: u64) -> f32 {
 /// `repeats` rounds, each timing 1, 2, .. `streams` streams in turn (so that the machine's drift
 /// hits every row alike), after one untimed round; per row the median round's wall time (the
 /// slowest stream's: a barrier starts them together). Each round also times 1 to `streams`
-/// threads of [`register_work`], so that the host's own scaling on arithmetic that touches no
-/// memory stands beside the engine's, measured in the same rounds (the second list).
+/// threads of [`register_work`] and of [`cache_work`], so that the host's own scaling, on
+/// arithmetic that touches no memory and on loads from a thread's own cache-sized buffer, stands
+/// beside the engine's, measured in the same rounds.
 ///
 /// The threads live through every round, as a server's workers would: a thread spawned per
 /// round starts on its parent's core and waits for the scheduler to move it, which in a round
