@@ -329,6 +329,9 @@ enum Work {
     Cache,
 }
 
+/// Every kind of [`Work`], in the order each round runs them.
+const WORKS: [Work; 3] = [Work::Engine, Work::Registers, Work::Cache];
+
 /// Steps of [`register_work`] per call: 12.3 ms a round on one thread of the machine of
 /// 2026-12-04 (AMD EPYC, AVX2), about as long as a round of the engine's 64 samples at one stream
 /// (13 ms), so that both are as exposed to the host's interruptions.
@@ -423,9 +426,7 @@ fn stream_scaling(engine: &Engine, samples: &[Vec<(i64, u32)>], repeats: usize, 
     let k_max = streams.max(1);
     // every round's rows in turn: what runs, on how many threads at once
     let plan: Vec<(Work, usize)> = (0..repeats.max(1) + 1)
-        .flat_map(|_| {
-            [Work::Engine, Work::Registers, Work::Cache].into_iter().flat_map(move |w| (1..=k_max).map(move |k| (w, k)))
-        })
+        .flat_map(|_| WORKS.into_iter().flat_map(move |w| (1..=k_max).map(move |k| (w, k))))
         .collect();
     let start = std::sync::Barrier::new(k_max + 1);
     let done = std::sync::Barrier::new(k_max + 1);
@@ -481,7 +482,7 @@ fn stream_scaling(engine: &Engine, samples: &[Vec<(i64, u32)>], repeats: usize, 
     // per kind of work and thread count, the median round's wall; the first round is untimed
     let walls = |kind: Work| -> Vec<f64> {
         let mut walls = vec![Vec::new(); k_max];
-        for (e, &(work, k)) in plan.iter().enumerate().skip(3 * k_max) {
+        for (e, &(work, k)) in plan.iter().enumerate().skip(WORKS.len() * k_max) {
             if work == kind {
                 walls[k - 1].push(times[..k].iter().filter_map(|t| t[e]).fold(0f64, f64::max));
             }
