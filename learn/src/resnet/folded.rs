@@ -8,7 +8,10 @@
 //! [`super::Resnet::forward`] in evaluation mode (tested to 1e-5 of the logit, every path).
 //!
 //! One image runs on the calling thread; [`FoldedResnet::logits_batch`] spreads a batch's images
-//! over rayon's threads.
+//! over rayon's threads, and takes each thread's share of them through the last blocks together
+//! where those are small in area and wide in channels (ResNet-34's: one product per convolution
+//! for the group, so that its weights are read once, not once an image), with the same logits to
+//! the bit.
 
 use super::ResnetConfig;
 use crate::error::{Error, Result};
@@ -61,6 +64,22 @@ pub const SPARSE_BELOW_DIRECT: f64 = 0.08;
 /// preset's dense stem ran in 1.6 ms a window with it against 2.1 ms with 256 KiB, the lite
 /// preset's alike within the machine's noise).
 const COL_TILE_FLOATS: usize = 256 * 1024;
+
+/// A block runs on a group of images at once ([`FoldedResnet::logits_batch`]) when its
+/// convolutions' outputs are fewer than this many positions an image and none of them takes the
+/// direct path: there a layer's weights (ResNet-34's last stage: 9.4 MB a convolution) would be
+/// read once an image for a product of a few dozen columns. Set on the `paper` preset (2026-12-04,
+/// `braille bench --model models/nominal/resnet-paper-normaug.safetensors --batch 32 --threads 2
+/// --density 1`, one call each on a noisy host, ms a window, with [`COL_GROUP_FLOATS`] at 1 MiB):
+/// 64 and 128 positions (both the last two stages: the spread is the host's) 14.4 and 15.5, 256
+/// (the last three) 15.1; 16 (the last stage alone) 15.3 with 8 MiB of columns; every block a
+/// window at a time 16.0.
+const GROUP_BELOW_POSITIONS: usize = 64;
+
+/// The most floats of im2col columns made at once for a group of images (1 MiB, within a core's
+/// second-level cache; the same command with 64 positions gave 16.3 ms a window with 8 MiB, 14.9
+/// with 2 MiB, and 22.2 with 512 KiB in one call on the noisy host).
+const COL_GROUP_FLOATS: usize = 256 * 1024;
 
 /// The output height or width of a convolution or pooling.
 fn out_len(n: usize, k: usize, stride: usize, pad: usize) -> usize {
@@ -149,10 +168,7 @@ impl Conv {
     ) -> (usize, usize) {
         // `direct`: the network's switch; the layer takes the direct path if it also qualifies
         let (oh, ow) = (out_len(h, self.k, self.stride, self.pad), out_len(w, self.k, self.stride, self.pad));
-        let direct = direct
-            && self.c_out.is_multiple_of(8)
-            && self.c_out <= super::direct::MAX_CHANNELS
-            && ow >= super::direct::MIN_ROW;
+        let direct = self.takes_direct(w, direct);
         if residual.is_none() && self.k > 1 {
             let len = self.c_in * h * w;
             let below = if direct { SPARSE_BELOW_DIRECT } else { SPARSE_BELOW };
@@ -160,21 +176,7 @@ impl Conv {
                 return self.forward_scatter(nz, (h, w), out, col, relu);
             }
         }
-        let n = oh * ow;
-        out.clear();
-        match residual {
-            Some(r) => {
-                out.extend_from_slice(&r[..self.c_out * n]);
-                for (row, b) in out.chunks_exact_mut(n).zip(&self.bias) {
-                    row.iter_mut().for_each(|v| *v += b);
-                }
-            }
-            None => {
-                for b in &self.bias {
-                    out.extend(std::iter::repeat_n(*b, n));
-                }
-            }
-        }
+        self.start_output(out, oh * ow, residual);
         if direct {
             self.convolve_direct(x, (h, w), (oh, ow), out, col);
         } else {
@@ -233,57 +235,164 @@ impl Conv {
                 if col.len() < kk * nt {
                     col.resize(kk * nt, 0.0);
                 }
-                im2col(x, (self.c_in, h, w), (self.k, self.stride, self.pad), (oy0, oy1, ow), &mut col[..kk * nt]);
+                im2col(
+                    (x, h * w),
+                    (self.c_in, h, w),
+                    (self.k, self.stride, self.pad),
+                    (oy0, oy1, ow),
+                    (&mut col[..kk * nt], nt),
+                );
                 (&col[..kk * nt], nt)
             };
-            // SAFETY: row-major matrices of the sizes given: the weights c_out x kk, `rhs` kk x nt
-            // (row stride `rhs_rs`), the destination c_out x nt inside `out` (row stride n,
-            // starting at column oy0 * ow), all within the slices' lengths above.
-            unsafe {
-                gemm::gemm(
-                    self.c_out,
-                    nt,
-                    kk,
-                    out.as_mut_ptr().add(oy0 * ow),
-                    1,
-                    n as isize,
-                    true,
-                    self.weight.as_ptr(),
-                    1,
-                    kk as isize,
-                    rhs.as_ptr(),
-                    1,
-                    rhs_rs as isize,
-                    1.0,
-                    1.0,
-                    false,
-                    false,
-                    false,
-                    gemm::Parallelism::None,
-                );
+            self.add_product((out, oy0 * ow, n), nt, (rhs, rhs_rs));
+        }
+    }
+
+    /// `out` (`c_out` rows of `n`) set to `residual` plus the bias, or to the bias alone.
+    fn start_output(&self, out: &mut Vec<f32>, n: usize, residual: Option<&[f32]>) {
+        out.clear();
+        match residual {
+            Some(r) => {
+                out.extend_from_slice(&r[..self.c_out * n]);
+                for (row, b) in out.chunks_exact_mut(n).zip(&self.bias) {
+                    row.iter_mut().for_each(|v| *v += b);
+                }
             }
+            None => {
+                for b in &self.bias {
+                    out.extend(std::iter::repeat_n(*b, n));
+                }
+            }
+        }
+    }
+
+    /// Adds the weights (`c_out x kk`) times `rhs` (`kk x cols`, rows `rhs_rs` apart) into the
+    /// `c_out x cols` block of `out` whose first row starts at `at`, rows `out_rs` apart, by one
+    /// `gemm` product on this thread.
+    fn add_product(&self, (out, at, out_rs): (&mut [f32], usize, usize), cols: usize, (rhs, rhs_rs): (&[f32], usize)) {
+        let kk = self.c_in * self.k * self.k;
+        if cols == 0 || self.c_out == 0 {
+            return;
+        }
+        assert!(
+            cols <= out_rs && at + (self.c_out - 1) * out_rs + cols <= out.len(),
+            "the product's destination lies within the output"
+        );
+        assert!(kk == 0 || (cols <= rhs_rs && (kk - 1) * rhs_rs + cols <= rhs.len()), "its columns within `rhs`");
+        // SAFETY: row-major matrices of the sizes given, within the slices (just checked): the
+        // weights c_out x kk (`weight.len() == c_out * kk`), `rhs` kk x cols, the destination
+        // c_out x cols.
+        unsafe {
+            gemm::gemm(
+                self.c_out,
+                cols,
+                kk,
+                out.as_mut_ptr().add(at),
+                1,
+                out_rs as isize,
+                true,
+                self.weight.as_ptr(),
+                1,
+                kk as isize,
+                rhs.as_ptr(),
+                1,
+                rhs_rs as isize,
+                1.0,
+                1.0,
+                false,
+                false,
+                false,
+                gemm::Parallelism::None,
+            );
         }
     }
 }
 
+impl Conv {
+    /// Whether [`Conv::forward`] on an input of `w` columns takes the direct path (given the
+    /// network's switch `direct`).
+    fn takes_direct(&self, w: usize, direct: bool) -> bool {
+        direct
+            && self.c_out.is_multiple_of(8)
+            && self.c_out <= super::direct::MAX_CHANNELS
+            && out_len(w, self.k, self.stride, self.pad) >= super::direct::MIN_ROW
+    }
+
+    /// [`Conv::forward`] of `g` images at once, by im2col and `gemm`: `x` is `[c_in][g][h * w]`
+    /// (each channel's planes of the images side by side), `out` and `residual` are `[c_out][g][oh
+    /// * ow]`. Each image's columns are made in turn and one product takes as many images as
+    /// `col_floats` of columns hold ([`COL_GROUP_FLOATS`] but in tests), so that a layer's weights
+    /// are read once for all of them, not once an image. Each output is the same sum in the same
+    /// order as [`Conv::forward`] makes it by its product (`gemm` blocks the inner dimension by
+    /// the cache's size alone).
+    #[allow(clippy::too_many_arguments)]
+    fn forward_group(
+        &self,
+        x: &[f32],
+        g: usize,
+        (h, w): (usize, usize),
+        out: &mut Vec<f32>,
+        col: &mut Vec<f32>,
+        residual: Option<&[f32]>,
+        relu: bool,
+        col_floats: usize,
+    ) -> (usize, usize) {
+        let (oh, ow) = (out_len(h, self.k, self.stride, self.pad), out_len(w, self.k, self.stride, self.pad));
+        let (n, hw) = (oh * ow, h * w);
+        let gn = g * n;
+        self.start_output(out, gn, residual);
+        let kk = self.c_in * self.k * self.k;
+        let pointwise = self.k == 1 && self.stride == 1 && self.pad == 0;
+        let per = (col_floats / (kk * n).max(1)).clamp(1, g.max(1));
+        for j0 in (0..g).step_by(per) {
+            let j1 = (j0 + per).min(g);
+            let cols = (j1 - j0) * n;
+            let (rhs, rhs_rs): (&[f32], usize) = if pointwise {
+                (&x[j0 * n..], gn)
+            } else {
+                if col.len() < kk * cols {
+                    col.resize(kk * cols, 0.0);
+                }
+                for j in j0..j1 {
+                    im2col(
+                        (&x[j * hw..], g * hw),
+                        (self.c_in, h, w),
+                        (self.k, self.stride, self.pad),
+                        (0, oh, ow),
+                        (&mut col[(j - j0) * n..kk * cols], cols),
+                    );
+                }
+                (&col[..kk * cols], cols)
+            };
+            self.add_product((out, j0 * n, gn), cols, (rhs, rhs_rs));
+        }
+        if relu {
+            out.iter_mut().for_each(|v| *v = v.max(0.0));
+        }
+        (oh, ow)
+    }
+}
+
 /// `col[(c * k + ky) * k + kx][(oy - oy0) * ow + ox] = x[c][oy * s - p + ky][ox * s - p + kx]`
-/// (0 outside) for the output rows `oy0..oy1`.
+/// (0 outside) for the output rows `oy0..oy1`; channel `c`'s plane starts at `x[c * x_cs]`, and
+/// each row of `col` at `col_rs` past the last (`h * w` and the columns' count for one image; a
+/// group's stride for one image's share of [`Conv::forward_group`]'s columns).
 fn im2col(
-    x: &[f32],
+    (x, x_cs): (&[f32], usize),
     (c_in, h, w): (usize, usize, usize),
     (k, s, p): (usize, usize, usize),
     (oy0, oy1, ow): (usize, usize, usize),
-    col: &mut [f32],
+    (col, col_rs): (&mut [f32], usize),
 ) {
     let n = (oy1 - oy0) * ow;
     for c in 0..c_in {
-        let plane = &x[c * h * w..(c + 1) * h * w];
+        let plane = &x[c * x_cs..][..h * w];
         for ky in 0..k {
             for kx in 0..k {
                 // the outputs whose column falls inside the input: ox * s + kx - p in [0, w)
                 let lo = (p.saturating_sub(kx)).div_ceil(s).min(ow);
                 let hi = if w + p > kx { ((w + p - kx - 1) / s + 1).min(ow) } else { 0 }.max(lo);
-                let row = &mut col[((c * k + ky) * k + kx) * n..][..n];
+                let row = &mut col[((c * k + ky) * k + kx) * col_rs..][..n];
                 for oy in oy0..oy1 {
                     let iy = (oy * s + ky) as isize - p as isize;
                     let dst = &mut row[(oy - oy0) * ow..(oy - oy0 + 1) * ow];
@@ -556,6 +665,9 @@ struct Scratch {
     skip: Vec<f32>,
     col: Vec<f32>,
     nz: Vec<(u32, f32)>,
+    /// A group's activations (`[c][g][h * w]`): a block's input, its first convolution's output,
+    /// its output, and the shortcut ([`FoldedResnet::forward_group`]).
+    group: [Vec<f32>; 4],
 }
 
 thread_local! {
@@ -667,6 +779,33 @@ impl FoldedResnet {
 
     /// The logits of one image (`[channels, height, width]`, C order), on this thread.
     pub fn logits(&self, image: &[f32]) -> Result<Vec<f32>> {
+        self.check(image)?;
+        Ok(SCRATCH.with(|s| self.forward(image, &mut s.borrow_mut())))
+    }
+
+    /// The logits of each image, spread over rayon's threads (one image stays on the calling
+    /// thread). Where the network's last blocks are small in area and wide in channels (ResNet-34's
+    /// `paper` preset), each thread takes a group of the images through those blocks together, a
+    /// product per convolution for the whole group ([`Conv::forward_group`]); the logits are the
+    /// same as [`FoldedResnet::logits`] gives each image.
+    pub fn logits_batch(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
+        let from = self.group_from();
+        if images.len() < 2 || from == self.blocks.len() {
+            return images.par_iter().map(|im| self.logits(im)).collect();
+        }
+        for im in images {
+            self.check(im)?;
+        }
+        let per = images.len().div_ceil(rayon::current_num_threads().max(1));
+        let groups: Vec<Vec<Vec<f32>>> = images
+            .par_chunks(per.max(1))
+            .map(|group| SCRATCH.with(|s| self.forward_group(group, from, &mut s.borrow_mut())))
+            .collect();
+        Ok(groups.into_iter().flatten().collect())
+    }
+
+    /// An error unless `image` is one input of this network.
+    fn check(&self, image: &[f32]) -> Result<()> {
         let [c, h, w] = self.input;
         if image.len() != c * h * w {
             return Err(Error::Tensors {
@@ -674,25 +813,48 @@ impl FoldedResnet {
                 what: format!("an image of {} values where the network takes {c}x{h}x{w}", image.len()),
             });
         }
-        Ok(SCRATCH.with(|s| self.forward(image, &mut s.borrow_mut())))
+        Ok(())
     }
 
-    /// The logits of each image, the images spread over rayon's threads (one image stays on the
-    /// calling thread).
-    pub fn logits_batch(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
-        if images.len() < 2 {
-            return images.iter().map(|im| self.logits(im)).collect();
+    /// The first block from which on every block runs on a group of images
+    /// ([`GROUP_BELOW_POSITIONS`]); the number of blocks when none does.
+    fn group_from(&self) -> usize {
+        let [_, h, w] = self.input;
+        let st = &self.stem;
+        let stem = (out_len(h, st.k, st.stride, st.pad), out_len(w, st.k, st.stride, st.pad));
+        let (mut h, mut w) = (out_len(stem.0, 3, 2, 1), out_len(stem.1, 3, 2, 1));
+        let mut from = self.blocks.len();
+        for (i, blk) in self.blocks.iter().enumerate() {
+            let c = &blk.conv1;
+            let (oh, ow) = (out_len(h, c.k, c.stride, c.pad), out_len(w, c.k, c.stride, c.pad));
+            let grouped = oh * ow < GROUP_BELOW_POSITIONS
+                && !c.takes_direct(w, self.direct)
+                && !blk.conv2.takes_direct(ow, self.direct)
+                && !blk.down.as_ref().is_some_and(|d| d.takes_direct(w, self.direct));
+            if !grouped {
+                from = self.blocks.len();
+            } else if from == self.blocks.len() {
+                from = i;
+            }
+            (h, w) = (oh, ow);
         }
-        images.par_iter().map(|im| self.logits(im)).collect()
+        from
     }
 
     fn forward(&self, image: &[f32], s: &mut Scratch) -> Vec<f32> {
+        let (h, w) = self.trunk(image, s, self.blocks.len());
+        self.head(&s.a, h * w, 1, 0)
+    }
+
+    /// The stem, the pooling and blocks `..upto` on one image; leaves the output in `s.a` and
+    /// returns its height and width.
+    fn trunk(&self, image: &[f32], s: &mut Scratch, upto: usize) -> (usize, usize) {
         let [_, h, w] = self.input;
-        let Scratch { a, b, c, skip, col, nz } = s;
+        let Scratch { a, b, c, skip, col, nz, .. } = s;
         let (h, w) = self.stem.forward(image, (h, w), b, (col, nz), None, true, self.direct);
         let (mut h, mut w) = max_pool(b, (self.stem.c_out, h, w), a);
         // `a` holds the block's input
-        for blk in &self.blocks {
+        for blk in &self.blocks[..upto] {
             let (h1, w1) = blk.conv1.forward(a, (h, w), b, (col, nz), None, true, self.direct);
             let residual: &[f32] = match &blk.down {
                 Some(d) => {
@@ -705,9 +867,56 @@ impl FoldedResnet {
             std::mem::swap(a, c);
             (h, w) = (h1, w1);
         }
+        (h, w)
+    }
+
+    /// `images` each through the blocks before `from` alone, then through the rest together
+    /// ([`Conv::forward_group`]); their logits.
+    fn forward_group(&self, images: &[&[f32]], from: usize, s: &mut Scratch) -> Vec<Vec<f32>> {
+        let g = images.len();
+        if g < 2 {
+            return images.iter().map(|im| self.forward(im, s)).collect();
+        }
+        // each image's output of block `from - 1` into the group's layout, `[c][g][h * w]`
+        let mut shape = (0, 0, 0);
+        for (j, im) in images.iter().enumerate() {
+            let (h, w) = self.trunk(im, s, from);
+            let ch = from.checked_sub(1).map_or(self.stem.c_out, |i| self.blocks[i].conv2.c_out);
+            let n = h * w;
+            if j == 0 {
+                shape = (ch, h, w);
+                s.group[0].clear();
+                s.group[0].resize(ch * g * n, 0.0);
+            }
+            for c in 0..ch {
+                s.group[0][(c * g + j) * n..][..n].copy_from_slice(&s.a[c * n..][..n]);
+            }
+        }
+        let (_, mut h, mut w) = shape;
+        let [a, b, c, skip] = &mut s.group;
+        let col = &mut s.col;
+        for blk in &self.blocks[from..] {
+            let (h1, w1) = blk.conv1.forward_group(a, g, (h, w), b, col, None, true, COL_GROUP_FLOATS);
+            let residual: &[f32] = match &blk.down {
+                Some(d) => {
+                    d.forward_group(a, g, (h, w), skip, col, None, false, COL_GROUP_FLOATS);
+                    skip
+                }
+                None => a,
+            };
+            blk.conv2.forward_group(b, g, (h1, w1), c, col, Some(residual), true, COL_GROUP_FLOATS);
+            std::mem::swap(a, c);
+            (h, w) = (h1, w1);
+        }
+        (0..g).map(|j| self.head(a, h * w, g, j)).collect()
+    }
+
+    /// The global average pooling and the fully connected layers of image `j` of the `g` whose
+    /// last block's output `a` holds (`[c][g][n]`).
+    fn head(&self, a: &[f32], n: usize, g: usize, j: usize) -> Vec<f32> {
         let ch = self.blocks.last().map_or(self.stem.c_out, |b| b.conv2.c_out);
-        let hw = (h * w) as f32;
-        let mut x: Vec<f32> = a.chunks_exact(h * w).take(ch).map(|p| p.iter().sum::<f32>() / hw).collect();
+        let hw = n as f32;
+        let mut x: Vec<f32> = (0..ch).map(|c| a[(c * g + j) * n..][..n].iter().sum::<f32>() / hw).collect();
         let last = self.fc.len() - 1;
         for (k, l) in self.fc.iter().enumerate() {
             let mut y = l.bias.clone();
@@ -793,6 +1002,71 @@ mod tests {
                             f.direct_convolution()
                         );
                     }
+                }
+            }
+        }
+    }
+
+    /// A batch through the grouped blocks gives each image the logits it gets alone, to the bit:
+    /// groups of 2 to 7 images (batches spread over 1 to 3 threads), blocks with and without a
+    /// shortcut convolution, a pointwise shortcut at stride 1 among them, with the direct
+    /// convolutions before the grouped blocks and without, columns made for the group at once
+    /// and in several products.
+    #[test]
+    fn grouped_blocks_give_each_image_its_own_logits() {
+        let wide = ResnetConfig {
+            stem_channels: 8,
+            stages: vec![(8, 1), (48, 2), (40, 1), (64, 1)],
+            ..ResnetConfig::lite([3, 40, 36], 7)
+        };
+        for (cfg, seed) in [(wide, 5), (ResnetConfig::lite([6, 20, 24], 26), 6)] {
+            let m = model(&cfg, seed);
+            let base = FoldedResnet::from_model(&cfg, &m).unwrap();
+            let mut ims = images(cfg.input, 4, 0.02, seed + 10);
+            ims.extend(images(cfg.input, 3, 0.7, seed + 20));
+            let refs: Vec<&[f32]> = ims.iter().map(Vec::as_slice).collect();
+            for direct in [true, false] {
+                let f = base.clone().with_direct_convolution(direct);
+                assert!(f.group_from() < f.blocks.len(), "{cfg:?}: the test needs grouped blocks");
+                let alone: Vec<Vec<f32>> = refs.iter().map(|im| f.logits(im).unwrap()).collect();
+                for threads in 1..=3 {
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                    for n in [2, 5, 7] {
+                        let got = pool.install(|| f.logits_batch(&refs[..n])).unwrap();
+                        for (g, a) in got.iter().zip(&alone) {
+                            let (g, a): (Vec<u32>, Vec<u32>) =
+                                (g.iter().map(|v| v.to_bits()).collect(), a.iter().map(|v| v.to_bits()).collect());
+                            assert_eq!(g, a, "{cfg:?}, direct {direct}, {threads} threads, batch {n}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A group's columns in several products (one image's, two images', three) give the same
+    /// outputs as in one product, with and without a residual; and a pointwise convolution's.
+    #[test]
+    fn grouped_columns_in_tiles_equal_one_product() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut conv = |c_in: usize, c_out: usize, k: usize, stride: usize, pad: usize| {
+            let weight: Vec<f32> = (0..c_out * c_in * k * k).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let bias: Vec<f32> = (0..c_out).map(|_| rng.random_range(-0.5..0.5)).collect();
+            Conv { c_in, c_out, k, stride, pad, weight_by_input: Vec::new(), weight, bias }
+        };
+        let (g, (h, w)) = (5, (7, 6));
+        for c in [conv(6, 16, 3, 1, 1), conv(6, 24, 3, 2, 1), conv(6, 8, 1, 1, 0), conv(6, 8, 1, 2, 0)] {
+            let x: Vec<f32> = (0..c.c_in * g * h * w).map(|k| ((k * 37 % 101) as f32 - 50.0) / 25.0).collect();
+            let (oh, ow) = (out_len(h, c.k, c.stride, c.pad), out_len(w, c.k, c.stride, c.pad));
+            let r: Vec<f32> = (0..c.c_out * g * oh * ow).map(|k| (k % 13) as f32 / 7.0 - 1.0).collect();
+            for residual in [None, Some(r.as_slice())] {
+                let (mut whole, mut col) = (Vec::new(), Vec::new());
+                c.forward_group(&x, g, (h, w), &mut whole, &mut col, residual, true, usize::MAX);
+                let one = c.c_in * c.k * c.k * oh * ow;
+                for images in 1..=3 {
+                    let mut tiled = Vec::new();
+                    c.forward_group(&x, g, (h, w), &mut tiled, &mut col, residual, true, images * one);
+                    assert_eq!(whole, tiled, "{images} images a product, k {}, stride {}", c.k, c.stride);
                 }
             }
         }
