@@ -66,15 +66,24 @@ pub const SPARSE_BELOW_DIRECT: f64 = 0.08;
 const COL_TILE_FLOATS: usize = 256 * 1024;
 
 /// A block runs on a group of images at once ([`FoldedResnet::logits_batch`]) when its
-/// convolutions' outputs are fewer than this many positions an image and none of them takes the
-/// direct path: there a layer's weights (ResNet-34's last stage: 9.4 MB a convolution) would be
-/// read once an image for a product of a few dozen columns. Set on the `paper` preset (2026-12-04,
-/// `braille bench --model models/nominal/resnet-paper-normaug.safetensors --batch 32 --threads 2
-/// --density 1`, one call each on a noisy host, ms a window, with [`COL_GROUP_FLOATS`] at 1 MiB):
-/// 64 and 128 positions (both the last two stages: the spread is the host's) 14.4 and 15.5, 256
-/// (the last three) 15.1; 16 (the last stage alone) 15.3 with 8 MiB of columns; every block a
-/// window at a time 16.0.
+/// convolutions' outputs are fewer than this many positions an image (and at least two), and
+/// their channels more than [`GROUP_ABOVE_CHANNELS`]: there a layer's weights (ResNet-34's last
+/// stage: 9.4 MB a convolution) would be read once an image for a product of a few dozen columns.
+/// Set on the `paper` preset (2026-12-04, `braille bench --model
+/// models/nominal/resnet-paper-normaug.safetensors --batch 32 --threads 2 --density 1`, one call
+/// each on a noisy host, ms a window, with [`COL_GROUP_FLOATS`] at 1 MiB): 64 and 128 positions
+/// (both the last two stages: the spread is the host's) 14.4 and 15.5, 256 (the last three)
+/// 15.1; 16 (the last stage alone) 15.3 with 8 MiB of columns; every block a window at a time
+/// 16.0.
 const GROUP_BELOW_POSITIONS: usize = 64;
+
+/// The channels a grouped block's convolutions exceed. `gemm` splits a product's inner dimension
+/// by the cache's size, except in a product of at most 64 rows and 64 columns (or of one column),
+/// which it splits otherwise: with more than 64 output channels an image's product and a group's
+/// take the same split, so each output is the same sum in the same order and the group's logits
+/// are each image's own to the bit. Narrower layers hold small weights, where grouping gains
+/// little.
+const GROUP_ABOVE_CHANNELS: usize = 64;
 
 /// The most floats of im2col columns made at once for a group of images (1 MiB, within a core's
 /// second-level cache; the same command with 64 positions gave 16.3 ms a window with 8 MiB, 14.9
@@ -319,12 +328,12 @@ impl Conv {
     }
 
     /// [`Conv::forward`] of `g` images at once, by im2col and `gemm`: `x` is `[c_in][g][h * w]`
-    /// (each channel's planes of the images side by side), `out` and `residual` are `[c_out][g][oh
-    /// * ow]`. Each image's columns are made in turn and one product takes as many images as
-    /// `col_floats` of columns hold ([`COL_GROUP_FLOATS`] but in tests), so that a layer's weights
-    /// are read once for all of them, not once an image. Each output is the same sum in the same
-    /// order as [`Conv::forward`] makes it by its product (`gemm` blocks the inner dimension by
-    /// the cache's size alone).
+    /// (each channel's planes of the images side by side), `out` and `residual` are
+    /// `[c_out][g][oh * ow]`. Each image's columns are made in turn and one product takes as many
+    /// images as `col_floats` of columns hold ([`COL_GROUP_FLOATS`] but in tests), so that a
+    /// layer's weights are read once for all of them, not once an image. With more than
+    /// [`GROUP_ABOVE_CHANNELS`] and at least two positions an image, each output is the sum
+    /// [`Conv::forward`] makes by its product, to the bit; else the two agree to float rounding.
     #[allow(clippy::too_many_arguments)]
     fn forward_group(
         &self,
@@ -817,7 +826,7 @@ impl FoldedResnet {
     }
 
     /// The first block from which on every block runs on a group of images
-    /// ([`GROUP_BELOW_POSITIONS`]); the number of blocks when none does.
+    /// ([`GROUP_BELOW_POSITIONS`], [`GROUP_ABOVE_CHANNELS`]); the number of blocks when none does.
     fn group_from(&self) -> usize {
         let [_, h, w] = self.input;
         let st = &self.stem;
@@ -827,10 +836,11 @@ impl FoldedResnet {
         for (i, blk) in self.blocks.iter().enumerate() {
             let c = &blk.conv1;
             let (oh, ow) = (out_len(h, c.k, c.stride, c.pad), out_len(w, c.k, c.stride, c.pad));
-            let grouped = oh * ow < GROUP_BELOW_POSITIONS
-                && !c.takes_direct(w, self.direct)
-                && !blk.conv2.takes_direct(ow, self.direct)
-                && !blk.down.as_ref().is_some_and(|d| d.takes_direct(w, self.direct));
+            let wide = |c: &Conv, w: usize| c.c_out > GROUP_ABOVE_CHANNELS && !c.takes_direct(w, self.direct);
+            let grouped = (2..GROUP_BELOW_POSITIONS).contains(&(oh * ow))
+                && wide(c, w)
+                && wide(&blk.conv2, ow)
+                && blk.down.as_ref().is_none_or(|d| wide(d, w));
             if !grouped {
                 from = self.blocks.len();
             } else if from == self.blocks.len() {
@@ -1010,16 +1020,24 @@ mod tests {
     /// A batch through the grouped blocks gives each image the logits it gets alone, to the bit:
     /// groups of 2 to 7 images (batches spread over 1 to 3 threads), blocks with and without a
     /// shortcut convolution, a pointwise shortcut at stride 1 among them, with the direct
-    /// convolutions before the grouped blocks and without, columns made for the group at once
-    /// and in several products.
+    /// convolutions before the grouped blocks and without, and every block grouped.
     #[test]
     fn grouped_blocks_give_each_image_its_own_logits() {
+        // 10x9, then 5x5 and 3x3 positions grouped (72 and 80 channels: the products' inner
+        // dimension up to 720, split by `gemm`; a group's product of up to 175 columns)
         let wide = ResnetConfig {
             stem_channels: 8,
-            stages: vec![(8, 1), (48, 2), (40, 1), (64, 1)],
+            stages: vec![(8, 1), (72, 2), (80, 1)],
             ..ResnetConfig::lite([3, 40, 36], 7)
         };
-        for (cfg, seed) in [(wide, 5), (ResnetConfig::lite([6, 20, 24], 26), 6)] {
+        // every block grouped (4x4 and 2x2 positions), the first one's shortcut pointwise
+        let all =
+            ResnetConfig { stem_channels: 8, stages: vec![(72, 1), (96, 1)], ..ResnetConfig::tiny([3, 16, 16], 5) };
+        // 16 and 32 channels: no block grouped, as gemm would split their products otherwise
+        let narrow = ResnetConfig::lite([6, 20, 24], 26);
+        let f = FoldedResnet::from_model(&narrow, &model(&narrow, 4)).unwrap().with_direct_convolution(false);
+        assert_eq!(f.group_from(), f.blocks.len());
+        for (cfg, seed) in [(wide, 5), (all, 6)] {
             let m = model(&cfg, seed);
             let base = FoldedResnet::from_model(&cfg, &m).unwrap();
             let mut ims = images(cfg.input, 4, 0.02, seed + 10);
