@@ -795,7 +795,7 @@ impl FoldedResnet {
     /// The logits of each image, spread over rayon's threads (one image stays on the calling
     /// thread). Where the network's last blocks are small in area and wide in channels (ResNet-34's
     /// `paper` preset), each thread takes a group of the images through those blocks together, a
-    /// product per convolution for the whole group ([`Conv::forward_group`]); the logits are the
+    /// product per convolution for the whole group (`Conv::forward_group`); the logits are the
     /// same as [`FoldedResnet::logits`] gives each image.
     pub fn logits_batch(&self, images: &[&[f32]]) -> Result<Vec<Vec<f32>>> {
         let from = self.group_from();
