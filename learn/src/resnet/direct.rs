@@ -26,10 +26,14 @@ pub(super) const MIN_ROW: usize = 8;
 /// too, its `paper` preset ran slower than by im2col and `gemm` (2026-11-28, one run of
 /// `scripts/peers/resnet.sh`: 45.6 against 35.8 ms a window on a window's sparsity, 47.5 against
 /// 45.6 dense, batch 1; weak evidence on a machine whose noise within one call reached 1.7x the
-/// same morning, and not measured layer by layer), where the 8-32 channels of `tiny` and `lite`
-/// ran 1.4-4x faster. The likely cause: a chunk of 16 channels' weights for every input channel
-/// and offset outgrows the first-level cache, which `gemm`'s packing avoids.
-pub(super) const MAX_CHANNELS: usize = 32;
+/// same morning, and not measured layer by layer), and the limit was set at 32. Measured again on
+/// 2026-12-04 (AMD EPYC; `braille bench --model models/nominal/resnet-paper-normaug.safetensors
+/// --batch 32 --threads 2 --samples 32 --density 1`, alternated with the build at 32): at 64 (the
+/// stem and the first stage direct) lower in 8 of 8 pairs at batch 1 (29.0-30.7 against 31.6-34.3
+/// ms a window in the last five) and in 7 of 8 at batch 32 (12.4-13.3 against 14.4-16.1); at 128
+/// (the second stage too) no lower than at 64 in four pairs (28.2-31.1 against 28.5-34.0 and
+/// 12.3-17.6 against 12.4-13.6).
+pub(super) const MAX_CHANNELS: usize = 64;
 
 /// Whether this CPU runs [`conv`] (AVX2 and FMA, detected at run time; std caches the answer).
 pub(super) fn available() -> bool {

@@ -992,6 +992,8 @@ mod tests {
             (ResnetConfig { stages: vec![(8, 2), (16, 2), (24, 1)], ..ResnetConfig::lite([3, 33, 29], 5) }, 3),
             // a stem whose im2col takes several tiles of output rows (32 rows, 27 a tile)
             (ResnetConfig::tiny([8, 64, 48], 3), 4),
+            // 64 channels direct (10x9), then 72 at 5x5: grouped in a batch
+            (ResnetConfig { stages: vec![(64, 1), (72, 1)], ..ResnetConfig::lite([3, 40, 36], 4) }, 5),
         ] {
             let m = model(&cfg, seed);
             let f = FoldedResnet::from_model(&cfg, &m).unwrap();
