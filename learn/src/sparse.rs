@@ -2017,7 +2017,6 @@ mod tests {
         vec![(a, Readout::MaxMembrane), (b, Readout::SpikeCount), (c, Readout::MaxMembrane)]
     }
 
-    /// Random input counts (C order) of `batch` samples over `steps` steps.
     /// Test case `case`'s weights (gain 3), a batch of three inputs of `steps` steps, and labels.
     #[allow(clippy::type_complexity)]
     fn case_data(
@@ -2033,6 +2032,7 @@ mod tests {
         (weights, batch, labels)
     }
 
+    /// Random input counts (C order) of `batch` samples over `steps` steps.
     fn inputs(seed: u64, batch: usize, steps: usize, n: usize, p: f64) -> Vec<Vec<(u32, u32, f32)>> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..batch)

@@ -356,6 +356,23 @@ fn register_work_avx2(iterations: u64) -> f32 {
     register_work_with(iterations)
 }
 
+#[inline(always)]
+fn register_work_with(iterations: u64) -> f32 {
+    let mut a = [[0f32; 8]; 12];
+    for (j, a) in a.iter_mut().enumerate() {
+        *a = [1.0 + j as f32 * 1e-3; 8];
+    }
+    let (m, c) = (std::hint::black_box(0.999_999_9f32), std::hint::black_box(1e-7f32));
+    for _ in 0..iterations {
+        for a in a.iter_mut() {
+            for x in a.iter_mut() {
+                *x = *x * m + c;
+            }
+        }
+    }
+    a.iter().map(|a| a[0]).sum()
+}
+
 /// Entries of each thread's buffer for [`cache_work`]: 1 MiB of `u32`, within a core's
 /// second-level cache on the machine of 2026-12-04 (2 MiB).
 const CACHE_ENTRIES: usize = 1 << 18;
@@ -392,23 +409,6 @@ fn cache_work(next: &[u32], steps: u64) -> [u32; 8] {
         }
     }
     at
-}
-
-#[inline(always)]
-fn register_work_with(iterations: u64) -> f32 {
-    let mut a = [[0f32; 8]; 12];
-    for (j, a) in a.iter_mut().enumerate() {
-        *a = [1.0 + j as f32 * 1e-3; 8];
-    }
-    let (m, c) = (std::hint::black_box(0.999_999_9f32), std::hint::black_box(1e-7f32));
-    for _ in 0..iterations {
-        for a in a.iter_mut() {
-            for x in a.iter_mut() {
-                *x = *x * m + c;
-            }
-        }
-    }
-    a.iter().map(|a| a[0]).sum()
 }
 
 /// 1 to `streams` streams at once, one per thread, each its own state through all the samples:

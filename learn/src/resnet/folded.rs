@@ -888,13 +888,12 @@ impl FoldedResnet {
             return images.iter().map(|im| self.forward(im, s)).collect();
         }
         // each image's output of block `from - 1` into the group's layout, `[c][g][h * w]`
-        let mut shape = (0, 0, 0);
+        let ch = from.checked_sub(1).map_or(self.stem.c_out, |i| self.blocks[i].conv2.c_out);
+        let (mut h, mut w) = (0, 0);
         for (j, im) in images.iter().enumerate() {
-            let (h, w) = self.trunk(im, s, from);
-            let ch = from.checked_sub(1).map_or(self.stem.c_out, |i| self.blocks[i].conv2.c_out);
+            (h, w) = self.trunk(im, s, from);
             let n = h * w;
             if j == 0 {
-                shape = (ch, h, w);
                 s.group[0].clear();
                 s.group[0].resize(ch * g * n, 0.0);
             }
@@ -902,7 +901,6 @@ impl FoldedResnet {
                 s.group[0][(c * g + j) * n..][..n].copy_from_slice(&s.a[c * n..][..n]);
             }
         }
-        let (_, mut h, mut w) = shape;
         let [a, b, c, skip] = &mut s.group;
         let col = &mut s.col;
         for blk in &self.blocks[from..] {
