@@ -56,6 +56,11 @@ pub(super) struct Compiled {
     pub(super) rec_span: Vec<(u32, u32)>,
     /// Recurrent bias, added from the stream's step 1 on.
     pub(super) rec_bias: Option<Vec<f32>>,
+    /// Stepped: a convolution with neurons and without recurrence whose next layer is a
+    /// convolution of 8 or 16 channels leaves a step's spikes in its buckets
+    /// (`LayerState::by_channel`), where the next layer's fan-in reads them in the canonical order,
+    /// instead of writing them out as canonical indices (set by `Engine::new`).
+    pub(super) spikes_in_buckets: bool,
     /// Every neuron is evaluated every step (bias, or a resting level above threshold).
     pub(super) every_step: bool,
     /// A leaky-integrator readout: keep each neuron's highest membrane.
@@ -108,7 +113,8 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
                     offsets.push(targets.len() as u32);
                 }
             }
-            let map = ConvTargets::new(ic * h * w, h * w, kh * kw * oc, offsets, targets);
+            let map =
+                ConvTargets::new([ic * h * w, h * w], kh * kw * oc, [out_hw[0] * out_hw[1], oc], offsets, targets);
             Fan::Conv { in_hw: [h, w], out_c: oc, out_hw, kernel: *kernel, stride: *stride, padding: *padding, wt, map }
         }
         Op::Pool { kind, in_shape, kernel, stride } => {
@@ -170,6 +176,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         rec_t,
         rec_span,
         rec_bias: l.recurrent_bias.clone(),
+        spikes_in_buckets: false,
         every_step,
         track_max: p.is_some_and(|p| p.kind == NeuronKind::Li),
         decay_table,

@@ -9,7 +9,8 @@ use super::{LayerState, Stats};
 use crate::neuron::{NeuronKind, NeuronParams};
 
 /// Stepped: updates the neurons that need it at step `t` (in ascending order) and collects the
-/// spikes (or, for identity layers, the outputs that carry a value) in `s.spikes`.
+/// spikes (or, for identity layers, the outputs that carry a value) in `s.spikes`; a layer with
+/// `spikes_in_buckets` leaves them in `s.by_channel` instead.
 ///
 /// Updating a neuron with zero input is exactly what the dense pass does to it, so the set
 /// evaluated may be a superset of the neurons touched: whole positions of a convolution, every
@@ -52,6 +53,9 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
             let plane = out_hw[0] * out_hw[1];
             let oc = *out_c;
             let mut by_channel = std::mem::take(&mut s.by_channel);
+            // emptied here, not after the spikes are taken out: a layer that leaves its spikes in
+            // the buckets (`spikes_in_buckets`) keeps them there for the next layer's fan-in
+            by_channel.clear();
             // LIF and IF without bias at 8 or 16 channels: one loop compiled for the width, which
             // walks the positions to update itself.
             let lanes = c.neurons.filter(|p| p.kind != NeuronKind::CubaLif && c.bias.is_none() && rec.is_none());
@@ -70,14 +74,15 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
                 }
             }
             // Canonical order: channel by channel, positions ascending.
-            for ch in 0..oc {
-                let offset = (ch * plane) as u32;
-                s.spikes.extend(by_channel.positions(ch).iter().map(|&pos| offset + pos));
-                if c.neurons.is_none() {
-                    s.values.extend_from_slice(by_channel.values(ch));
+            if !c.spikes_in_buckets {
+                for ch in 0..oc {
+                    let offset = (ch * plane) as u32;
+                    s.spikes.extend(by_channel.positions(ch).iter().map(|&pos| offset + pos));
+                    if c.neurons.is_none() {
+                        s.values.extend_from_slice(by_channel.values(ch));
+                    }
                 }
             }
-            by_channel.clear();
             s.by_channel = by_channel;
         }
         Fan::Dense { .. } | Fan::Pool { .. } => {
@@ -315,17 +320,39 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     // The positions to update, ascending (as `schedule` gives them): every one, or those
     // touched this step or carried from the last.
     pending(touched, carry, every.is_some());
+    // The state is checked once against the plane, so that a position's update indexes it
+    // without a check (a bounds check per position cost 2% of the engine's time); no position
+    // past the plane is ever marked, and none is walked.
+    let plane = last.len();
+    assert!(
+        v.len() >= plane * N
+            && acc.len() >= plane * N
+            && out.fired_pos.len() >= plane
+            && out.fired_mask.len() >= plane
+            && carry.words.len() * 64 >= plane
+            && every.is_none_or(|n| n <= plane),
+        "a convolution's state of its plane's size"
+    );
+    touched.keep_below(plane);
     let mut steps = 0u64;
     let mut n_fired = 0;
+    #[cfg(target_arch = "x86_64")]
+    let factors = super::simd::missed_factors(p.beta);
     // one position's update (a macro, not a closure: a closure is compiled apart, without the
     // caller's AVX2)
     macro_rules! one {
         ($pos:expr) => {{
             let pos: u32 = $pos;
             let k = pos as usize * N;
-            let v: &mut [f32; N] = (&mut v[k..k + N]).try_into().expect("N channels");
-            let acc: &mut [f32; N] = (&mut acc[k..k + N]).try_into().expect("N channels");
-            let l = &mut last[pos as usize];
+            // SAFETY: `pos < plane` (the positions walked are below it) and the state holds the
+            // plane (both checked above).
+            let (v, acc, l) = unsafe {
+                (
+                    &mut *v.as_mut_ptr().add(k).cast::<[f32; N]>(),
+                    &mut *acc.as_mut_ptr().add(k).cast::<[f32; N]>(),
+                    last.get_unchecked_mut(pos as usize),
+                )
+            };
             let behind = if *l < base {
                 // fresh since the last reset (a LIF's synaptic current stays unused)
                 v.fill(0.0);
@@ -338,17 +365,23 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
             #[cfg(target_arch = "x86_64")]
             let (fired, carried) = if AVX && (N == 8 || N == 16) {
                 // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
-                unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind) }
+                unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind, &factors) }
             } else {
                 lif_lanes::<N, LEAK>(p, v, acc, behind)
             };
             #[cfg(not(target_arch = "x86_64"))]
             let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
-            out.fired_pos[n_fired] = pos;
-            out.fired_mask[n_fired] = fired;
+            // SAFETY: each position is walked once, so `n_fired` counts positions before this
+            // one, fewer than the plane; `pos >> 6` indexes the carried set (checked above).
+            unsafe {
+                *out.fired_pos.get_unchecked_mut(n_fired) = pos;
+                *out.fired_mask.get_unchecked_mut(n_fired) = fired;
+            }
             n_fired += (fired != 0) as usize;
             if carried {
-                carry.insert(pos as usize);
+                // SAFETY: as above.
+                unsafe { *carry.words.get_unchecked_mut(pos as usize >> 6) |= 1 << (pos & 63) };
+                carry.any = true;
             }
         }};
     }

@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::network::Network;
 use compile::{Compiled, Fan, compile, decay};
 pub use compile::{conv_positions, pool_targets};
-use fanout::{BitSet, Buckets, conv_inputs, fan_in, fan_in_spikes, fan_out};
+use fanout::{BitSet, Buckets, conv_inputs, fan_in, fan_in_buckets, fan_in_spikes, fan_out};
 use kernels::evaluate;
 pub use simd::packed_lanes;
 
@@ -129,7 +129,17 @@ impl Engine {
         if dt_us <= 0 {
             return Err(Error::network(format!("dt must be positive, got {dt_us} us")));
         }
-        let layers = net.layers.iter().map(|l| compile(l, dt_us, mode)).collect::<Result<Vec<_>>>()?;
+        let mut layers = net.layers.iter().map(|l| compile(l, dt_us, mode)).collect::<Result<Vec<_>>>()?;
+        if mode == Mode::Stepped {
+            for k in 1..layers.len() {
+                let (c, next) = (&layers[k - 1], &layers[k]);
+                let by_bucket = c.neurons.is_some()
+                    && c.rec_t.is_none()
+                    && matches!(c.fan, Fan::Conv { .. })
+                    && matches!(next.fan, Fan::Conv { out_c: 8 | 16, .. });
+                layers[k - 1].spikes_in_buckets = by_bucket;
+            }
+        }
         Ok(Engine { layers, n_inputs: net.n_inputs(), dt_us, mode })
     }
 
@@ -198,6 +208,7 @@ impl Engine {
             s.rec_pending = false;
             s.prev.clear();
             s.spikes.clear();
+            s.by_channel.clear();
             s.values.clear();
             s.v_max.iter_mut().for_each(|v| *v = 0.0);
             if self.mode == Mode::Async {
@@ -348,11 +359,13 @@ impl Engine {
             s.values.clear();
             evaluate(c, s, t, base, stats);
             if c.neurons.is_some() {
-                stats.spikes[k] += s.spikes.len() as u64;
+                stats.spikes[k] += if c.spikes_in_buckets { s.by_channel.count() } else { s.spikes.len() } as u64;
             }
             if let Some(next) = rest.first_mut() {
                 let cn = &self.layers[k + 1];
-                if c.neurons.is_some() {
+                if c.spikes_in_buckets {
+                    stats.synops += fan_in_buckets(cn, next, &s.by_channel);
+                } else if c.neurons.is_some() {
                     stats.synops += fan_in_spikes(cn, next, &s.spikes);
                 } else {
                     // Identity layer: its values pass on.
