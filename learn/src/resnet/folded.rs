@@ -315,9 +315,7 @@ impl Conv {
             );
         }
     }
-}
 
-impl Conv {
     /// Whether [`Conv::forward`] on an input of `w` columns takes the direct path (given the
     /// network's switch `direct`).
     fn takes_direct(&self, w: usize, direct: bool) -> bool {

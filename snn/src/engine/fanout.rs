@@ -171,6 +171,8 @@ pub(super) struct ConvTargets {
     /// division per input event costs more than the rest of finding its list).
     plane_recip: Option<u64>,
     channel_stride: usize,
+    /// The weights every input channel's block takes: `n_inputs / plane * channel_stride`.
+    n_weights: usize,
     out_positions: usize,
     out_channels: usize,
     offsets: Vec<u32>,
@@ -208,6 +210,7 @@ impl ConvTargets {
             plane,
             plane_recip: plane_recip(n_inputs, plane),
             channel_stride,
+            n_weights: n_inputs / plane * channel_stride,
             out_positions,
             out_channels,
             offsets,
@@ -444,15 +447,7 @@ pub(super) fn fan_in_buckets(c: &Compiled, s: &mut LayerState, b: &Buckets) -> u
     match &c.fan {
         Fan::Conv { out_c: 8, wt, map, .. } => conv_buckets::<8>(s, wt, map, b),
         Fan::Conv { out_c: 16, wt, map, .. } => conv_buckets::<16>(s, wt, map, b),
-        _ => {
-            let mut n = 0;
-            for ch in 0..b.len.len() {
-                for &p in b.positions(ch) {
-                    n += fan_in(c, s, ch * b.plane + p as usize, 1.0);
-                }
-            }
-            n
-        }
+        _ => unreachable!("spikes are left in buckets only before a convolution of 8 or 16 channels (`Engine::new`)"),
     }
 }
 
@@ -608,7 +603,7 @@ impl<'a, const N: usize> ConvFanIn<'a, N> {
             map.out_channels == N
                 && s.acc.len() >= map.out_positions * N
                 && s.touched.words.len() * 64 >= map.out_positions
-                && wt.len() >= map.n_inputs / map.plane * map.channel_stride,
+                && wt.len() >= map.n_weights,
             "a convolution's state and weights of the size of its target lists"
         );
         Self { acc: &mut s.acc, touched: &mut s.touched, wt, map }
