@@ -52,6 +52,8 @@ pub(super) fn evaluate(c: &Compiled, s: &mut LayerState, t: i64, base: i64, stat
             // one `last` per position serves all its channels.
             let plane = out_hw[0] * out_hw[1];
             let oc = *out_c;
+            // the positions the fan-ins marked, as bits
+            s.marks.fold_into(&mut s.touched);
             let mut by_channel = std::mem::take(&mut s.by_channel);
             // emptied here, not after the spikes are taken out: a layer that leaves its spikes in
             // the buckets (`spikes_in_buckets`) keeps them there for the next layer's fan-in

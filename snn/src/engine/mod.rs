@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::network::Network;
 use compile::{Compiled, Fan, compile, decay};
 pub use compile::{conv_positions, pool_targets};
-use fanout::{BitSet, Buckets, conv_inputs, fan_in, fan_in_buckets, fan_in_spikes, fan_out};
+use fanout::{BitSet, Buckets, Marks, conv_inputs, fan_in, fan_in_buckets, fan_in_spikes, fan_out};
 use kernels::evaluate;
 pub use simd::packed_lanes;
 
@@ -67,6 +67,9 @@ struct LayerState {
     rec: Vec<f32>,
     /// Stepped: accumulator slots touched this step (conv: positions; others: neurons).
     touched: BitSet,
+    /// Stepped convolutions of 8 or 16 channels: the positions their fan-ins reached this step,
+    /// folded into `touched` when the step is evaluated.
+    marks: Marks,
     /// Neurons to evaluate next step even without input.
     carry: BitSet,
     rec_pending: bool,
@@ -174,6 +177,7 @@ impl Engine {
                     acc: vec![0.0; l.n_out],
                     rec: vec![0.0; if l.rec_t.is_some() { l.n_out } else { 0 }],
                     touched: BitSet::new(slots),
+                    marks: Marks::new(if channels > 0 { slots } else { 0 }),
                     carry: BitSet::new(if channels > 0 { slots } else { l.n_out }),
                     rec_pending: false,
                     spikes: Vec::new(),
@@ -203,6 +207,7 @@ impl Engine {
         st.input_set.drain(|i| values[i] = 0.0);
         for (c, s) in self.layers.iter().zip(st.layers.iter_mut()) {
             s.touched.clear();
+            s.marks.clear();
             s.carry.clear();
             s.acc.iter_mut().for_each(|a| *a = 0.0);
             s.rec_pending = false;
