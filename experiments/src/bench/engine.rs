@@ -321,9 +321,9 @@ fn run_samples(engine: &Engine, st: &mut snn::engine::EngineState, samples: &[Ve
 /// Samples each stream runs untimed before each timed round of [`stream_scaling`] (an eighth of
 /// the default 64), so that a round starts in warm caches, as a stream that runs on finds them:
 /// the entry before left the caches to other work (the cache probe walks 1 MiB per thread).
-/// Without it the first samples of each round were fetched from the third-level cache: the
-/// engine's time per sample measured 4-5% longer than on a stream that runs on (2026-12-04,
-/// eight alternated runs).
+/// Without it the first samples of each round fetched the engine's lists and weights from the
+/// third-level cache: `braille bench --json --streams 2` measured the time per sample about 4%
+/// longer (eight runs alternated with and without, median paired ratio 0.96; 2026-12-04).
 const WARM_SAMPLES: usize = 8;
 
 /// What a bench thread runs in one entry of [`stream_scaling`]'s plan.
