@@ -14,6 +14,8 @@
 #   python3 scripts/perf/ab_summary.py /tmp/ab.txt fastest
 # Timing commands that print a last line with a labelled figure: `engine_step PASSES` ("fastest
 # 0.2025"), `read_probe READS` ("fastest 68.6 ms").
+# A ratio within about 3% of 1 may be the heap layout a change leaves rather than the change
+# (docs/engine.md, "session 80"); ab_summary.py flags it.
 set -euo pipefail
 rounds=${1:?rounds} before=${2:?the build before} after=${3:?the build after}
 shift 3
