@@ -38,14 +38,15 @@ def main() -> None:
     if not pairs:
         sys.exit(f"no round of {path} has both builds")
     ratios = [a / b for b, a in pairs]
+    median = statistics.median(ratios)
     print(f"{before} {label}: " + " ".join(f"{b:g}" for b, _ in pairs))
     print(f"{after} {label}: " + " ".join(f"{a:g}" for _, a in pairs))
     print(
-        f"{after} / {before}: median paired ratio {statistics.median(ratios):.3f}, lower in "
+        f"{after} / {before}: median paired ratio {median:.3f}, lower in "
         f"{sum(r < 1 for r in ratios)} of {len(ratios)} rounds; lowest {min(b for b, _ in pairs):g} "
         f"against {min(a for _, a in pairs):g}"
     )
-    if abs(statistics.median(ratios) - 1) <= LAYOUT_BAND:
+    if abs(median - 1) <= LAYOUT_BAND:
         print(f"within {LAYOUT_BAND:.0%} of 1: the size of a heap-layout effect (docs/engine.md, \"session 80\")")
 
 

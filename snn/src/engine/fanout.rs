@@ -20,6 +20,16 @@ impl BitSet {
         self.words[i >> 6] |= 1 << (i & 63);
         self.any = true;
     }
+    /// [`BitSet::insert`] without the check of `i`.
+    ///
+    /// # Safety
+    /// `i` must be below `64 * words.len()`.
+    #[inline(always)]
+    pub(super) unsafe fn insert_unchecked(&mut self, i: usize) {
+        // SAFETY: the caller's contract.
+        unsafe { *self.words.get_unchecked_mut(i >> 6) |= 1 << (i & 63) };
+        self.any = true;
+    }
     /// Empties the set.
     #[inline]
     pub(super) fn clear(&mut self) {

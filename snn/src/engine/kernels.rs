@@ -374,7 +374,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
             #[cfg(not(target_arch = "x86_64"))]
             let (fired, carried) = lif_lanes::<N, LEAK>(p, v, acc, behind);
             // SAFETY: each position is walked once, so `n_fired` counts positions before this
-            // one, fewer than the plane; `pos >> 6` indexes the carried set (checked above).
+            // one, fewer than the plane; `pos` is inside the carried set (checked above).
             unsafe {
                 *out.fired_pos.get_unchecked_mut(n_fired) = pos;
                 *out.fired_mask.get_unchecked_mut(n_fired) = fired;
@@ -382,8 +382,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
             n_fired += (fired != 0) as usize;
             if carried {
                 // SAFETY: as above.
-                unsafe { *carry.words.get_unchecked_mut(pos as usize >> 6) |= 1 << (pos & 63) };
-                carry.any = true;
+                unsafe { carry.insert_unchecked(pos as usize) };
             }
         }};
     }
