@@ -1,8 +1,8 @@
 //! Compilation: each layer laid out for fan-out (weights transposed so that an input's targets are
 //! contiguous, convolution maps per pixel, decay tables).
 
-use super::Mode;
 use super::fanout::ConvTargets;
+use super::{Lines, Mode, lines_from};
 use crate::error::{Error, Result};
 use crate::network::{Layer, Op, PoolKind};
 use crate::neuron::{NeuronKind, NeuronParams};
@@ -19,7 +19,7 @@ pub(super) enum Fan {
     Dense {
         n_out: usize,
         stride: usize,
-        wt: Vec<f32>,
+        wt: Lines<f32>,
     },
     /// Weights `[in_c][ky][kx][out_c]`; accumulators `[pos][out_c]`; `map`: the targets of each
     /// input.
@@ -30,7 +30,7 @@ pub(super) enum Fan {
         kernel: [usize; 2],
         stride: [usize; 2],
         padding: [usize; 2],
-        wt: Vec<f32>,
+        wt: Lines<f32>,
         map: ConvTargets,
     },
     Pool {
@@ -85,7 +85,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
     let fan = match &l.op {
         Op::Dense { n_in, n_out, weight, .. } => {
             let (wt, stride) = crate::network::dense_by_input(*n_in, *n_out, weight, DENSE_BLOCK);
-            Fan::Dense { n_out: *n_out, stride, wt }
+            Fan::Dense { n_out: *n_out, stride, wt: lines_from(&wt) }
         }
         Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, .. } => {
             let [ic, h, w] = *in_shape;
@@ -115,7 +115,16 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
             }
             let map =
                 ConvTargets::new([ic * h * w, h * w], kh * kw * oc, [out_hw[0] * out_hw[1], oc], offsets, targets);
-            Fan::Conv { in_hw: [h, w], out_c: oc, out_hw, kernel: *kernel, stride: *stride, padding: *padding, wt, map }
+            Fan::Conv {
+                in_hw: [h, w],
+                out_c: oc,
+                out_hw,
+                kernel: *kernel,
+                stride: *stride,
+                padding: *padding,
+                wt: lines_from(&wt),
+                map,
+            }
         }
         Op::Pool { kind, in_shape, kernel, stride } => {
             let s = l.op.out_shape();

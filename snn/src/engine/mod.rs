@@ -28,6 +28,23 @@ use fanout::{BitSet, Buckets, Marks, conv_inputs, fan_in, fan_in_buckets, fan_in
 use kernels::evaluate;
 pub use simd::packed_lanes;
 
+/// The engine's buffers read and written a vector register at a time (membranes, accumulators,
+/// weights, marks), on cache-line boundaries: a position's 8 or 16 lanes (32 or 64 bytes) and a
+/// weight block then never straddle two lines, which the allocator's 16-byte alignment left to
+/// chance (one buffer in two of the peer network's split every other load; docs/engine.md,
+/// "session 81").
+type Lines<T> = aligned_vec::AVec<T, aligned_vec::ConstAlign<64>>;
+
+/// `n` copies of `value` on cache-line boundaries.
+fn lines<T: Clone>(value: T, n: usize) -> Lines<T> {
+    aligned_vec::avec![[64]| value; n]
+}
+
+/// `values` copied onto cache-line boundaries.
+fn lines_from(values: &[f32]) -> Lines<f32> {
+    Lines::from_slice(64, values)
+}
+
 /// When thresholds are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -59,11 +76,11 @@ pub struct Engine {
 
 #[derive(Debug, Clone)]
 struct LayerState {
-    v: Vec<f32>,
+    v: Lines<f32>,
     i: Vec<f32>,
     /// Last step (stepped) or microsecond (async) each neuron was brought up to.
     last: Vec<i64>,
-    acc: Vec<f32>,
+    acc: Lines<f32>,
     rec: Vec<f32>,
     /// Stepped: accumulator slots touched this step (conv: positions; others: neurons).
     touched: BitSet,
@@ -170,11 +187,11 @@ impl Engine {
                     _ => (l.n_out, 0),
                 };
                 LayerState {
-                    v: vec![0.0; l.n_out],
+                    v: lines(0.0, l.n_out),
                     i: vec![0.0; l.n_out],
                     last: vec![if stepped { -1 } else { t0_us }; last_len],
                     by_channel: Buckets::new(channels, if channels > 0 { slots } else { 0 }, l.neurons.is_none()),
-                    acc: vec![0.0; l.n_out],
+                    acc: lines(0.0, l.n_out),
                     rec: vec![0.0; if l.rec_t.is_some() { l.n_out } else { 0 }],
                     touched: BitSet::new(slots),
                     marks: Marks::new(if channels > 0 { slots } else { 0 }),
