@@ -31,8 +31,9 @@ pub use simd::packed_lanes;
 /// The engine's buffers read and written a vector register at a time (membranes, accumulators,
 /// weights, marks), on cache-line boundaries: a position's 8 or 16 lanes (32 or 64 bytes) and a
 /// weight block then never straddle two lines, which the allocator's 16-byte alignment left to
-/// chance (one buffer in two of the peer network's split every other load; docs/engine.md,
-/// "session 81").
+/// chance (on the peer network, the first layer's membranes and the second's weights began 48
+/// bytes into a line, so every other access to them straddled two; about 2% of the engine's
+/// time, docs/engine.md, "session 81").
 type Lines<T> = aligned_vec::AVec<T, aligned_vec::ConstAlign<64>>;
 
 /// `n` copies of `value` on cache-line boundaries.
