@@ -2,7 +2,7 @@
 //! contiguous, convolution maps per pixel, decay tables).
 
 use super::fanout::ConvTargets;
-use super::{Lines, Mode, lines_from};
+use super::{Lines, Mode, lines, lines_from};
 use crate::error::{Error, Result};
 use crate::network::{Layer, Op, PoolKind};
 use crate::neuron::{NeuronKind, NeuronParams};
@@ -90,7 +90,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
         Op::Conv2d { in_shape, out_channels, kernel, stride, padding, weight, .. } => {
             let [ic, h, w] = *in_shape;
             let (oc, kh, kw) = (*out_channels, kernel[0], kernel[1]);
-            let mut wt = vec![0.0; ic * kh * kw * oc];
+            let mut wt = lines(0.0, ic * kh * kw * oc);
             for o in 0..oc {
                 for c in 0..ic {
                     for y in 0..kh {
@@ -115,16 +115,7 @@ pub(super) fn compile(l: &Layer, dt_us: i64, mode: Mode) -> Result<Compiled> {
             }
             let map =
                 ConvTargets::new([ic * h * w, h * w], kh * kw * oc, [out_hw[0] * out_hw[1], oc], offsets, targets);
-            Fan::Conv {
-                in_hw: [h, w],
-                out_c: oc,
-                out_hw,
-                kernel: *kernel,
-                stride: *stride,
-                padding: *padding,
-                wt: lines_from(&wt),
-                map,
-            }
+            Fan::Conv { in_hw: [h, w], out_c: oc, out_hw, kernel: *kernel, stride: *stride, padding: *padding, wt, map }
         }
         Op::Pool { kind, in_shape, kernel, stride } => {
             let s = l.op.out_shape();

@@ -291,21 +291,13 @@ pub(in crate::engine) mod avx {
         acc.copy_from_slice(&padded[..n]);
     }
 
-    /// A row of [`PACK`], on a 32-byte boundary, so that its load never straddles two cache lines.
+    /// The table of permutations on a 32-byte boundary: each row is 32 bytes, so no row's load
+    /// straddles two cache lines.
     #[repr(align(32))]
-    struct Row([u32; 8]);
+    struct Pack([[u32; 8]; 256]);
 
     /// [`super::packed_lanes`], built once.
-    static PACK: [Row; 256] = {
-        let rows = super::packed_lanes();
-        let mut pack = [const { Row([0; 8]) }; 256];
-        let mut k = 0;
-        while k < 256 {
-            pack[k] = Row(rows[k]);
-            k += 1;
-        }
-        pack
-    };
+    static PACK: Pack = Pack(super::packed_lanes());
 
     /// [`Buckets::push_masks`] eight positions a step: for each channel, the positions whose bit
     /// is set are packed to the front of a register (a permutation from [`PACK`]) and all eight
@@ -342,7 +334,7 @@ pub(in crate::engine) mod avx {
                     // channel `ch`'s bit moved to each lane's sign
                     let m = _mm256_sll_epi32(_mm256_loadu_si256(masks), shift);
                     let chosen = _mm256_movemask_ps(_mm256_castsi256_ps(m)) as usize;
-                    let order = _mm256_loadu_si256(PACK[chosen].0.as_ptr().cast::<__m256i>());
+                    let order = _mm256_loadu_si256(PACK.0[chosen].as_ptr().cast::<__m256i>());
                     let p = _mm256_loadu_si256(b.fired_pos.as_ptr().add(q).cast::<__m256i>());
                     _mm256_storeu_si256(
                         b.pos.as_mut_ptr().add(k).cast::<__m256i>(),
