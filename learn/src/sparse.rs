@@ -634,8 +634,8 @@ impl SparseSnn {
         spare: Vec<LayerTape>,
     ) -> SampleOutput {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: this CPU has AVX2 (just checked).
+        if snn::engine::avx2() {
+            // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
             return unsafe { self.forward_avx2(params, input, masks, tape, spare) };
         }
         self.forward_with::<false>(params, input, masks, tape, spare)
@@ -644,7 +644,7 @@ impl SparseSnn {
     /// [`Self::forward`] compiled for AVX2: the same operations (nothing fused or reordered), in
     /// wider registers.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     fn forward_avx2(
         &self,
         params: &Params,
@@ -758,30 +758,15 @@ impl SparseSnn {
                         // those within the truncation keep a surrogate, listed without a branch,
                         // their derivatives then taken all at once (it vectorises)
                         if tape && !all {
-                            let (si, sv) = (&mut lt.surr.idx, &mut lt.surr.val);
-                            let kept = si.len();
-                            si.resize(kept + near.len(), 0);
-                            sv.resize(kept + near.len(), 0.0);
-                            let mut end = kept;
-                            for (&o, &d) in near.iter().zip(&dist) {
-                                si[end] = o;
-                                sv[end] = d;
-                                end += (d.abs() < self.x_cut) as usize;
-                            }
-                            si.truncate(end);
-                            sv.truncate(end);
-                            derivatives_in_place(self.surrogate, &mut sv[kept..]);
+                            let kept = lt.surr.idx.len();
+                            let within = Keep::Within(self.x_cut);
+                            pick::<AVX>(within, near, &dist, &mut lt.surr.idx, Some(&mut lt.surr.val));
+                            derivatives_in_place(self.surrogate, &mut lt.surr.val[kept..]);
                         }
-                        // the spiking neurons among them, written without a branch
+                        // the spiking neurons among them, also listed without a branch
                         let fired = lt.spikes.idx.len();
-                        lt.spikes.idx.resize(fired + near.len(), 0);
-                        let mut end = fired;
-                        for (&o, &d) in near.iter().zip(&dist) {
-                            lt.spikes.idx[end] = o;
-                            end += (d > 0.0) as usize;
-                        }
-                        lt.spikes.idx.truncate(end);
-                        lt.spikes.val.resize(end, 1.0);
+                        pick::<AVX>(Keep::Fired, near, &dist, &mut lt.spikes.idx, None);
+                        lt.spikes.val.resize(lt.spikes.idx.len(), 1.0);
                         if mask.is_none() {
                             // what the next layer receives: the spikes themselves
                             lt.out.idx.extend_from_slice(&lt.spikes.idx[fired..]);
@@ -879,8 +864,8 @@ impl SparseSnn {
         grads: &mut Params,
     ) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: this CPU has AVX2 (just checked).
+        if snn::engine::avx2() {
+            // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
             return unsafe { self.backward_avx2(work, input, masks, out, g_logits, grads) };
         }
         self.backward_with(work, input, masks, out, g_logits, grads)
@@ -888,7 +873,7 @@ impl SparseSnn {
 
     /// [`Self::backward`] compiled for AVX2 (the same operations, as [`Self::forward_avx2`]).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     fn backward_avx2(
         &self,
         work: &mut Workspace,
@@ -1300,7 +1285,7 @@ fn update_above<const AVX: bool>(
 ) -> usize {
     #[cfg(target_arch = "x86_64")]
     if AVX {
-        // SAFETY: `AVX` is set only by `forward_avx2`, which runs where AVX2 is.
+        // SAFETY: `AVX` is set only by `forward_avx2`, which runs where AVX2, popcnt and BMI1 are.
         return unsafe { avx_update_above(v, u, beta, leak, low, out) };
     }
     for (v, &drive) in v.iter_mut().zip(u.iter()) {
@@ -1318,9 +1303,9 @@ static PACK8: [[u32; 8]; 256] = snn::engine::packed_lanes();
 /// permutation from [`PACK8`]) and stored at the list's end, which advances by their number.
 ///
 /// # Safety
-/// The CPU must have AVX2.
+/// The CPU must have AVX2, popcnt and BMI1 ([`snn::engine::avx2`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,bmi1,popcnt")]
 #[inline]
 unsafe fn avx_update_above(v: &mut [f32], u: &mut [f32], beta: f32, leak: f32, low: f32, out: &mut Vec<u32>) -> usize {
     use std::arch::x86_64::{
@@ -1361,6 +1346,113 @@ unsafe fn avx_update_above(v: &mut [f32], u: &mut [f32], beta: f32, leak: f32, l
         k += (v[j] > low) as usize;
     }
     k
+}
+
+/// Which neurons near threshold [`pick`] lists, by their distance `d` to it.
+#[derive(Debug, Clone, Copy)]
+enum Keep {
+    /// `|d| < x_cut`: their surrogate derivative is kept (`x_cut`: the truncation's width).
+    Within(f32),
+    /// `d > 0`: they fire.
+    Fired,
+}
+
+impl Keep {
+    #[inline(always)]
+    fn keeps(self, d: f32) -> bool {
+        match self {
+            Keep::Within(x_cut) => d.abs() < x_cut,
+            Keep::Fired => d > 0.0,
+        }
+    }
+}
+
+/// Appends to `idx` the neurons of `near` whose distance to threshold (`dist`, the same order)
+/// `keep` keeps, in order, and those distances to `val` when given: without a branch per neuron.
+/// With `AVX` (set only in code compiled for AVX2 and run where the CPU has it) eight at a time,
+/// the kept lanes packed to the front of a register by a permutation from [`PACK8`] (the same
+/// lists).
+#[inline(always)]
+fn pick<const AVX: bool>(keep: Keep, near: &[u32], dist: &[f32], idx: &mut Vec<u32>, mut val: Option<&mut Vec<f32>>) {
+    assert_eq!(near.len(), dist.len(), "a distance per neuron");
+    let start = idx.len();
+    // room for a whole register written past the last kept entry
+    idx.resize(start + near.len() + 8, 0);
+    if let Some(val) = val.as_deref_mut() {
+        val.resize(start + near.len() + 8, 0.0);
+    }
+    let mut end = start;
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is set only by `forward_avx2`, which runs where AVX2, popcnt and BMI1 are.
+        (end, done) = unsafe { avx_pick(keep, near, dist, idx, val.as_deref_mut(), start) };
+    }
+    for (&o, &d) in near.iter().zip(dist).skip(done) {
+        idx[end] = o;
+        if let Some(val) = val.as_deref_mut() {
+            val[end] = d;
+        }
+        end += keep.keeps(d) as usize;
+    }
+    idx.truncate(end);
+    if let Some(val) = val {
+        val.truncate(end);
+    }
+}
+
+/// [`pick`]'s whole registers: the kept entries of the first `near.len() / 8 * 8` written from
+/// `idx[start]` (and `val[start]`) on; returns the end of the list and the entries read. `idx`
+/// and `val` have room for eight entries past `start + near.len()`.
+///
+/// # Safety
+/// The CPU must have AVX2, popcnt and BMI1 ([`snn::engine::avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,bmi1,popcnt")]
+#[inline]
+unsafe fn avx_pick(
+    keep: Keep,
+    near: &[u32],
+    dist: &[f32],
+    idx: &mut [u32],
+    mut val: Option<&mut Vec<f32>>,
+    start: usize,
+) -> (usize, usize) {
+    use std::arch::x86_64::{
+        __m256i, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_loadu_ps,
+        _mm256_loadu_si256, _mm256_movemask_ps, _mm256_permutevar8x32_epi32, _mm256_permutevar8x32_ps,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_storeu_si256,
+    };
+    let mut end = start;
+    let whole = near.len() / 8 * 8;
+    for (o8, d8) in near[..whole].chunks_exact(8).zip(dist[..whole].chunks_exact(8)) {
+        let slot: &mut [u32; 8] = (&mut idx[end..end + 8]).try_into().expect("eight slots");
+        // SAFETY: `o8`, `d8` and `slot` are eight u32s or f32s each (unaligned access allowed);
+        // AVX2 (this function's contract).
+        let (mask, perm, d) = unsafe {
+            let d = _mm256_loadu_ps(d8.as_ptr());
+            let kept = match keep {
+                // `|d|`: the sign bit cleared, as `f32::abs`; `<` and `>` false for NaN, as in Rust
+                Keep::Within(x_cut) => _mm256_cmp_ps::<_CMP_LT_OQ>(
+                    _mm256_and_ps(d, _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX))),
+                    _mm256_set1_ps(x_cut),
+                ),
+                Keep::Fired => _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
+            };
+            let mask = _mm256_movemask_ps(kept) as usize;
+            let perm = _mm256_loadu_si256(PACK8[mask].as_ptr().cast::<__m256i>());
+            let packed = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(o8.as_ptr().cast::<__m256i>()), perm);
+            _mm256_storeu_si256(slot.as_mut_ptr().cast::<__m256i>(), packed);
+            (mask, perm, d)
+        };
+        if let Some(val) = val.as_deref_mut() {
+            let slot: &mut [f32; 8] = (&mut val[end..end + 8]).try_into().expect("eight slots");
+            // SAFETY: `slot` is eight f32s (unaligned stores allowed); AVX2.
+            unsafe { _mm256_storeu_ps(slot.as_mut_ptr(), _mm256_permutevar8x32_ps(d, perm)) };
+        }
+        end += mask.count_ones() as usize;
+    }
+    (end, whole)
 }
 
 /// Which of four lanes are above `low`, as a 4-bit mask (lane 0 the lowest bit).
@@ -2218,8 +2310,9 @@ mod tests {
         }
     }
 
-    /// The SSE dot product and the fused AVX update of the membranes give the portable code's
-    /// bits, at every length (lanes and a rest), with zeros of both signs among the entries.
+    /// The SSE dot product, the fused AVX update of the membranes and the AVX picking of the
+    /// neurons near threshold give the portable code's bits, at every length (lanes and a rest),
+    /// with zeros of both signs among the entries.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn vector_kernels_equal_the_portable_code_to_the_bit() {
@@ -2239,7 +2332,7 @@ mod tests {
                 assert_eq!(sse_dot(&a, &b).to_bits(), portable_dot(&a, &b).to_bits(), "{a:?} . {b:?}");
             }
         }
-        if !std::arch::is_x86_feature_detected!("avx2") {
+        if !snn::engine::avx2() {
             return;
         }
         let mut above = 0;
@@ -2259,6 +2352,35 @@ mod tests {
             }
         }
         assert!(above > 1000, "membranes above the line: {above}");
+        // the lists of neurons near threshold that keep a surrogate or fire, appended to lists
+        // already holding entries; NaN and both zeros among the distances
+        let mut picked = 0;
+        for n in 0..70 {
+            let mut dist = draw(n, &mut rng);
+            if n > 3 {
+                dist[n / 2] = f32::NAN;
+            }
+            let near: Vec<u32> = (0..n as u32).map(|j| 3 * j + 1).collect();
+            for keep in [Keep::Within(0.5), Keep::Within(1.5), Keep::Fired] {
+                let (mut i1, mut v1) = (vec![7u32, 9], vec![0.25f32, -1.0]);
+                let (mut i2, mut v2) = (i1.clone(), v1.clone());
+                pick::<false>(keep, &near, &dist, &mut i1, Some(&mut v1));
+                pick::<true>(keep, &near, &dist, &mut i2, Some(&mut v2));
+                let expected: Vec<u32> =
+                    near.iter().zip(&dist).filter(|&(_, &d)| keep.keeps(d)).map(|(&o, _)| o).collect();
+                assert_eq!(i1[2..], expected, "{keep:?}, n {n}");
+                assert_eq!(i1, i2, "{keep:?}, n {n}");
+                let bits = |x: &[f32]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&v1), bits(&v2), "{keep:?}, n {n}");
+                assert_eq!(i1.len(), v1.len(), "{keep:?}, n {n}");
+                let (mut i3, mut i4) = (vec![5u32], vec![5u32]);
+                pick::<false>(keep, &near, &dist, &mut i3, None);
+                pick::<true>(keep, &near, &dist, &mut i4, None);
+                assert_eq!(i3, i4, "{keep:?} without values, n {n}");
+                picked += expected.len();
+            }
+        }
+        assert!(picked > 1000, "neurons picked: {picked}");
     }
 
     /// The batched gathers of a convolution's and a dense layer's every input equal [`gather`]

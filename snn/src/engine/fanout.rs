@@ -134,7 +134,7 @@ impl Marks {
         assert!(set.words.len() * 64 >= self.bytes.len(), "a set of the marks' positions");
         #[cfg(target_arch = "x86_64")]
         if super::simd::avx2() {
-            // SAFETY: this CPU has AVX2 (just checked).
+            // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
             unsafe { self.fold_avx2(set) };
             return;
         }
@@ -158,7 +158,7 @@ impl Marks {
     /// [`Marks::fold_into`] 32 bytes at a time (their top bits gathered by `movemask`): the
     /// same set.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     fn fold_avx2(&mut self, set: &mut BitSet) {
         use std::arch::x86_64::{
             __m256i, _mm256_loadu_si256, _mm256_movemask_epi8, _mm256_setzero_si256, _mm256_storeu_si256,
@@ -509,7 +509,7 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
                 #[cfg(target_arch = "x86_64")]
                 if super::simd::avx2() {
                     let (acc, stride) = (&mut s.acc[..n], *stride);
-                    // SAFETY: this CPU has AVX2 (just checked).
+                    // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
                     unsafe {
                         match stride / 8 {
                             2 => super::simd::avx::dense_spikes::<2>(acc, wt, stride, spikes),
@@ -555,7 +555,7 @@ pub(super) fn fan_in_spikes(c: &Compiled, s: &mut LayerState, spikes: &[u32]) ->
 pub(super) fn conv_spikes<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, spikes: &[u32]) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if super::simd::avx2() {
-        // SAFETY: this CPU has AVX2 (just checked).
+        // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
         return unsafe { avx2::conv_spikes::<N>(s, wt, map, spikes) };
     }
     conv_spikes_with::<N>(s, wt, map, spikes)
@@ -583,7 +583,7 @@ pub(super) fn fan_in_buckets(c: &Compiled, s: &mut LayerState, b: &Buckets) -> u
 fn conv_buckets<const N: usize>(s: &mut LayerState, wt: &[f32], map: &ConvTargets, b: &Buckets) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if super::simd::avx2() {
-        // SAFETY: this CPU has AVX2 (just checked).
+        // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
         return unsafe { avx2::conv_buckets::<N>(s, wt, map, b) };
     }
     conv_buckets_with::<N>(s, wt, map, b)
@@ -606,7 +606,7 @@ pub(super) fn conv_inputs<const N: usize>(
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if super::simd::avx2() {
-        // SAFETY: this CPU has AVX2 (just checked).
+        // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
         return unsafe { avx2::conv_inputs::<N>(s, wt, map, set, values) };
     }
     conv_inputs_with::<N>(s, wt, map, set, values)
@@ -696,7 +696,7 @@ fn conv_inputs_chunk<const N: usize, const AHEAD: usize>(
 mod avx2 {
     use super::{BitSet, ConvTargets, LayerState};
 
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(super) fn conv_spikes<const N: usize>(
         s: &mut LayerState,
         wt: &[f32],
@@ -706,7 +706,7 @@ mod avx2 {
         super::conv_spikes_with::<N>(s, wt, map, spikes)
     }
 
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(super) fn conv_buckets<const N: usize>(
         s: &mut LayerState,
         wt: &[f32],
@@ -716,7 +716,7 @@ mod avx2 {
         super::conv_buckets_with::<N>(s, wt, map, b)
     }
 
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(super) fn conv_inputs<const N: usize>(
         s: &mut LayerState,
         wt: &[f32],
@@ -929,7 +929,7 @@ mod tests {
         let mut paths: Vec<fn(&mut Marks, &mut BitSet)> = vec![Marks::fold_portable, Marks::fold_into];
         #[cfg(target_arch = "x86_64")]
         if crate::engine::simd::avx2() {
-            // SAFETY: this CPU has AVX2 (just checked).
+            // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
             paths.push(|m, s| unsafe { m.fold_avx2(s) });
         }
         for fold in paths {

@@ -286,7 +286,7 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
 ) {
     #[cfg(target_arch = "x86_64")]
     if super::simd::avx2() {
-        // SAFETY: this CPU has AVX2 (just checked).
+        // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
         return unsafe { lif_positions_avx2::<N, LEAK>(p, s, every, t, base, out, stats) };
     }
     lif_positions_with::<N, LEAK, false>(p, s, every, t, base, out, stats)
@@ -294,7 +294,7 @@ pub(super) fn lif_positions<const N: usize, const LEAK: bool>(
 
 /// [`lif_positions`] compiled for AVX2 (the same operations: nothing is fused or reordered).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,bmi1,popcnt")]
 fn lif_positions_avx2<const N: usize, const LEAK: bool>(
     p: &NeuronParams,
     s: &mut LayerState,
@@ -366,7 +366,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
             steps += (behind.max(0) + 1) as u64;
             #[cfg(target_arch = "x86_64")]
             let (fired, carried) = if AVX && (N == 8 || N == 16) {
-                // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
+                // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2, popcnt and BMI1 are.
                 unsafe { super::simd::avx::lif_lanes::<N, LEAK>(p, v, acc, behind, &factors) }
             } else {
                 lif_lanes::<N, LEAK>(p, v, acc, behind)
@@ -408,7 +408,7 @@ fn lif_positions_with<const N: usize, const LEAK: bool, const AVX: bool>(
     }
     #[cfg(target_arch = "x86_64")]
     if AVX {
-        // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2 is.
+        // SAFETY: `AVX` is set only by `lif_positions_avx2`, which runs where AVX2, popcnt and BMI1 are.
         unsafe { super::simd::avx::push_masks::<N>(out, n_fired) };
     } else {
         out.push_masks::<N>(n_fired);

@@ -26,6 +26,8 @@ use compile::{Compiled, Fan, compile, decay};
 pub use compile::{conv_positions, pool_targets};
 use fanout::{BitSet, Buckets, Marks, conv_inputs, fan_in, fan_in_buckets, fan_in_spikes, fan_out};
 use kernels::evaluate;
+#[cfg(target_arch = "x86_64")]
+pub use simd::avx2;
 pub use simd::packed_lanes;
 
 /// The engine's buffers read and written a vector register at a time (membranes, accumulators,
@@ -341,7 +343,7 @@ impl Engine {
     fn run_step(&self, st: &mut EngineState) {
         #[cfg(target_arch = "x86_64")]
         if simd::avx2() {
-            // SAFETY: this CPU has AVX2 (just checked).
+            // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
             return unsafe { self.run_step_avx2(st) };
         }
         self.run_step_with(st)
@@ -349,7 +351,7 @@ impl Engine {
 
     /// [`Engine::run_step`] compiled for AVX2 (the same operations: nothing is fused or reordered).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     fn run_step_avx2(&self, st: &mut EngineState) {
         self.run_step_with(st)
     }

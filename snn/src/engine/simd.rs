@@ -2,11 +2,15 @@
 //! the x86-64 baseline), or in AVX registers, eight each, where the CPU has AVX2; both tested bit
 //! for bit against the portable update.
 
-/// Whether this CPU has AVX2 (detected at run time; std caches the answer).
+/// Whether this CPU runs the AVX2 paths: AVX2, and the bit instructions they are also compiled
+/// for (`popcnt`; BMI1's `blsr`, `tzcnt`), which every AVX2 CPU has. Without `popcnt` a count of
+/// bits is a dozen instructions (detected at run time; std caches the answer).
 #[cfg(target_arch = "x86_64")]
 #[inline]
-pub(in crate::engine) fn avx2() -> bool {
+pub fn avx2() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("popcnt")
+        && std::arch::is_x86_feature_detected!("bmi1")
 }
 
 /// For each set of eight lanes (as the bits of a byte), the lanes in it in ascending order, then
@@ -172,9 +176,9 @@ pub(in crate::engine) mod avx {
     /// whether any lane must be looked at next step. `factors` is `missed_factors(p.beta)`.
     ///
     /// # Safety
-    /// The CPU must have AVX2.
+    /// The CPU must have AVX2, popcnt and BMI1 ([`avx2`](crate::engine::avx2)).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(in crate::engine) unsafe fn lif_lanes<const N: usize, const LEAK: bool>(
         p: &NeuronParams,
         v: &mut [f32; N],
@@ -255,9 +259,9 @@ pub(in crate::engine) mod avx {
     /// weights, zero past the outputs; `acc.len() <= 8 B`.
     ///
     /// # Safety
-    /// The CPU must have AVX2.
+    /// The CPU must have AVX2, popcnt and BMI1 ([`avx2`](crate::engine::avx2)).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(in crate::engine) unsafe fn dense_spikes<const B: usize>(
         acc: &mut [f32],
         wt: &[f32],
@@ -306,9 +310,9 @@ pub(in crate::engine) mod avx {
     /// buckets' eight slots of slack, or the next channel's, filled after).
     ///
     /// # Safety
-    /// The CPU must have AVX2.
+    /// The CPU must have AVX2, popcnt and BMI1 ([`avx2`](crate::engine::avx2)).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,popcnt")]
     pub(in crate::engine) unsafe fn push_masks<const N: usize>(b: &mut Buckets, n: usize) {
         const { assert!(N <= 32, "at most 32 channels") };
         debug_assert!(b.len[..N].iter().all(|&k| k == 0), "lanes past a channel's spikes overwrite the next channel's");
@@ -373,7 +377,7 @@ mod tests {
             assert_eq!(a1.map(f32::to_bits), a2.map(f32::to_bits), "accumulators emptied");
             if super::avx2() {
                 let (mut v3, mut a3) = (v, acc);
-                // SAFETY: this CPU has AVX2 (just checked).
+                // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
                 let factors = super::missed_factors(p.beta);
                 let wide = unsafe { super::avx::lif_lanes::<N, LEAK>(p, &mut v3, &mut a3, behind, &factors) };
                 assert_eq!(portable, wide, "AVX: spikes and carry; v {v:?}, input {acc:?}, behind {behind}");
@@ -407,7 +411,7 @@ mod tests {
             let mut wide = portable.clone();
             portable.push_masks::<N>(n);
             if super::avx2() {
-                // SAFETY: this CPU has AVX2 (just checked).
+                // SAFETY: this CPU has AVX2, popcnt and BMI1 (just checked).
                 unsafe { super::avx::push_masks::<N>(&mut wide, n) };
                 for ch in 0..N {
                     assert_eq!(portable.positions(ch), wide.positions(ch), "channel {ch} of {N}, {n} positions");
