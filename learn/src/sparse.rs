@@ -1376,18 +1376,21 @@ impl Keep {
 fn pick<const AVX: bool>(keep: Keep, near: &[u32], dist: &[f32], idx: &mut Vec<u32>, mut val: Option<&mut Vec<f32>>) {
     assert_eq!(near.len(), dist.len(), "a distance per neuron");
     let start = idx.len();
+    assert!(val.as_deref().is_none_or(|v| v.len() == start), "a value per listed neuron");
     // room for a whole register written past the last kept entry
     idx.resize(start + near.len() + 8, 0);
     if let Some(val) = val.as_deref_mut() {
         val.resize(start + near.len() + 8, 0.0);
     }
-    let mut end = start;
-    let mut done = 0;
     #[cfg(target_arch = "x86_64")]
-    if AVX {
+    let (mut end, done) = if AVX {
         // SAFETY: `AVX` is set only by `forward_avx2`, which runs where AVX2, popcnt and BMI1 are.
-        (end, done) = unsafe { avx_pick(keep, near, dist, idx, val.as_deref_mut(), start) };
-    }
+        unsafe { avx_pick(keep, near, dist, idx, val.as_mut().map(|v| v.as_mut_slice()), start) }
+    } else {
+        (start, 0)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let (mut end, done) = (start, 0);
     for (&o, &d) in near.iter().zip(dist).skip(done) {
         idx[end] = o;
         if let Some(val) = val.as_deref_mut() {
@@ -1415,7 +1418,7 @@ unsafe fn avx_pick(
     near: &[u32],
     dist: &[f32],
     idx: &mut [u32],
-    mut val: Option<&mut Vec<f32>>,
+    mut val: Option<&mut [f32]>,
     start: usize,
 ) -> (usize, usize) {
     use std::arch::x86_64::{
