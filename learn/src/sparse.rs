@@ -34,6 +34,8 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+#[cfg(target_arch = "x86_64")]
+use snn::engine::PACKED_LANES;
 use snn::engine::{conv_positions, pool_targets};
 use snn::model_file::Readout;
 use snn::network::PoolKind;
@@ -1294,13 +1296,10 @@ fn update_above<const AVX: bool>(
     above(v, low, out)
 }
 
-/// [`snn::engine::packed_lanes`], built once.
-#[cfg(target_arch = "x86_64")]
-static PACK8: [[u32; 8]; 256] = snn::engine::packed_lanes();
-
 /// [`update_above`] in AVX registers: per eight membranes, the same operations in the same order
 /// (nothing fused), one compare, and the lanes above `low` packed to the front of a register (a
-/// permutation from [`PACK8`]) and stored at the list's end, which advances by their number.
+/// permutation from [`snn::engine::PACKED_LANES`]) and stored at the list's end, which advances
+/// by their number.
 ///
 /// # Safety
 /// The CPU must have AVX2, popcnt and BMI1 ([`snn::engine::avx2`]).
@@ -1332,7 +1331,7 @@ unsafe fn avx_update_above(v: &mut [f32], u: &mut [f32], beta: f32, leak: f32, l
             _mm256_storeu_ps(x.as_mut_ptr(), nv);
             _mm256_storeu_ps(d.as_mut_ptr(), _mm256_setzero_ps());
             let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(nv, lo)) as usize;
-            let lanes = _mm256_loadu_si256(PACK8[mask].as_ptr().cast::<__m256i>());
+            let lanes = _mm256_loadu_si256(PACKED_LANES.0[mask].as_ptr().cast::<__m256i>());
             let at = _mm256_add_epi32(lanes, _mm256_set1_epi32((8 * q) as i32));
             _mm256_storeu_si256(slot.as_mut_ptr().cast::<__m256i>(), at);
             mask
@@ -1370,8 +1369,8 @@ impl Keep {
 /// Appends to `idx` the neurons of `near` whose distance to threshold (`dist`, the same order)
 /// `keep` keeps, in order, and those distances to `val` when given: without a branch per neuron.
 /// With `AVX` (set only in code compiled for AVX2 and run where the CPU has it) eight at a time,
-/// the kept lanes packed to the front of a register by a permutation from [`PACK8`] (the same
-/// lists).
+/// the kept lanes packed to the front of a register by a permutation from
+/// [`snn::engine::PACKED_LANES`] (the same lists).
 #[inline(always)]
 fn pick<const AVX: bool>(keep: Keep, near: &[u32], dist: &[f32], idx: &mut Vec<u32>, mut val: Option<&mut Vec<f32>>) {
     assert_eq!(near.len(), dist.len(), "a distance per neuron");
@@ -1443,7 +1442,7 @@ unsafe fn avx_pick(
                 Keep::Fired => _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
             };
             let mask = _mm256_movemask_ps(kept) as usize;
-            let perm = _mm256_loadu_si256(PACK8[mask].as_ptr().cast::<__m256i>());
+            let perm = _mm256_loadu_si256(PACKED_LANES.0[mask].as_ptr().cast::<__m256i>());
             let packed = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(o8.as_ptr().cast::<__m256i>()), perm);
             _mm256_storeu_si256(slot.as_mut_ptr().cast::<__m256i>(), packed);
             (mask, perm, d)

@@ -28,7 +28,7 @@ use fanout::{BitSet, Buckets, Marks, conv_inputs, fan_in, fan_in_buckets, fan_in
 use kernels::evaluate;
 #[cfg(target_arch = "x86_64")]
 pub use simd::avx2;
-pub use simd::packed_lanes;
+pub use simd::{PACKED_LANES, PackedLanes};
 
 /// The engine's buffers read and written a vector register at a time (membranes, accumulators,
 /// weights, marks), on cache-line boundaries: a position's 8 or 16 lanes (32 or 64 bytes) and a

@@ -16,8 +16,16 @@ pub fn avx2() -> bool {
 /// For each set of eight lanes (as the bits of a byte), the lanes in it in ascending order, then
 /// zeros: the permutation that packs the chosen lanes of an eight-lane register to its front
 /// (`_mm256_permutevar8x32_*` on x86-64). The engine buckets spikes with it; the trainer
-/// (`learn::sparse`) lists the neurons near threshold with it.
-pub const fn packed_lanes() -> [[u32; 8]; 256] {
+/// (`learn::sparse`) lists the neurons near threshold with it. On a 32-byte boundary: each row
+/// is 32 bytes, so no row's load straddles two cache lines.
+#[repr(align(32))]
+pub struct PackedLanes(pub [[u32; 8]; 256]);
+
+/// [`PackedLanes`], built once.
+pub static PACKED_LANES: PackedLanes = PackedLanes(packed_lanes());
+
+/// The table of [`PackedLanes`].
+const fn packed_lanes() -> [[u32; 8]; 256] {
     let mut t = [[0u32; 8]; 256];
     let mut m = 0;
     while m < 256 {
@@ -295,19 +303,12 @@ pub(in crate::engine) mod avx {
         acc.copy_from_slice(&padded[..n]);
     }
 
-    /// The table of permutations on a 32-byte boundary: each row is 32 bytes, so no row's load
-    /// straddles two cache lines.
-    #[repr(align(32))]
-    struct Pack([[u32; 8]; 256]);
-
-    /// [`super::packed_lanes`], built once.
-    static PACK: Pack = Pack(super::packed_lanes());
-
     /// [`Buckets::push_masks`] eight positions a step: for each channel, the positions whose bit
-    /// is set are packed to the front of a register (a permutation from [`PACK`]) and all eight
-    /// lanes stored at the channel's next slot, which advances by the number packed. The same
-    /// positions in the same order; the lanes past them land in slots not yet filled (the
-    /// buckets' eight slots of slack, or the next channel's, filled after).
+    /// is set are packed to the front of a register (a permutation from
+    /// [`PACKED_LANES`](super::PACKED_LANES)) and all eight lanes stored at the channel's next
+    /// slot, which advances by the number packed. The same positions in the same order; the lanes
+    /// past them land in slots not yet filled (the buckets' eight slots of slack, or the next
+    /// channel's, filled after).
     ///
     /// # Safety
     /// The CPU must have AVX2, popcnt and BMI1 ([`avx2`](crate::engine::avx2)).
@@ -338,7 +339,7 @@ pub(in crate::engine) mod avx {
                     // channel `ch`'s bit moved to each lane's sign
                     let m = _mm256_sll_epi32(_mm256_loadu_si256(masks), shift);
                     let chosen = _mm256_movemask_ps(_mm256_castsi256_ps(m)) as usize;
-                    let order = _mm256_loadu_si256(PACK.0[chosen].as_ptr().cast::<__m256i>());
+                    let order = _mm256_loadu_si256(super::PACKED_LANES.0[chosen].as_ptr().cast::<__m256i>());
                     let p = _mm256_loadu_si256(b.fired_pos.as_ptr().add(q).cast::<__m256i>());
                     _mm256_storeu_si256(
                         b.pos.as_mut_ptr().add(k).cast::<__m256i>(),
