@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long, value_name = "CELLS", conflicts_with = "spec")]
     to_text: Option<String>,
     /// One of liblouis's YAML test files (tests/braille-specs/; en-ueb-g1_backward.yaml and
-    /// en-ueb-g2_backward.yaml are in pipeline/liblouis/tests/): run every case through the code
+    /// en-ueb-g2_backward.yaml are in liblouis/tests/): run every case through the code
     /// and report the agreement and each case that differs.
     #[arg(long, value_name = "FILE")]
     spec: Option<PathBuf>,

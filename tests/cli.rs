@@ -241,7 +241,7 @@ fn translate_writes_and_reads_ueb_and_simulate_prints_a_boards_cells() {
     assert!(!o.status.success() && text(&o).1.contains("character 1, 'x'"), "{}", text(&o).1);
     // liblouis's own backward tests of contracted UEB: liblouis built into `braille` passes
     // every case liblouis's harness expects to pass.
-    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline/liblouis/tests/en-ueb-g2_backward.yaml");
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("liblouis/tests/en-ueb-g2_backward.yaml");
     let v: serde_json::Value =
         serde_json::from_str(&out(&["translate", "--braille", "ueb-g2", "--spec", spec.to_str().unwrap(), "--json"]))
             .unwrap();

@@ -1,13 +1,16 @@
-//! Training. The SNN's sparse trainer ([`sparse`]: backpropagation through time with surrogate
-//! gradients on spike lists, our own, without burn); dense-tensor networks on burn (CPU `flex`
-//! backend): the paper's ResNet baseline ([`resnet`]: inference always, training with the `train`
-//! feature), and with `train` the SNN's time-stepped twin ([`snn`]), the sparse trainer's
-//! reference, and the training loop that runs either ([`train`]); the labelled spike trains they
-//! learn from ([`data`]). Trained SNNs leave as [`::snn::network::Network`]s for the event-driven
-//! engine.
+//! Networks that learn, and what a reader keeps of them.
 //!
-//! Without the `train` feature (default on) burn's autodiff and optimisers are not compiled:
-//! readers that only run a trained ResNet depend on this crate with `default-features = false`.
+//! Always (no burn, no trainer): the labelled data the trainers learn from ([`data`]), the
+//! ResNet's configuration and its inference with batch norm folded ([`resnet::folded`], which
+//! reads a model file's tensors).
+//!
+//! With the `train` feature (default on): the SNN's sparse trainer (`sparse`: backpropagation
+//! through time with surrogate gradients on spike lists, our own); dense networks on burn (CPU
+//! `flex` backend, autodiff): the ResNet as a burn module and its training, the SNN's
+//! time-stepped twin (`snn`), the sparse trainer's reference, and the training loop that runs
+//! either (`train`). Trained SNNs leave as [`::snn::network::Network`]s for the event-driven
+//! engine. Readers depend on this crate with `default-features = false` and compile neither burn
+//! nor the trainer.
 
 pub mod data;
 pub mod error;
@@ -19,11 +22,13 @@ pub mod temporal;
 #[cfg(feature = "train")]
 pub mod train;
 
+#[cfg(feature = "train")]
 pub mod sparse;
 
 pub use error::{Error, Result};
 
 /// Each row's class of highest logit, of logits `[batch, classes]`.
+#[cfg(feature = "train")]
 pub(crate) fn predicted_classes(logits: &burn::tensor::Tensor<2>) -> Vec<usize> {
     logits
         .clone()

@@ -2,9 +2,10 @@
 //!
 //! Three codes: the paper's 26 letters and the space ([`BrailleCode::Grade1Letters`]), and
 //! Unified English Braille uncontracted ([`BrailleCode::UebGrade1`]) and contracted
-//! ([`BrailleCode::UebGrade2`]), translated both ways by liblouis itself (C, built into this
-//! crate from `pipeline/liblouis/c` by its build script) with its own UEB tables (`en-ueb-g1.ctb`,
-//! `en-ueb-g2.ctb` and their includes, in `pipeline/liblouis/tables`; both LGPL-2.1+). Why
+//! ([`BrailleCode::UebGrade2`]), translated both ways by liblouis itself (C, LGPL-2.1+, the
+//! `liblouis` crate builds it from source) with its own UEB tables (`en-ueb-g1.ctb`,
+//! `en-ueb-g2.ctb` and their includes, [`liblouis::TABLES`]). This module is the safe translator
+//! over liblouis's C API. Why
 //! liblouis and not the pure-Rust `louis-rs` (it misreads 3.3% of the 2,000 most frequent words
 //! in contracted Braille): docs/braille.md.
 //!
@@ -13,6 +14,7 @@
 
 use crate::{Error, Result};
 use encoders::braille::{Cell, cell_of, letter_of};
+use liblouis::{TABLES, ffi};
 use std::sync::OnceLock;
 
 /// A Braille code: the rules from print to cells and back.
@@ -77,23 +79,9 @@ impl std::fmt::Display for BrailleCode {
     }
 }
 
-/// The vendored liblouis tables: liblouis reads tables from files, so they are written once per
-/// machine to a folder named by their contents' hash (in the system's temporary folder) and
-/// read from there.
-const TABLES: [(&str, &str); 10] = [
-    ("en-ueb-g2.ctb", include_str!("../liblouis/tables/en-ueb-g2.ctb")),
-    ("en-ueb-g1.ctb", include_str!("../liblouis/tables/en-ueb-g1.ctb")),
-    ("en-ueb-chardefs.uti", include_str!("../liblouis/tables/en-ueb-chardefs.uti")),
-    ("en-ueb-math.ctb", include_str!("../liblouis/tables/en-ueb-math.ctb")),
-    ("braille-patterns.cti", include_str!("../liblouis/tables/braille-patterns.cti")),
-    ("text_nabcc.dis", include_str!("../liblouis/tables/text_nabcc.dis")),
-    ("spaces.uti", include_str!("../liblouis/tables/spaces.uti")),
-    ("latinLetterDef6Dots.uti", include_str!("../liblouis/tables/latinLetterDef6Dots.uti")),
-    ("latinUppercaseComp6.uti", include_str!("../liblouis/tables/latinUppercaseComp6.uti")),
-    ("unicode.dis", include_str!("../liblouis/tables/unicode.dis")),
-];
-
-/// The folder the tables are written to (once per machine and table version).
+/// The folder the vendored tables are written to (liblouis reads tables from files): once per
+/// machine and table version, in a folder of the system's temporary folder named by the tables'
+/// hash.
 fn table_dir() -> Result<&'static std::path::Path> {
     static DIR: OnceLock<std::path::PathBuf> = OnceLock::new();
     if let Some(d) = DIR.get() {
@@ -120,38 +108,6 @@ fn table_dir() -> Result<&'static std::path::Path> {
         std::fs::rename(&partial, &path).map_err(|e| io(&path, e))?;
     }
     Ok(DIR.get_or_init(|| dir))
-}
-
-mod ffi {
-    //! liblouis's C API (liblouis.h, built with 32-bit wide characters).
-    use std::os::raw::{c_char, c_int, c_ushort};
-    pub type Widechar = u32;
-    pub const LOG_OFF: c_int = 0x7FFF_FFFF;
-    unsafe extern "C" {
-        pub fn lou_translateString(
-            table_list: *const c_char,
-            inbuf: *const Widechar,
-            inlen: *mut c_int,
-            outbuf: *mut Widechar,
-            outlen: *mut c_int,
-            typeform: *mut c_ushort,
-            spacing: *mut c_char,
-            mode: c_int,
-        ) -> c_int;
-        pub fn lou_backTranslateString(
-            table_list: *const c_char,
-            inbuf: *const Widechar,
-            inlen: *mut c_int,
-            outbuf: *mut Widechar,
-            outlen: *mut c_int,
-            typeform: *mut c_ushort,
-            spacing: *mut c_char,
-            mode: c_int,
-        ) -> c_int;
-        pub fn lou_getTable(table_list: *const c_char) -> *const std::ffi::c_void;
-        pub fn lou_setLogLevel(level: c_int);
-        pub fn lou_charSize() -> c_int;
-    }
 }
 
 /// liblouis keeps its compiled tables and buffers in globals: one call at a time.

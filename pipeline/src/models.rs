@@ -4,15 +4,17 @@
 use crate::error::{Error, Result};
 use crate::input::CharInput;
 use learn::data::TactileEncoding;
-use learn::resnet::{Resnet, ResnetConfig};
-use snn::model_file::{Arch, ModelFile, SnnModel};
+use learn::resnet::ResnetConfig;
+use snn::model_file::{Arch, ModelFile, NamedTensor, SnnModel};
 use std::path::Path;
 
-/// A trained ResNet and how its input is made.
+/// A trained ResNet and how its input is made. Its weights are kept as the model file's tensors
+/// (burn's names): a reader folds them ([`learn::resnet::folded::FoldedResnet::from_tensors`]),
+/// a trainer loads them into burn (`learn::resnet::from_tensors`, with learn's `train`).
 pub struct ResnetModel {
     pub config: ResnetConfig,
     pub input: CharInput,
-    pub model: Resnet,
+    pub tensors: Vec<NamedTensor>,
     pub classes: Vec<String>,
     pub provenance: serde_json::Value,
     /// Where a reader reads a segmentation network's output (JSON owned by the reader).
@@ -34,7 +36,7 @@ impl ResnetModel {
             classes: self.classes.clone(),
             provenance: self.provenance.clone(),
             operating_point: self.operating_point.clone(),
-            tensors: learn::resnet::to_tensors(&self.model)?,
+            tensors: self.tensors.clone(),
         }
         .write(path, force)?;
         Ok(())
@@ -59,11 +61,12 @@ impl ResnetModel {
                 format!("{} class names for a network of {} outputs", f.classes.len(), config.classes),
             ));
         }
-        let model = learn::resnet::from_tensors(&config, &f.tensors).map_err(|e| bad(path, e.to_string()))?;
+        // the tensors are checked against the configuration here, once, as folding them does
+        learn::resnet::folded::FoldedResnet::from_tensors(&config, &f.tensors).map_err(|e| bad(path, e.to_string()))?;
         Ok(ResnetModel {
             config,
             input,
-            model,
+            tensors: f.tensors,
             classes: f.classes,
             provenance: f.provenance,
             operating_point: f.operating_point,

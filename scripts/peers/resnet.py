@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """CPU inference time of the project's ResNet character classifiers, rebuilt in plain PyTorch.
 
-The architecture is the project's (learn/src/resnet.rs): a 7x7 stride-2 convolution with batch
+The architecture is the project's (learn/src/resnet/dense.rs): a 7x7 stride-2 convolution with batch
 norm and ReLU, 3x3 stride-2 max pooling, stages of basic blocks (the first block of every stage
 after the first halves the resolution; a 1x1 projection where the shape changes), adaptive average
 pooling, fully connected layers with ReLU (dropout is off at inference), then the class layer.

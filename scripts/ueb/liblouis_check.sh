@@ -11,7 +11,7 @@ cd "$(dirname "$0")/../.."
 : "${LIBLOUIS:?set LIBLOUIS to a liblouis install prefix (3.38 or later)}"
 b="${1:-target/release/braille}"
 export PATH="$LIBLOUIS/bin:$PATH" LD_LIBRARY_PATH="$LIBLOUIS/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
-export LOUIS_TABLEPATH="$PWD/pipeline/liblouis/tables,$LIBLOUIS/share/liblouis/tables"
+export LOUIS_TABLEPATH="$PWD/liblouis/tables,$LIBLOUIS/share/liblouis/tables"
 work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
 out=docs/results/ueb_agreement.md
 version=$(lou_translate --version | head -1)
@@ -19,7 +19,7 @@ version=$(lou_translate --version | head -1)
   echo "# UEB translation: \`braille translate\` (liblouis built in, \"ours\") against liblouis's own tools"
   echo
   echo "Made by \`LIBLOUIS=... bash scripts/ueb/liblouis_check.sh\` on $(date -u +%Y-%m-%d); liblouis: $version;"
-  echo "tables: pipeline/liblouis/ (liblouis $(sed -n 's/^- commit: //p' pipeline/liblouis/README.md))."
+  echo "tables: liblouis/ (liblouis $(sed -n 's/^- commit: //p' liblouis/README.md))."
   echo
   echo "## liblouis's own backward test files"
   echo
@@ -28,8 +28,8 @@ version=$(lou_translate --version | head -1)
 } > "$out"
 for pair in "en-ueb-g1_backward.yaml ueb-g1" "en-ueb-g2_backward.yaml ueb-g2"; do
   set -- $pair
-  $b translate --braille "$2" --spec "pipeline/liblouis/tests/$1" --json > "$work/spec.json"
-  theirs=$(cd pipeline/liblouis/tests && lou_checkyaml "$1" 2>&1 | tail -1)
+  $b translate --braille "$2" --spec "liblouis/tests/$1" --json > "$work/spec.json"
+  theirs=$(cd liblouis/tests && lou_checkyaml "$1" 2>&1 | tail -1)
   python3 - "$work/spec.json" "$1" "$2" "$theirs" >> "$out" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))

@@ -188,7 +188,8 @@ fn timing((median, min, max): (f64, f64, f64), macs: u64) -> PathTiming {
 
 /// Benchmarks the ResNet model `m` (from `path`) as `spec` says.
 pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn Progress) -> Result<ResnetBench> {
-    let folded = FoldedResnet::from_model(&m.config, &m.model)?;
+    let folded = FoldedResnet::from_tensors(&m.config, &m.tensors)?;
+    let burn_model = learn::resnet::from_tensors(&m.config, &m.tensors)?;
     let im2col = folded.direct_convolution().then(|| folded.clone().with_direct_convolution(false));
     let (ims, source) = windows(m, &spec.windows, progress)?;
     if ims.is_empty() {
@@ -200,7 +201,7 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
     let (mut max_diff, mut max_rel) = (0.0f32, 0.0f32);
     for chunk in refs.chunks(32) {
         let ours = folded.logits_batch(chunk)?;
-        for (a, b) in ours.iter().zip(learn::resnet::logits(&m.model, m.config.input, chunk)) {
+        for (a, b) in ours.iter().zip(learn::resnet::logits(&burn_model, m.config.input, chunk)) {
             for (x, y) in a.iter().zip(&b) {
                 max_diff = max_diff.max((x - y).abs());
                 max_rel = max_rel.max((x - y).abs() / y.abs().max(1.0));
@@ -228,7 +229,7 @@ pub fn run(m: &ResnetModel, path: &str, spec: &ResnetBenchSpec, progress: &dyn P
             let f = ours(&folded)?;
             let i = im2col.as_ref().map(ours).transpose()?;
             let b = time_passes(&refs, batch, spec.repeats, |c| {
-                std::hint::black_box(learn::resnet::logits(&m.model, m.config.input, c));
+                std::hint::black_box(learn::resnet::logits(&burn_model, m.config.input, c));
             });
             Ok((f, i, b))
         })?;

@@ -1,5 +1,5 @@
 //! A Braille code against liblouis's own test cases: the YAML files of liblouis's
-//! `tests/braille-specs/` (e.g. `en-ueb-g2_backward.yaml`, vendored in `pipeline/liblouis/tests/`),
+//! `tests/braille-specs/` (e.g. `en-ueb-g2_backward.yaml`, vendored in `liblouis/tests/`),
 //! each case run through [`pipeline::code::Translator`] in its direction and compared exactly.
 //!
 //! liblouis's YAML repeats its `flags:` and `tests:` keys, so it is read here line by line as

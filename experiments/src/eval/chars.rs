@@ -172,7 +172,8 @@ impl CharModel {
                     labels: raw.labels.clone(),
                 };
                 // (its accuracy, hits over windows, is the confusion's)
-                let (loss, _, predictions) = learn::resnet::evaluate(&m.model, &set, 32);
+                let model = learn::resnet::from_tensors(&m.config, &m.tensors)?;
+                let (loss, _, predictions) = learn::resnet::evaluate(&model, &set, 32);
                 Ok(Score::of_reads(self.model.classes().len(), &set.labels, predictions, loss))
             }
             Model::Snn(model) => {

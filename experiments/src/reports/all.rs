@@ -303,11 +303,9 @@ fn latency(runs: &[ReadSummary], png: &Path) -> Result<String> {
         for (h, what) in [(&v.segmenter_latency, "segmentation"), (&v.classifier_latency, "classifier")] {
             let total = h.total().max(1) as f64;
             let points = h
-                .counts
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| **c > 0)
-                .map(|(k, &c)| ((pipeline::classify::Histogram::edge_ns(k) / 1e3).log10(), 100.0 * c as f64 / total))
+                .octave_buckets(4)
+                .into_iter()
+                .map(|(edge_ns, c)| ((edge_ns / 1e3).log10(), 100.0 * c as f64 / total))
                 .collect();
             series.push(Series { name: format!("{}, {what}", v.arch), points, emphasis: v.arch == Arch::Snn });
         }

@@ -197,7 +197,7 @@ pub fn train_resnet(
             if m.config != config || m.input != input || m.classes != classes {
                 return Err(bad("its preset, input or classes are not this training's: fine-tuning keeps them"));
             }
-            Some(learn::resnet::to_tensors(&m.model)?)
+            Some(m.tensors)
         }
         None => None,
     };
@@ -236,7 +236,14 @@ pub fn train_resnet(
         },
         realism: t.realism,
         word_rows: t.word_rows,
-        model: ResnetModel { config, input, model, classes, provenance, operating_point: None },
+        model: ResnetModel {
+            config,
+            input,
+            tensors: learn::resnet::to_tensors(&model)?,
+            classes,
+            provenance,
+            operating_point: None,
+        },
         history,
         best_val_accuracy: best,
         train_windows: train_set.len(),

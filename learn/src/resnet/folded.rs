@@ -694,7 +694,7 @@ pub struct FoldedResnet {
 }
 
 impl FoldedResnet {
-    /// The network of `cfg` from a model file's tensors (burn's names, as [`super::to_tensors`]
+    /// The network of `cfg` from a model file's tensors (burn's names, as `learn::resnet::to_tensors`
     /// writes them); a tensor that is missing or of the wrong shape is an error naming it.
     pub fn from_tensors(cfg: &ResnetConfig, tensors: &[NamedTensor]) -> Result<FoldedResnet> {
         let t = Tensors { all: tensors };
@@ -761,6 +761,7 @@ impl FoldedResnet {
     }
 
     /// The trained burn model `model` of `cfg`, folded.
+    #[cfg(feature = "train")]
     pub fn from_model(cfg: &ResnetConfig, model: &super::Resnet) -> Result<FoldedResnet> {
         FoldedResnet::from_tensors(cfg, &super::to_tensors(model)?)
     }
@@ -941,7 +942,7 @@ impl FoldedResnet {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "train"))]
 mod tests {
     use super::*;
     use burn::tensor::Device;

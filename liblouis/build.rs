@@ -1,8 +1,8 @@
-//! Builds liblouis (C, LGPL-2.1+, vendored in liblouis/c at the commit liblouis/README.md names)
-//! into the crate: the UEB translation of `pipeline::code`. Only a C compiler is needed.
+//! Builds liblouis (C, LGPL-2.1+, vendored in `c/` at the commit README.md names) into this
+//! crate's static library. Only a C compiler is needed.
 
 fn main() {
-    let dir = std::path::Path::new("liblouis/c");
+    let dir = std::path::Path::new("c");
     let sources = [
         "compileTranslationTable.c",
         "lou_translateString.c",
@@ -20,5 +20,5 @@ fn main() {
         build.file(dir.join(s));
     }
     build.compile("louis");
-    println!("cargo::rerun-if-changed=liblouis/c");
+    println!("cargo::rerun-if-changed=c");
 }

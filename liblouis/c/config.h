@@ -1,4 +1,4 @@
-/* The configuration liblouis's sources need, written for pipeline/build.rs in place of the one
+/* The configuration liblouis's sources need, written for build.rs in place of the one
  * autotools generates: the version, and no compiled-in table folder (tables are named by path). */
 #ifndef LOUISCFG_H
 #define LOUISCFG_H
