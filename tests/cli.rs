@@ -786,7 +786,7 @@ fn train_distils_from_a_teacher_of_another_step_and_refuses_one_of_other_classes
     let at = args.iter().position(|a| a == "0.7").unwrap();
     args[at] = "1.5".into();
     let o = braille(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    assert!(!o.status.success() && text(&o).1.contains("distillation weight"), "{}", text(&o).1);
+    assert!(!o.status.success() && text(&o).1.contains("key `distill.weight`"), "{}", text(&o).1);
 }
 
 /// `braille train` searching the tiny dataset `d` with 8 hidden neurons, quietly, its trial logs
@@ -1220,7 +1220,7 @@ fn train_takes_crop_band_and_training_builds_and_refuses_bad_ones() {
     assert_eq!(recipe["train_builds"], serde_json::json!([1, 2, 3, 4, 20, 21]));
     for bad in ["90,20", "0,121", "20"] {
         let o = braille(&["train", "--arch", "snn", "--recipe", "words", "--crop-rows", bad, "--print-recipe"]);
-        assert!(!o.status.success() && text(&o).1.contains("--crop-rows"), "{bad}: {}", text(&o).1);
+        assert!(!o.status.success() && text(&o).1.contains("key `crop_rows`"), "{bad}: {}", text(&o).1);
     }
     // nor for what is not a simulated window's crop: a dataset folder's taxels, the paper ResNet's
     // whole frame; nor a pooling that does not divide the crop's rows
@@ -1231,21 +1231,21 @@ fn train_takes_crop_band_and_training_builds_and_refuses_bad_ones() {
     assert!(!o.status.success() && text(&o).1.contains("class balance 1.5"), "{}", text(&o).1);
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/icub_braille/th10");
     for (args, says) in [
-        (&["--crop-rows", "20,100", "--data", data.to_str().unwrap()][..], "--crop-rows"),
+        (&["--crop-rows", "20,100", "--data", data.to_str().unwrap()][..], "crop_rows"),
         (&["--crop-rows", "20,100", "--arch", "resnet", "--preset", "paper"], "crop_rows"),
         (&["--crop-rows", "20,99", "--arch", "resnet", "--preset", "lite", "--pool", "2"], "pool"),
         (&["--crop-rows", "20,98", "--arch", "snn", "--recipe", "words", "--pool", "4"], "pool"),
         // a centring band that does not hold the crop, or without centring, or on taxels
         (&["--band-rows", "30,116", "--arch", "snn", "--recipe", "words"], "band"),
         (&["--band-rows", "4,116", "--arch", "resnet", "--aug", "aug"], "centring preprocess"),
-        (&["--band-rows", "4,116", "--data", data.to_str().unwrap()], "--band-rows"),
+        (&["--band-rows", "4,116", "--data", data.to_str().unwrap()], "band_rows"),
         // more sensor builds for training: never a validation or test build, never on recorded data
         (&["--train-builds", "1-4,51", "--arch", "snn", "--recipe", "speck"], "they never train"),
         (&["--train-builds", "99-102", "--arch", "snn", "--recipe", "speck"], "they never train"),
         (&["--train-builds", "4-1", "--arch", "snn", "--recipe", "speck"], "numbers and ranges"),
         (&["--train-builds", "1-8", "--arch", "snn", "--recipe", "speck", "--realism", "clean"], "`clean` has one"),
         (&["--train-builds", "1-8", "--data", data.to_str().unwrap()], "recorded data"),
-        (&["--train-builds", "1-8", "--arch", "resnet"], "--train-builds"),
+        (&["--train-builds", "1-8", "--arch", "resnet"], "train_builds"),
     ] {
         let o = braille(&[&["train", "--out", out.to_str().unwrap()][..], args].concat());
         assert!(!o.status.success() && text(&o).1.contains(says), "{args:?}: {}", text(&o).1);
@@ -1293,4 +1293,49 @@ fn set_band_records_a_band_and_refuses_what_cannot_centre() {
         assert!(!o.status.success() && text(&o).1.contains(says), "{rows}: {}", text(&o).1);
     }
     assert_eq!([std::fs::read(&m).unwrap(), std::fs::read(&r).unwrap()], before, "nothing written");
+}
+
+/// `braille train`'s options as keys: a TOML recipe file, `--set` over it in order, an earlier
+/// flag read as its key, and a key or value that does not fit refused with the key named.
+#[test]
+fn train_reads_a_toml_recipe_and_sets_keys_over_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("recipe.toml");
+    std::fs::write(&file, "lr = 0.005\nhidden = [64]\nneuron = \"lif\"\n[distill]\ntemperature = 2.0\n").unwrap();
+    let recipe = file.to_str().unwrap();
+    let o = braille(&[
+        "train",
+        "--recipe",
+        recipe,
+        "--set",
+        "epochs=2",
+        "--set",
+        "hidden=32,16",
+        "--dropout",
+        "0.25",
+        "--bias",
+        "--print-recipe",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&out).expect("the recipe as JSON");
+    assert_eq!((r["lr"].as_f64(), r["epochs"].as_u64(), r["neuron"].as_str()), (Some(0.005), Some(2), Some("lif")));
+    assert_eq!(
+        (r["hidden"].clone(), r["dropout"].as_f64(), r["bias"].as_bool()),
+        (serde_json::json!([32, 16]), Some(0.25), Some(true))
+    );
+    assert_eq!(r["distill"]["temperature"].as_f64(), Some(2.0));
+    for (set, says) in [
+        ("epochs=many", "key `epochs` = `many`: invalid type"),
+        ("tau_mem=3", "unknown field `tau_mem`"),
+        ("search.budget=3", "key `search.budget`"),
+        ("class_balance=1.5", "key `class_balance`"),
+    ] {
+        let o = braille(&["train", "--recipe", recipe, "--set", set, "--print-recipe"]);
+        assert!(!o.status.success() && text(&o).1.contains(says), "{set}: {}", text(&o).1);
+    }
+    // a broken TOML file is refused, naming it
+    std::fs::write(&file, "lr = \n").unwrap();
+    let o = braille(&["train", "--recipe", recipe, "--print-recipe"]);
+    assert!(!o.status.success() && text(&o).1.contains("recipe.toml"), "{}", text(&o).1);
 }

@@ -11,6 +11,10 @@ pub enum Error {
     /// A model file that cannot serve the protocol asked of it (another encoding, step or input).
     #[error("{}: {what}", path.display())]
     Model { path: std::path::PathBuf, what: String },
+    /// A training setting's key (`--set key=value`) that names no field, or a value its field
+    /// does not take: the key, the value, and what is wrong (serde's words, with the type expected).
+    #[error("key `{key}` = `{value}`: {what}")]
+    Key { key: String, value: String, what: String },
     /// A recipe that is neither a preset nor a file.
     #[error("recipe `{name}`: neither a preset ({presets}) nor a file")]
     UnknownRecipe { name: String, presets: String },

@@ -259,7 +259,7 @@ fn split_as(train: &SpikeSet, validation: Option<&SpikeSet>, r: &SnnRecipe) -> (
     }
 }
 
-/// Knowledge distillation from trained SNNs (`braille train --distill-from`): the model files and
+/// Knowledge distillation from trained SNNs (the recipe's `distill`): the model files and
 /// the mix of losses ([`learn::sparse::Distill`]). Several teachers teach as an ensemble: their
 /// softened distributions averaged (Hinton et al. 2015), as the logits `T ln(mean_k softmax(z_k /
 /// T))`, whose softmax at `T` is that mean.
@@ -267,6 +267,17 @@ fn split_as(train: &SpikeSet, validation: Option<&SpikeSet>, r: &SnnRecipe) -> (
 pub struct DistillFrom {
     pub paths: Vec<std::path::PathBuf>,
     pub distill: learn::sparse::Distill,
+}
+
+impl DistillFrom {
+    /// The recipe's distillation, if it names teachers.
+    pub fn of(r: &SnnRecipe) -> Option<DistillFrom> {
+        let d = r.distill.as_ref().filter(|d| !d.from.is_empty())?;
+        Some(DistillFrom {
+            paths: d.from.clone(),
+            distill: learn::sparse::Distill { weight: d.weight, temperature: d.temperature },
+        })
+    }
 }
 
 /// The logits whose softmax at `temperature` is the mean of the members' softmaxes at it.

@@ -1,4 +1,4 @@
-//! Training: SNN recipes ([`recipe`]), fitting an SNN on simulated windows or a tactile dataset
+//! Training: SNN recipes ([`recipe`]) and the keys that set them ([`settings`]), fitting an SNN on simulated windows or a tactile dataset
 //! ([`fit`]), the validation-driven search on any dataset folder ([`search`], run whole by
 //! [`search::run`]), the linear floors ([`baselines`]), the conventional networks chosen by the same
 //! protocol ([`networks`]) and the ResNet's training ([`resnet`]).
@@ -9,3 +9,4 @@ pub mod networks;
 pub mod recipe;
 pub mod resnet;
 pub mod search;
+pub mod settings;

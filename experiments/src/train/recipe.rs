@@ -1,7 +1,8 @@
 //! The SNN recipe as data: every choice that makes a trained SNN (its data's encoding, the
-//! network, the surrogate, the optimiser, augmentation and regularisation), with `Default` and a
-//! named preset for every shipped model. `braille train --recipe NAME|FILE.json` starts from one,
-//! flags override its fields, and the recipe used is stored in the model's provenance.
+//! network, the surrogate, the optimiser, augmentation and regularisation, distillation), with
+//! `Default` and a named preset for every shipped model. `braille train --recipe
+//! NAME|FILE.json|FILE.toml` starts from one, `--set key=value` overrides its fields
+//! ([`crate::train::settings`]), and the recipe used is stored in the model's provenance.
 
 use crate::error::{Error, Result};
 use corpus::windows::Task;
@@ -70,6 +71,27 @@ pub struct ConvLayer {
 
 fn one() -> usize {
     1
+}
+
+/// Knowledge distillation (Hinton, Vinyals and Dean 2015; a dataset folder, the sparse trainer):
+/// each training sample also learns from trained SNNs' logits on it (run on the engine, each
+/// sample encoded as that model was trained); several teachers teach as an ensemble (their
+/// softened distributions averaged). Validation and checkpoints stay the cross-entropy's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DistillRecipe {
+    /// The teachers' model files.
+    pub from: Vec<std::path::PathBuf>,
+    /// The distillation term's share of the loss, in [0, 1].
+    pub weight: f32,
+    /// Both networks' logits divided by it before the softmax.
+    pub temperature: f32,
+}
+
+impl Default for DistillRecipe {
+    fn default() -> Self {
+        DistillRecipe { from: Vec::new(), weight: 0.5, temperature: 4.0 }
+    }
 }
 
 /// Everything that makes a trained SNN. Durations in microseconds; shares in 0..1.
@@ -226,6 +248,9 @@ pub struct SnnRecipe {
     /// training builds, [`corpus::world::TRAIN_SENSORS`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub train_builds: Option<Vec<u64>>,
+    /// Distillation from trained teachers (None: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distill: Option<DistillRecipe>,
 }
 
 impl Default for SnnRecipe {
@@ -295,6 +320,7 @@ impl Default for SnnRecipe {
             val_seed: None,
             val_builds: None,
             train_builds: None,
+            distill: None,
         }
     }
 }
@@ -452,7 +478,8 @@ impl SnnRecipe {
         })
     }
 
-    /// A preset's name, or a JSON file of a recipe (missing fields take the defaults).
+    /// A preset's name, or a recipe file, JSON or (ending in `.toml`) TOML, whose missing fields
+    /// take the defaults.
     pub fn load(name_or_file: &str) -> Result<SnnRecipe> {
         if let Some(r) = SnnRecipe::preset(name_or_file) {
             return Ok(r);
@@ -462,7 +489,85 @@ impl SnnRecipe {
             return Err(Error::UnknownRecipe { name: name_or_file.to_string(), presets: PRESETS.join(", ") });
         }
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        if path.extension().is_some_and(|e| e == "toml") {
+            return toml::from_str(&text)
+                .map_err(|e| Error::Data { path: path.to_path_buf(), what: format!("a TOML recipe: {e}") });
+        }
         serde_json::from_str(&text).map_err(|source| Error::Json { path: path.to_path_buf(), source })
+    }
+
+    /// Sets the field `key` to `raw` ([`crate::train::settings::set_key`]), with three keys of
+    /// their own: `braille` (the training boards' code: the letters, or a code's cells, and the
+    /// task to match), `train_builds` (also as `1-4,7`), and the diagnostic `check_truncation`
+    /// (never recorded).
+    pub fn set(&mut self, key: &str, raw: &str) -> Result<()> {
+        let bad = |what: String| Error::Key { key: key.to_string(), value: raw.to_string(), what };
+        match key {
+            "braille" => {
+                let code: pipeline::code::BrailleCode =
+                    serde_json::from_value(serde_json::Value::String(raw.into())).map_err(|e| bad(e.to_string()))?;
+                if code == pipeline::code::BrailleCode::Grade1Letters {
+                    self.cells = None;
+                    if self.task == Task::Cells {
+                        self.task = Task::Chars;
+                    }
+                } else {
+                    self.cells = Some(code);
+                    if self.task == Task::Chars {
+                        self.task = Task::Cells;
+                    }
+                }
+                Ok(())
+            }
+            "check_truncation" => {
+                self.check_truncation = raw.trim().parse().map_err(|_| bad("true or false".into()))?;
+                Ok(())
+            }
+            "train_builds" if !raw.trim_start().starts_with('[') && !raw.trim().eq("null") => {
+                let builds = corpus::world::parse_builds(raw).map_err(|e| bad(e.to_string()))?;
+                self.train_builds = Some(builds);
+                Ok(())
+            }
+            _ => {
+                let check_truncation = self.check_truncation;
+                crate::train::settings::set_key(self, key, raw)?;
+                self.check_truncation = check_truncation;
+                Ok(())
+            }
+        }
+    }
+
+    /// The rules a recipe's values keep, checked before any window is simulated (the trainers
+    /// check them too): shares in range, a crop within the labeler's grid, training builds that
+    /// are neither validation nor test builds.
+    pub fn check(&self) -> Result<()> {
+        let key = |key: &str, value: String, e: &dyn std::fmt::Display| Error::Key {
+            key: key.to_string(),
+            value,
+            what: e.to_string(),
+        };
+        learn::train::check_class_balance(self.class_balance)
+            .map_err(|e| key("class_balance", self.class_balance.to_string(), &e))?;
+        learn::train::check_loss_spike_guard(self.loss_spike_guard)
+            .map_err(|e| key("loss_spike_guard", self.loss_spike_guard.to_string(), &e))?;
+        for (name, rows) in [("crop_rows", self.crop_rows), ("band_rows", self.band_rows)] {
+            if let Some(r) = rows {
+                crate::train::resnet::crop_rows(Some(r)).map_err(|e| key(name, format!("{r:?}"), &e))?;
+            }
+        }
+        if let Some(builds) = &self.train_builds {
+            corpus::World::train_on(self.realism, builds)
+                .map_err(|e| key("train_builds", format!("{builds:?}"), &e))?;
+        }
+        if let Some(d) = &self.distill {
+            if !(0.0..=1.0).contains(&d.weight) {
+                return Err(key("distill.weight", d.weight.to_string(), &"a share in [0, 1]"));
+            }
+            if d.temperature.is_nan() || d.temperature <= 0.0 {
+                return Err(key("distill.temperature", d.temperature.to_string(), &"a temperature above 0"));
+            }
+        }
+        Ok(())
     }
 
     /// The surrogate gradient the recipe trains with.
