@@ -4,7 +4,7 @@
 # a GRU, an LSTM and a temporal CNN over the binned events, each network chosen on the SNN
 # search's validation hold-out from 4 trials (bins of 20 or 50 ms, two sizes) and retrained on
 # the whole training split with seeds 1-3, whose test accuracy is looked at once. Then the
-# side-by-side report with the SNN search's models (`braille tactile-report`).
+# side-by-side report with the SNN search's models (`braille report tactile`).
 # 2026-11-28: the three ran side by side on two cores (so each had about two thirds of a core;
 # the budget is wall time, and it bound on th10). The taxel set is regenerated (about 3 minutes),
 # not committed.

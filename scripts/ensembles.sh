@@ -4,7 +4,7 @@
 # with the step, since the tenth decision on 2026-12-01, before it the exact searches; th10: the
 # truncated search; docs/results/tactile.md) has its final recipe, as its
 # model file records it, retrained on the whole training split with seeds 4-9, into
-# models/search/ensemble-members/ (no test split read). `braille tactile-report` then merges
+# models/search/ensemble-members/ (no test split read). `braille report tactile` then merges
 # seeds 1-3, 4-6 and 7-9 into three ensembles (`braille ensemble`) and scores each on the test
 # split. About 60 CPU-minutes, JOBS (default 2) trainings at a time; the same seeds give the same
 # members bit for bit.

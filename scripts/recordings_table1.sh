@@ -8,7 +8,7 @@
 # 2. The SNN and ResNet lite NormAug trained on the folder by the shipped models' recipes
 #    (scripts/table1.sh: `--recipe chars --trainer dense`; `--preset lite --aug normaug --epochs 30
 #    --lr 1e-3 --seed 1`).
-# 3. `braille chars-report` on the shipped models and on these, the same RAB test scans (30 a row,
+# 3. `braille report chars` on the shipped models and on these, the same RAB test scans (30 a row,
 #    the test builds, seven depths), and a table of the differences:
 #    docs/results/nominal/recordings_training.{md,json}.
 # About 25 minutes on two cores alone (36 on 2026-11-28 beside other jobs). BRAILLE overrides
@@ -59,7 +59,7 @@ md = ["# Training on a recordings folder against the shipped models (SIMULATED)"
       "Table I's training scans (SAB and UN, 40 scans a row, 8 mm/s, 1.5 mm, seed 1, training sensor builds) written "
       "by `braille simulate --recordings --sensor-builds training`, every fifth scan of a row given the role `val` "
       "as the simulated path holds them out; the models trained on it by the shipped recipes; both pairs scored "
-      "by `braille chars-report` on the same RAB test scans (30 a row, test builds), accuracy over every printed "
+      "by `braille report chars` on the same RAB test scans (30 a row, test builds), accuracy over every printed "
       "character.", "", "```", check.strip(), "```", "",
       "RAB at each depth (8 mm/s), and the letters of EV's word rows at 1.5 mm (Table I's report's last table; "
       "letters at a word's spacing, which the training boards do not show), with the difference from the shipped "

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The search (issue #24) on a tactile dataset of another layout than the iCub sets, which no
-# default was derived from: `braille sim-dataset` (SIMULATED, `nominal`: 5x4 event taxels of
+# default was derived from: `braille sim dataset` (SIMULATED, `nominal`: 5x4 event taxels of
 # 1.2x2 mm under each Braille character of SAB for training and of RAB, scanned by other sensor
 # builds, for test; speeds 10-30 mm/s, so samples last 0.29-0.84 s; 26 classes; about 280 events
 # per sample), then its floors and `braille train --data DIR --search` with the defaults and no
@@ -13,7 +13,7 @@
 # `--current` (2026-11-28, issue #51) runs the `--defaults` search again on the dataset as the
 # simulator makes it today (stick-slip and per-build optics joined `nominal` on 2026-11-27, so the
 # set differs from the one of 2026-11-25): docs/results/search/sim-taxels-2026-11-28, the SNN
-# that `braille tactile-report` puts beside the networks of scripts/baselines.sh on the same
+# that `braille report tactile` puts beside the networks of scripts/baselines.sh on the same
 # samples. It ran beside two of those searches on two cores (about 60 minutes).
 # `--zero` (2026-11-30, #51's first leave-one-dataset-out decision) runs the `--current` search
 # with neurons that reset to zero, its test split not read (docs/results/search/sim-taxels-zero;

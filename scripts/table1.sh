@@ -2,7 +2,7 @@
 # The paper's Table I and depth figure on SIMULATED scans, with the SNN beside the ResNet:
 # trains the ResNet lite in the four input configurations (Raw, Norm, Aug, NormAug) and the SNN
 # on the same windows (SAB and UN boards, 8 mm/s, 1.5 mm, 40 scans per board row, seed 1), then
-# tests every model on the same RAB scans at the paper's seven depths (`braille chars-report`).
+# tests every model on the same RAB scans at the paper's seven depths (`braille report chars`).
 # The report also tests the word-reading classifiers (`+ words`, trained by scripts/words.sh) when
 # the models folder holds them. About 60 minutes on two cores; `--report-only` skips the training.
 #

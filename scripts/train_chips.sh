@@ -21,7 +21,7 @@
 #   dropout (the chip as it is), 30 epochs (half the recipe's, as for Xylo, not tuned), one per fine-tuning seed
 #   (validation hold-out seed 2).
 #   `--loihi2-qat-only` runs only these.
-# Then the chip table and the cost of the faithful export: `braille chip-report`
+# Then the chip table and the cost of the faithful export: `braille report chip`
 # (docs/results/chips.md). About 40 minutes on two cores (the SIMULATED model alone about 15).
 # --trainer dense: the shipped models were trained with burn's autodiff, before the sparse trainer
 # became the default (2026-11-25; docs/results/trainers.md compares the two).

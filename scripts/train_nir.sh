@@ -5,7 +5,7 @@
 # record (below). The iCub models go
 # to models/icub/nir/, those trained on simulated scans to models/$REALISM/nir/ under the shipped
 # names; their histories to docs/results/twin-distill{,-ensemble}/ and docs/results/$REALISM/nir/. The comparison with the
-# subtracting models on the same tests: `braille chip-report` (docs/results/chips.md).
+# subtracting models on the same tests: `braille report chip` (docs/results/chips.md).
 # REALISM=clean|nominal|harsh (default nominal, the published tables) picks the simulator's preset
 # and the trainer as table1.sh and words.sh use it there: dense for the characters; for words
 # and segmentation dense at clean, sparse beyond (with blank cells as segmentation background).

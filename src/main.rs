@@ -27,6 +27,7 @@ mod run;
 mod set_band;
 mod sim_check;
 mod sim_dataset;
+mod sim_jobs;
 mod simulate;
 mod tactile_report;
 mod train;
@@ -50,93 +51,90 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Summarise an event file: events, duration, rate, ON/OFF ratio, resolution, time range.
-    Info(info::Args),
-    /// Convert an event file between AEDAT4, CSV and NumPy (.npy), streaming with bounded memory.
-    Convert(convert::Args),
-    /// Simulate scans of Braille boards with the virtual Evetac: event files and ground truth.
-    Simulate(simulate::Args),
-    /// Simulate a tactile dataset of another layout (a grid of event taxels under each Braille
-    /// character) as a folder in the iCub layout, for `train --data` and `baselines --data`.
-    SimDataset(sim_dataset::Args),
-    /// Measure the simulator's physics checks (depth, speed, polarity, geometry, noise, readout).
-    SimCheck(sim_check::Args),
-    /// Measure the paper's labeling pipeline against the simulator's ground truth.
-    LabelCheck(label_check::Args),
-    /// Each architecture's character classifier against one simulator nuisance at a time (noise,
-    /// misalignment, depth drift, speed, sensor build, mount compliance with stick-slip): Markdown, JSON, PNG.
-    Robustness(robustness::Args),
-    /// Plot an event file as a heat map and an event raster (PNG).
-    Plot(plot::Args),
-    /// Time the event-driven engine: on the peer benchmark's network, or any model file or NIR
-    /// graph (`--model`) on an event file, a dataset split or random input; `--train` times the
-    /// trainers' step.
-    Bench(bench::Args),
-    /// Train a model and save it: an SNN on a tactile dataset folder (a named recipe, the recipe
-    /// derived from the data, or `--search`), or either architecture on simulated windows.
-    Train(Box<train::Args>),
-    /// The non-spiking floors of a tactile dataset folder (ridge and logistic regression on
-    /// binned event counts), chosen on the SNN search's validation hold-out.
-    Baselines(baselines::Args),
-    /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
-    /// engine), `eval chars` on simulated windows of a board, `eval words` a reader on simulated
-    /// scans of a board.
-    Eval(eval::Args),
-    /// Table I and the depth curve on simulated RAB scans: the four ResNet configurations and the
-    /// SNN on the same windows (Markdown, JSON, PNG).
-    CharsReport(chars_report::Args),
-    /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
-    IcubReport(icub_report::Args),
-    /// Per tactile dataset (raw1350, th10, SIMULATED taxels), the SNN search's models beside the
-    /// GRU, LSTM, temporal CNN and linear floors chosen by the same protocol: seed means, size,
-    /// work and energy per sample (Markdown, JSON).
-    TactileReport(tactile_report::Args),
     /// Read the words in an event stream (a file, standard input or a live sensor's network stream,
     /// as it arrives): segmentation network, character classifier (ResNet or SNN), temporal
     /// filter, spelling.
     Read(read::Args),
+    /// Simulate scans of Braille boards with the virtual Evetac: event files and ground truth.
+    Simulate(simulate::Args),
+    /// Train a model and save it: an SNN on a tactile dataset folder (a named recipe, the recipe
+    /// derived from the data, or `--search`), or either architecture on simulated windows.
+    Train(Box<train::Args>),
+    /// A trained model's accuracy: on a dataset folder's split (the SNN, on the event-driven
+    /// engine), `eval chars` on simulated windows of a board, `eval words` a reader on simulated
+    /// scans of a board.
+    Eval(eval::Args),
+    /// Time the event-driven engine: on the peer benchmark's network, or any model file or NIR
+    /// graph (`--model`) on an event file, a dataset split or random input; `--train` times the
+    /// trainers' step.
+    Bench(bench::Args),
+    /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
+    Export(nir_cli::ExportArgs),
+    /// Import a NIR graph into a model file the engine runs.
+    Import(nir_cli::ImportArgs),
+    /// Print to Braille cells and back: the paper's letters, or Unified English Braille grade 1
+    /// or 2 (contracted) by liblouis's tables; `--spec` checks a code against liblouis's own tests.
+    Translate(translate::Args),
+    /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
+    /// PNG; `--quick` for a fast check that it all runs), or one report: `report chars`, `words`,
+    /// `letters`, `icub`, `tactile`, `chip`.
+    Report(report::Args),
+    /// Run the built-in demonstration: both readers on SIMULATED scans of the EV board (a sensor
+    /// build no model saw) and of a contracted UEB sentence, then real iCub recordings spelled
+    /// into a stream, written to AEDAT4, read back and classified by the shipped SNN on the
+    /// event-driven engine.
+    Demo(demo::Args),
+    /// The simulator's checks and other products: `sim check` (physics), `sim labels` (the
+    /// labeling pipeline against the truth), `sim robustness` (the classifiers against each
+    /// nuisance), `sim dataset` (a tactile dataset of another layout).
+    Sim(sim_jobs::Args),
     /// Serve an event file as a live sensor: DV's AEDAT 4.0 network stream at the recorded pace,
     /// for `read tcp://HOST:PORT`, dv-processing or DV.
     Replay(replay::Args),
     /// A lab's own recorded scans (a folder of event files and a manifest): `recordings check`.
     Recordings(recordings::Args),
-    /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
-    /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
-    WordsReport(words_report::Args),
-    /// Every letter at every place in a row: both architectures on SIMULATED scans of the
-    /// all-letters board (ALL-LETTERS, or VAL-LETTERS for choices) over speed and depth, per-letter
-    /// accuracy, confusions, accuracy by place in the row (Markdown, JSON).
-    LettersReport(letters_report::Args),
+    /// Summarise an event file: events, duration, rate, ON/OFF ratio, resolution, time range.
+    Info(info::Args),
+    /// Convert an event file between AEDAT4, CSV and NumPy (.npy), streaming with bounded memory.
+    Convert(convert::Args),
+    /// Plot an event file as a heat map and an event raster (PNG).
+    Plot(plot::Args),
+    /// The non-spiking floors of a tactile dataset folder (ridge and logistic regression on
+    /// binned event counts), chosen on the SNN search's validation hold-out.
+    Baselines(baselines::Args),
     /// Choose a segmentation network's operating point (threshold, shortest segment) on the
     /// SIMULATED validation words, never a test board; `--write` records it in the model file.
     CalibrateReader(calibrate_reader::Args),
     /// Centre a character classifier's windows in a band of rows wider than its crop from now on,
     /// its weights unchanged (a row the board's yaw moves past the crop is centred back whole).
     SetBand(set_band::Args),
-    /// Regenerate every results table and figure into one folder with an index (Markdown, JSON,
-    /// PNG); `--quick` for a fast check that it all runs.
-    Report(report::Args),
-    /// Export a trained SNN to NIR (HDF5), the format neuromorphic chips' toolchains read.
-    Export(nir_cli::ExportArgs),
-    /// What the faithful NIR export costs each shipped SNN, and the chip table: every exportable
-    /// model against Speck, Xylo, Loihi 2 and SpiNNaker 2, with accuracy, work and energy.
-    ChipReport(chip_report::Args),
-    /// Import a NIR graph into a model file the engine runs.
-    Import(nir_cli::ImportArgs),
     /// Run a model file or NIR graph on an event file and write every spike of every layer (CSV),
     /// to compare with another simulator spike for spike.
     Run(run::Args),
     /// Merge trained SNNs of one architecture into one network: the members side by side, their
     /// readouts summed at every step.
     Ensemble(ensemble::Args),
-    /// Print to Braille cells and back: the paper's letters, or Unified English Braille grade 1
-    /// or 2 (contracted) by liblouis's tables; `--spec` checks a code against liblouis's own tests.
-    Translate(translate::Args),
-    /// Run the built-in demonstration: both readers on SIMULATED scans of the EV board (a sensor
-    /// build no model saw) and of a contracted UEB sentence, then real iCub recordings spelled
-    /// into a stream, written to AEDAT4, read back and classified by the shipped SNN on the
-    /// event-driven engine.
-    Demo(demo::Args),
+    // The names these had before they were grouped, kept as hidden aliases.
+    #[command(hide = true)]
+    CharsReport(chars_report::Args),
+    #[command(hide = true)]
+    WordsReport(words_report::Args),
+    #[command(hide = true)]
+    LettersReport(letters_report::Args),
+    #[command(hide = true)]
+    IcubReport(icub_report::Args),
+    #[command(hide = true)]
+    TactileReport(tactile_report::Args),
+    #[command(hide = true)]
+    ChipReport(chip_report::Args),
+    #[command(hide = true)]
+    SimCheck(sim_check::Args),
+    #[command(hide = true)]
+    LabelCheck(label_check::Args),
+    #[command(hide = true)]
+    Robustness(robustness::Args),
+    #[command(hide = true)]
+    SimDataset(sim_dataset::Args),
 }
 
 fn main() -> ExitCode {
@@ -170,6 +168,7 @@ fn main() -> ExitCode {
         Command::Replay(a) => replay::run(a),
         Command::Recordings(a) => recordings::run(a),
         Command::Report(a) => report::run(a),
+        Command::Sim(a) => sim_jobs::run(a),
         Command::WordsReport(a) => words_report::run(a),
         Command::LettersReport(a) => letters_report::run(a),
         Command::CalibrateReader(a) => calibrate_reader::run(a),

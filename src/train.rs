@@ -128,7 +128,11 @@ const SWITCHES: [&str; 6] =
 /// `argv` with `braille train`'s earlier flags written as `--set` (the flags of `braille train
 /// --help` and any other command's arguments pass as they are).
 pub fn flags_as_keys(argv: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
-    let Some(at) = argv.iter().position(|a| a == "train") else { return argv };
+    // `braille train ...`: the command is the first argument (the binary has no global options)
+    let at = 1;
+    if argv.get(at).is_none_or(|a| a != "train") {
+        return argv;
+    }
     let run_flags: Vec<String> = <Args as clap::Args>::augment_args(clap::Command::new("train"))
         .get_arguments()
         .filter_map(|a| a.get_long().map(str::to_string))

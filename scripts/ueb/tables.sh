@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The UEB readers' tables (docs/braille.md), SIMULATED at $REALISM (default nominal), both
-# architectures (models/$REALISM/ueb/, scripts/ueb/train.sh): `braille words-report --braille
+# architectures (models/$REALISM/ueb/, scripts/ueb/train.sh): `braille report words --braille
 # ueb-g2`, which reads
 # - cells: RCB (the 63 cells in a random order, runs of three) at 8 mm/s, 1.5 mm, 30 scans a row,
 #   every printed cell scored (a scan the labeler miscounted counts its cells as errors), and the
