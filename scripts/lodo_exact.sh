@@ -15,7 +15,7 @@ cargo build --release --quiet
 b=target/release/braille
 [[ -d target/sim-taxels ]] || $b sim-dataset --out target/sim-taxels
 if [[ "${1:-}" == "--th10-fold" ]]; then
-  # th10's own fold under Rule B (session 59): augmentation (admitted for th10 by the second
+  # th10's own fold under Rule B (a 2026-11-30 session): augmentation (admitted for th10 by the second
   # decision) and exact gradients; its winner against th10-aug's 74.38% on validation (it won,
   # 74.74%, so its final models read the test split once: `braille eval --data
   # data/icub_braille/th10 --model models/search/th10-aug-exact{,.seed2,.seed3}.safetensors`).

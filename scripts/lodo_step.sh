@@ -15,7 +15,7 @@ step_of() {
 }
 # th10's fold has augmentation in its recipe since the second decision (docs/log/tactile-2026-11-30.md,
 # 20:24Z), so its searches with the step carry it too (models and logs named th10-aug-step2). The
-# search named th10-step2 (2026-12-01, session 64) ran without it: the headline's search with the
+# search named th10-step2 (2026-12-01, the 2026-12-01 12:56Z session) ran without it: the headline's search with the
 # step alone, validation only, which serves no fold.
 if [[ "${1:-}" == "--search" ]]; then
   d=${2:?--search needs a dataset: raw1350, th10 or taxels}

@@ -15,7 +15,7 @@
 # Timing commands that print a last line with a labelled figure: `engine_step PASSES` ("fastest
 # 0.2025"), `read_probe READS` ("fastest 68.6 ms").
 # A ratio within about 3% of 1 may be the heap layout a change leaves rather than the change
-# (docs/engine.md, "session 80"); ab_summary.py flags it.
+# (docs/engine.md, "the 2026-12-04 14:33Z session"); ab_summary.py flags it.
 set -euo pipefail
 rounds=${1:?rounds} before=${2:?the build before} after=${3:?the build after}
 shift 3

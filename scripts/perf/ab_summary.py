@@ -7,7 +7,7 @@ in how many rounds the build after was lower.
 
 A median ratio within LAYOUT_BAND of 1 is flagged: on the engine benchmark the heap's layout alone
 (where the allocator places the buffers, the code unchanged) moved the ratio by 0.97-1.03
-(docs/engine.md, "session 80"), so a change that small may be the layout it leaves.
+(docs/engine.md, "the 2026-12-04 14:33Z session"), so a change that small may be the layout it leaves.
 """
 import re
 import statistics
@@ -47,7 +47,7 @@ def main() -> None:
         f"against {min(a for _, a in pairs):g}"
     )
     if abs(median - 1) <= LAYOUT_BAND:
-        print(f"within {LAYOUT_BAND:.0%} of 1: the size of a heap-layout effect (docs/engine.md, \"session 80\")")
+        print(f"within {LAYOUT_BAND:.0%} of 1: the size of a heap-layout effect (docs/engine.md, \"the 2026-12-04 14:33Z session\")")
 
 
 if __name__ == "__main__":

@@ -368,18 +368,13 @@ impl SnnRecipe {
             // models/clean/snn-chars.safetensors: the paper's training protocol (SAB and UN)
             "chars" => SnnRecipe { trials: 40, epochs: 30, ..windows },
             // models/REALISM/snn-words.safetensors: shifted windows, no time stretch, 10 scans per
-            // board row; since 2026-11-27 the all-letters rows three times instead of 80 rows of
-            // random words, and the trials swept over 8-48 mm/s and 0.6-1.5 mm (chosen on
-            // VAL-LETTERS and VAL-WORDS, docs/log/letters-2026-11-27.md; before, `--words 80
-            // --letter-rows 0` at 8 mm/s and 1.5 mm, chosen on VAL, docs/results/nominal/
-            // words_recipe.md; the shipped `clean` model was trained before that, `--trials 5`)
-            // Since 2026-11-29 the crop is 9.3 mm tall (pooled rows 20..100, not the lite
-            // 28..92): it keeps a yawed row's first letter; and the classes are drawn by
-            // square-root sampling, for the rare letters (both chosen on VAL-LETTERS,
-            // docs/log/letters-2026-11-29.md; the `clean` model has neither). And one pass of
-            // letter strings holding every ordered letter pair: the classifier had learnt the
-            // training words' neighbours as context and misread letters after pairs it never saw
-            // (same log, session 47).
+            // board row; the all-letters rows three times, the trials swept over 8-48 mm/s and
+            // 0.6-1.5 mm (chosen on VAL-LETTERS and VAL-WORDS: docs/log/letters-2026-11-27.md); a
+            // crop 9.3 mm tall (pooled rows 20..100), which keeps a yawed row's first letter, and
+            // square-root class sampling for the rare letters (both chosen on VAL-LETTERS:
+            // docs/log/letters-2026-11-29.md); one pass of letter strings holding every ordered
+            // letter pair, so that no letter is misread after a pair the training words never
+            // held (same log). The `clean` model predates these: its provenance records its recipe.
             "words" => SnnRecipe {
                 letter_rows: 3,
                 pair_rows: 1,
@@ -392,13 +387,11 @@ impl SnnRecipe {
                 epochs: 12,
                 ..windows
             },
-            // models/clean/snn-segment.safetensors: character present against background; blank cells
-            // as background too since 2026-11-25 (chosen on VAL-WORDS, docs/reading.md; the
-            // shipped `clean` model was trained before, `--blank-cells false`)
-            // The words classifier's taller crop since 2026-11-29 (chosen with it, as a pair);
-            // and, the same day, its one pass of every ordered letter pair: the network missed
-            // letters in pairs it never saw (I, W) and split their words (VAL-LETTERS 0.9970
-            // against 0.9622 without spelling, docs/log/letters-2026-11-29.md, session 47).
+            // models/clean/snn-segment.safetensors: character present against background, blank
+            // cells as background too (chosen on VAL-WORDS: docs/reading.md); the words
+            // classifier's taller crop and its pass of every ordered letter pair, chosen with it as
+            // a pair (VAL-LETTERS 0.9970 against 0.9622 without spelling:
+            // docs/log/letters-2026-11-29.md). The `clean` model predates them.
             "segment" => SnnRecipe {
                 task: Task::Segment,
                 crop_rows: Some([20, 100]),
@@ -418,19 +411,17 @@ impl SnnRecipe {
             "cells" => SnnRecipe {
                 task: Task::Cells,
                 cells: Some(pipeline::code::BrailleCode::UebGrade2),
-                // 20 times since 2026-11-30 (four before, then ten): each lone column beside
-                // more kinds of neighbour, chosen on VCB and VAL-UEB
-                // (docs/log/cells-2026-11-30.md); training then peaks at 17.5 GB
+                // every cell 20 times: each lone column beside more kinds of neighbour, chosen on
+                // VCB and VAL-UEB (docs/log/cells-2026-11-30.md); training peaks at 17.5 GB
                 letter_rows: 20,
-                // 512 hidden neurons since 2026-11-30 (256 before): more of VCB read, as many
-                // VAL-UEB words, 1.12x the letters' reading cost on VAL-UEB
-                // (docs/log/cells-2026-11-30.md, section 9)
+                // 512 hidden neurons: more of VCB read than with 256, as many VAL-UEB words, 1.12x
+                // the letters' reading cost on VAL-UEB (docs/log/cells-2026-11-30.md, section 9)
                 hidden: vec![512],
                 word_rows: 60,
                 center: false,
-                // the letters' taller crop (pooled rows 20-100, 9.3 mm) since 2026-11-29, chosen
-                // on VCB and VAL-UEB (docs/log/grid-2026-11-29.md); the plain sampling it was
-                // first trained with (the letters' class balance, issue #47, was not tried)
+                // the letters' taller crop (pooled rows 20-100, 9.3 mm), chosen on VCB and VAL-UEB
+                // (docs/log/grid-2026-11-29.md); plain sampling (the letters' class balance was
+                // not tried for the cells)
                 crop_rows: Some([20, 100]),
                 class_balance: 0.0,
                 pair_rows: 0,

@@ -83,7 +83,7 @@ impl BitSet {
 /// ([`Marks::fold_into`]). Marking a byte is a plain store; setting a bit is a load, an or and a
 /// store, and consecutive targets mostly fall in the same 64 positions, so each target's mark
 /// waited on the last one's store (the peer benchmark's engine ran about 4.6% faster with bytes;
-/// docs/engine.md, "session 80").
+/// docs/engine.md, "the 2026-12-04 14:33Z session").
 #[derive(Debug, Clone)]
 pub(super) struct Marks {
     /// A multiple of 64 bytes, so that each 64 fold into one word of the set.

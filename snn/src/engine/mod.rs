@@ -35,7 +35,7 @@ pub use simd::{PACKED_LANES, PackedLanes};
 /// weight block then never straddle two lines, which the allocator's 16-byte alignment left to
 /// chance (on the peer network, the first layer's membranes and the second's weights began 48
 /// bytes into a line, so every other access to them straddled two; about 2% of the engine's
-/// time, docs/engine.md, "session 81").
+/// time, docs/engine.md, "the 2026-12-04 16:43Z session").
 type Lines<T> = aligned_vec::AVec<T, aligned_vec::ConstAlign<64>>;
 
 /// `n` copies of `value` on cache-line boundaries.
