@@ -20,7 +20,7 @@ import subprocess
 import sys
 import time
 
-import braille
+import neurobraille
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -58,7 +58,7 @@ def main():
     ap.add_argument("--out", help="write a Markdown table here")
     args = ap.parse_args()
 
-    net, samples = braille.peer_benchmark(args.samples)
+    net, samples = neurobraille.peer_benchmark(args.samples)
     # the work is the same: the Rust loop's SynOps and spikes against Python's
     runs = [net.run(s, t_end_us=20 * net.dt_us) for s in samples]
     py_synops = sum(r.synops for r in runs) / len(runs)
@@ -83,7 +83,7 @@ def main():
         "overhead_percent": (py_ms / cli_ms - 1) * 100,
         "cli_rounds_ms": cli,
         "python_rounds_ms": py,
-        "braille_version": braille.__version__,
+        "braille_version": neurobraille.__version__,
         "python": platform.python_version(),
         "cores": os.cpu_count(),
     }
@@ -104,7 +104,7 @@ def main():
                 f"| `braille bench` (Rust loop) | {cli_ms:.4f} | {', '.join(f'{x:.4f}' for x in cli)} |\n"
                 f"| `Network.run` from Python | {py_ms:.4f} | {', '.join(f'{x:.4f}' for x in py)} |\n"
                 f"| **Python over Rust** | **{py_ms / cli_ms:.3f}x ({(py_ms / cli_ms - 1) * 100:+.1f}%)** | |\n\n"
-                f"Python {platform.python_version()}, {os.cpu_count()} cores, braille {braille.__version__}.\n"
+                f"Python {platform.python_version()}, {os.cpu_count()} cores, braille {neurobraille.__version__}.\n"
             )
 
 

@@ -12,7 +12,7 @@ use experiments::train::search::{
     DataProfile, FinalModel, SearchObserver, SearchOutcome, SearchRun, Shard, Trial, derived_recipe, trials_markdown,
 };
 use experiments::train::settings::TrainSettings;
-use pipeline::augment::Preprocess;
+use pipeline::preprocess::Preprocess;
 use snn::model_file::Arch;
 use std::path::{Path, PathBuf};
 

@@ -433,7 +433,7 @@ impl WindowModel {
         // band), as `CharInput::spikes` (or `crop_window`'s band) does it
         let shift = if input.preprocess.normalises() {
             let (mass, moment) = bins.iter().fold((0f64, 0f64), |(m, r), b| (m + b.mass, r + b.moment));
-            crate::augment::shift_of(mass, moment, h)
+            crate::preprocess::shift_of(mass, moment, h)
         } else {
             0
         };
@@ -672,7 +672,7 @@ mod tests {
         }
         // its input as it is, and centred in a band of rows wider than its crop
         let banded =
-            CharInput { preprocess: crate::augment::Preprocess::Norm, band: Some(4..116), ..m.input().clone() };
+            CharInput { preprocess: crate::preprocess::Preprocess::Norm, band: Some(4..116), ..m.input().clone() };
         for input in [m.input().clone(), banded] {
             let check = SameCrops(input);
             let cfg = crate::reader::ReaderConfig {

@@ -3,9 +3,9 @@
 //! input spikes (for the SNN). Training windows ([`crate::labeling::window_heatmap`]) and the
 //! reader's streaming windows ([`crate::reader::Window`]) give the same input.
 
-use crate::augment::{AugmentConfig, Preprocess, prepare_centred};
 use crate::error::{Error, Result};
 use crate::labeling::LabelerConfig;
+use crate::preprocess::{AugmentConfig, Preprocess};
 use encoders::heatmap::Heatmap;
 use encoders::spike_train::SpikeTrain;
 use serde::{Deserialize, Serialize};
@@ -60,7 +60,7 @@ impl CharInput {
 
     /// Whether the crop is centred again after it is made (the preprocess centres, and no band
     /// has centred it).
-    fn centres_after_crop(&self) -> bool {
+    pub fn centres_after_crop(&self) -> bool {
         self.preprocess.normalises() && self.band.is_none()
     }
 
@@ -93,7 +93,7 @@ impl CharInput {
         }
         let [_, hb, w] = self.source_shape();
         let [planes, h, _] = self.shape();
-        let shift = crate::augment::centring_shift(&source, hb, w, h);
+        let shift = crate::preprocess::centring_shift(&source, hb, w, h);
         let mut out = vec![0f32; planes * h * w];
         for (plane, src) in out.chunks_exact_mut(h * w).zip(source.chunks_exact(hb * w)) {
             for (r, row) in src.chunks_exact(w).enumerate() {
@@ -188,7 +188,7 @@ impl CharInput {
     }
 
     /// The cropped counts of an image as a heat map again.
-    fn as_map(&self, counts: Vec<f32>) -> Heatmap {
+    pub fn as_map(&self, counts: Vec<f32>) -> Heatmap {
         let [_, height, width] = self.shape();
         Heatmap { t_start_us: 0, bin_us: 1, bins: self.labeler.frames, height, width, counts }
     }
@@ -201,29 +201,22 @@ impl CharInput {
     pub fn spikes(&self, image: &[f32], dt_us: i64) -> SpikeTrain {
         let mut map = self.as_map(image.to_vec());
         if self.centres_after_crop() {
-            crate::augment::center_vertically(&mut map);
+            crate::preprocess::center_vertically(&mut map);
         }
         SpikeTrain::from_dense(0, dt_us, 2 * map.height * map.width, &map.counts)
     }
 
-    /// Network input of a cropped image: centred and normalised as configured; augmented when
-    /// `rng` is given.
-    pub fn prepare(&self, image: &[f32], rng: Option<&mut rand_chacha::ChaCha8Rng>) -> Vec<f32> {
-        match rng {
-            None => self.prepared(image.to_vec()),
-            Some(r) => {
-                let map = self.as_map(image.to_vec());
-                let rng = Some(r as &mut dyn rand::RngCore);
-                prepare_centred(&map, self.preprocess, self.centres_after_crop(), &self.augment, rng).counts
-            }
-        }
+    /// Network input of a cropped image: centred and normalised as configured (training's
+    /// augmentation is `experiments::train::augment`).
+    pub fn prepare(&self, image: &[f32]) -> Vec<f32> {
+        self.prepared(image.to_vec())
     }
 
     /// [`prepare`](Self::prepare) without augmentation, in place: the reader's path, which owns
     /// the crop (the same numbers, without copying the image).
     pub fn prepared(&self, image: Vec<f32>) -> Vec<f32> {
         let mut map = self.as_map(image);
-        crate::augment::centre_and_scale(&mut map, self.preprocess, self.centres_after_crop());
+        crate::preprocess::centre_and_scale(&mut map, self.preprocess, self.centres_after_crop());
         map.counts
     }
 }

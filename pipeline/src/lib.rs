@@ -1,6 +1,6 @@
 //! Words out: everything a deployed reader needs. From an event stream to character windows (the
 //! paper's labeling pipeline, [`labeling`]), a window to a network's input ([`input`],
-//! [`augment`]), trained models loaded by the architecture their header names ([`models`], with
+//! [`preprocess`]), trained models loaded by the architecture their header names ([`models`], with
 //! typed headers) and run on windows ([`classify`]: a loaded model is shared, each stream owns its
 //! state), the streaming reader ([`reader`]) and a whole source read with bounded memory
 //! ([`source`]), the temporal filter ([`words`]), spelling ([`spelling`], [`lexicon`]), every
@@ -13,7 +13,6 @@
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
 
-pub mod augment;
 pub mod cell_spell;
 pub mod classify;
 pub mod code;
@@ -24,6 +23,7 @@ pub mod labeling;
 pub mod lexicon;
 pub mod models;
 pub mod network;
+pub mod preprocess;
 pub mod reader;
 pub mod shipped;
 pub mod source;

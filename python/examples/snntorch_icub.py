@@ -28,7 +28,7 @@ from snntorch import functional as SF
 from snntorch import surrogate, utils
 from snntorch.export_nir import export_to_nir
 
-import braille
+import neurobraille
 import nir
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -65,7 +65,7 @@ def dense(evs):
 def as_events(evs):
     """The same sample as Tonic's array for our engine: one 100 us step per 5 ms bin, pixel
     (taxel, 0), polarity; a flat input of 24 reads as 2 x 1 x 12."""
-    a = np.empty(len(evs), dtype=braille.EVENTS_DTYPE)
+    a = np.empty(len(evs), dtype=neurobraille.EVENTS_DTYPE)
     a["t"] = [b * 100 for b, _ in evs]
     a["x"] = [i % TAXELS for _, i in evs]
     a["y"] = 0
@@ -139,7 +139,7 @@ def main():
     # export, and load the graph into our engine
     out = args.out or os.path.join(tempfile.mkdtemp(), "icub_snntorch.nir")
     nir.write(out, export_to_nir(net, torch.zeros(1, 2 * TAXELS), ignore_dims=[0]))
-    ours = braille.Network.load(out, dt_us=100)
+    ours = neurobraille.Network.load(out, dt_us=100)
     print(ours)
     samples = [as_events(events[s]) for s in test]
     end_us = STEPS * 100

@@ -4,7 +4,7 @@ use pyo3::exceptions::{PyFileExistsError, PyFileNotFoundError, PyOSError, PyPerm
 use pyo3::prelude::*;
 
 pyo3::create_exception!(
-    braille,
+    neurobraille,
     BrailleError,
     pyo3::exceptions::PyException,
     "An error of the braille library: bad input (naming the file or array and the place), a model that does not fit its input, a network a chip cannot run. The message is the Rust library's."

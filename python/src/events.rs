@@ -122,7 +122,7 @@ fn from_fields(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<Event>> {
         .transpose()?;
     let Some(names) = names else {
         return Err(PyTypeError::new_err(format!(
-            "{what}: expected a NumPy structured array with fields x, y, t, p (Tonic's layout; braille.EVENTS_DTYPE), got {}",
+            "{what}: expected a NumPy structured array with fields x, y, t, p (Tonic's layout; neurobraille.EVENTS_DTYPE), got {}",
             obj.get_type().name()?
         )));
     };
@@ -246,7 +246,7 @@ pub fn iter_events(
 }
 
 /// An event file read chunk by chunk: iterate to get arrays of `EVENTS_DTYPE`.
-#[pyclass(unsendable, module = "braille")]
+#[pyclass(unsendable, module = "neurobraille")]
 pub struct EventFileReader {
     src: Box<dyn EventSource>,
     chunk_events: usize,

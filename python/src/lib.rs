@@ -1,4 +1,4 @@
-//! The `braille` Python module (`braille._braille`, re-exported by `braille/__init__.py`).
+//! The `neurobraille` Python module (`neurobraille._braille`, re-exported by `neurobraille/__init__.py`).
 //!
 //! Everything here is a thin layer over the Rust crates: event files ([`encoders`]), the
 //! event-driven engine and NIR ([`snn`], [`pipeline::network`]), the virtual Evetac

@@ -20,7 +20,7 @@ use std::time::Instant;
 /// A spiking network on the event-driven engine: a model file, a NIR graph or the peer
 /// benchmark's network. Loaded once, shared by every call and thread; each run owns its own
 /// engine state.
-#[pyclass(frozen, module = "braille")]
+#[pyclass(frozen, module = "neurobraille")]
 pub struct Network {
     net: Arc<LoadedNetwork>,
     name: String,
@@ -36,7 +36,7 @@ pub struct Network {
 type MappedChip = ((Chip, Quantisation), Arc<ChipModel>);
 
 /// What one run of a sample gives.
-#[pyclass(frozen, get_all, module = "braille")]
+#[pyclass(frozen, get_all, module = "neurobraille")]
 pub struct RunResult {
     /// Per output: the highest membrane (leaky-integrator outputs) or the spike count.
     readout: Py<PyArray1<f32>>,

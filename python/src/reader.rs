@@ -37,7 +37,7 @@ self_cell::self_cell!(
 );
 
 /// One word read.
-#[pyclass(frozen, get_all, module = "braille")]
+#[pyclass(frozen, get_all, module = "neurobraille")]
 pub struct Word {
     /// As the speller corrected it.
     text: String,
@@ -98,7 +98,7 @@ fn words_of(out: &mut Vec<ReadOutput>) -> PyResult<Vec<Word>> {
 /// The paper's reader: the segmentation network finds characters in 10 ms frames of events, a
 /// character classifier (the SNN or the ResNet) reads them, the temporal filter makes words and
 /// the speller corrects them. Loaded once; each `read` or `stream` has its own state.
-#[pyclass(frozen, module = "braille")]
+#[pyclass(frozen, module = "neurobraille")]
 pub struct Reader {
     models: Arc<ReaderModels>,
     speller: Arc<Speller>,
@@ -219,7 +219,7 @@ impl Reader {
 }
 
 /// A stream being read: `push` chunks of events in time order, get the words completed so far.
-#[pyclass(module = "braille")]
+#[pyclass(module = "neurobraille")]
 pub struct WordStream {
     cell: Option<StreamCell>,
     out: Vec<ReadOutput>,

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 /// One scan of a recordings folder: its manifest line. The label fields (`text`, `speed_mm_s`,
 /// `depth_mm`) are for training and scoring; a reader gets the events only.
-#[pyclass(frozen, get_all, module = "braille")]
+#[pyclass(frozen, get_all, module = "neurobraille")]
 pub struct Recording {
     /// The event file, as the manifest names it (relative to the folder), and its full path.
     file: PathBuf,
@@ -68,7 +68,7 @@ impl Recording {
 /// manifest (a bad line is refused naming the line and the field); `check()` also reads every
 /// event file through and summarises the folder per role and condition, as `braille recordings
 /// check --json` does.
-#[pyclass(frozen, module = "braille")]
+#[pyclass(frozen, module = "neurobraille")]
 pub struct Recordings {
     folder: Folder,
 }

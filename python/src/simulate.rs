@@ -11,7 +11,7 @@ use sim::{BoardKind, Direction, Realism};
 
 /// A simulated scan: the events and the simulator's ground truth (for labelling and scoring only;
 /// a reader gets the events alone).
-#[pyclass(frozen, get_all, module = "braille")]
+#[pyclass(frozen, get_all, module = "neurobraille")]
 pub struct Scan {
     /// The events, `EVENTS_DTYPE`, in time order.
     events: Py<PyArray1<TonicEvent>>,

@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 import pytest
 
-import braille
+import neurobraille
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 NIR_FIXTURES = ROOT / "snn" / "tests" / "fixtures" / "nir"
@@ -61,6 +61,6 @@ def spikes_to_events(spikes, dt_us, flat_width=None):
     else:
         t, c, y, x = np.nonzero(spikes)
     order = np.lexsort((x, y, c, t))
-    ev = np.empty(len(t), dtype=braille.EVENTS_DTYPE)
+    ev = np.empty(len(t), dtype=neurobraille.EVENTS_DTYPE)
     ev["t"], ev["x"], ev["y"], ev["p"] = t[order] * dt_us, x[order], y[order], c[order]
     return ev

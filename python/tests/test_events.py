@@ -4,12 +4,12 @@ bad input named by file and place."""
 import numpy as np
 import pytest
 
-import braille
+import neurobraille
 
 
 def sample_events(n=5000, seed=3, width=64, height=48):
     rng = np.random.default_rng(seed)
-    ev = np.empty(n, dtype=braille.EVENTS_DTYPE)
+    ev = np.empty(n, dtype=neurobraille.EVENTS_DTYPE)
     ev["t"] = np.sort(rng.integers(0, 2_000_000, n))
     ev["x"] = rng.integers(0, width, n)
     ev["y"] = rng.integers(0, height, n)
@@ -18,20 +18,20 @@ def sample_events(n=5000, seed=3, width=64, height=48):
 
 
 def test_dtype_is_tonics_fields():
-    assert braille.EVENTS_DTYPE.names == ("x", "y", "t", "p")
-    assert braille.EVENTS_DTYPE.itemsize == 13
-    assert braille.EVENTS_DTYPE["t"] == np.dtype("<i8")
+    assert neurobraille.EVENTS_DTYPE.names == ("x", "y", "t", "p")
+    assert neurobraille.EVENTS_DTYPE.itemsize == 13
+    assert neurobraille.EVENTS_DTYPE["t"] == np.dtype("<i8")
 
 
 @pytest.mark.parametrize("ext", ["npy", "csv", "aedat4"])
 def test_round_trip_through_every_format(tmp_path, ext):
     ev = sample_events()
     path = tmp_path / f"events.{ext}"
-    assert braille.write_events(path, ev, resolution=(64, 48)) == len(ev)
-    back = braille.read_events(path)
-    assert back.dtype == braille.EVENTS_DTYPE
+    assert neurobraille.write_events(path, ev, resolution=(64, 48)) == len(ev)
+    back = neurobraille.read_events(path)
+    assert back.dtype == neurobraille.EVENTS_DTYPE
     np.testing.assert_array_equal(back, ev)
-    info = braille.event_file_info(path)
+    info = neurobraille.event_file_info(path)
     assert info["format"] == ext
     if ext != "npy":
         assert info["resolution"] == {"width": 64, "height": 48}
@@ -47,25 +47,25 @@ def test_tonic_layouts_are_read_by_field_name(tmp_path):
             a[f] = ev[f]
         path = tmp_path / "foreign.npy"
         np.save(path, a)
-        np.testing.assert_array_equal(braille.read_events(path), ev)
+        np.testing.assert_array_equal(neurobraille.read_events(path), ev)
         # and taken from memory
-        braille.write_events(tmp_path / "mine.npy", a, overwrite=True)
+        neurobraille.write_events(tmp_path / "mine.npy", a, overwrite=True)
         np.testing.assert_array_equal(np.load(tmp_path / "mine.npy"), ev)
 
 
 def test_written_npy_is_plain_numpy(tmp_path):
     ev = sample_events(100)
-    braille.write_events(tmp_path / "e.npy", ev)
+    neurobraille.write_events(tmp_path / "e.npy", ev)
     loaded = np.load(tmp_path / "e.npy")
-    assert loaded.dtype == braille.EVENTS_DTYPE
+    assert loaded.dtype == neurobraille.EVENTS_DTYPE
     np.testing.assert_array_equal(loaded, ev)
 
 
 def test_chunks_cover_the_file_in_order(tmp_path):
     ev = sample_events(20_000)
     path = tmp_path / "e.aedat4"
-    braille.write_events(path, ev, resolution=(64, 48))
-    reader = braille.iter_events(path, chunk_events=3000)
+    neurobraille.write_events(path, ev, resolution=(64, 48))
+    reader = neurobraille.iter_events(path, chunk_events=3000)
     assert reader.info["resolution"] == {"width": 64, "height": 48}
     chunks = list(reader)
     assert [len(c) for c in chunks[:-1]] == [3000] * (len(chunks) - 1)
@@ -75,43 +75,43 @@ def test_chunks_cover_the_file_in_order(tmp_path):
 def test_existing_files_are_kept_unless_overwrite(tmp_path):
     ev = sample_events(10)
     path = tmp_path / "e.csv"
-    braille.write_events(path, ev)
+    neurobraille.write_events(path, ev)
     with pytest.raises(FileExistsError, match="e.csv"):
-        braille.write_events(path, ev[:5])
-    assert len(braille.read_events(path)) == 10
-    braille.write_events(path, ev[:5], overwrite=True)
-    assert len(braille.read_events(path)) == 5
+        neurobraille.write_events(path, ev[:5])
+    assert len(neurobraille.read_events(path)) == 10
+    neurobraille.write_events(path, ev[:5], overwrite=True)
+    assert len(neurobraille.read_events(path)) == 5
 
 
 def test_bad_files_name_the_file_and_place(tmp_path):
     with pytest.raises(FileNotFoundError, match="missing.aedat4"):
-        braille.read_events(tmp_path / "missing.aedat4")
+        neurobraille.read_events(tmp_path / "missing.aedat4")
     bad = tmp_path / "bad.csv"
     bad.write_text("t_us,x,y,p\n10,1,2,1\n5,1,2,0\n")
-    with pytest.raises(braille.BrailleError, match=r"bad.csv.*line 3"):
-        braille.read_events(bad)
+    with pytest.raises(neurobraille.BrailleError, match=r"bad.csv.*line 3"):
+        neurobraille.read_events(bad)
     truncated = tmp_path / "cut.aedat4"
-    braille.write_events(truncated, sample_events(5000), resolution=(64, 48))
+    neurobraille.write_events(truncated, sample_events(5000), resolution=(64, 48))
     data = truncated.read_bytes()
     truncated.write_bytes(data[: len(data) // 2])
-    with pytest.raises(braille.BrailleError, match="cut.aedat4"):
-        braille.read_events(truncated)
-    with pytest.raises(braille.BrailleError, match=r"bad.csv"):
-        braille.read_events(bad, resolution=(1, 1))
+    with pytest.raises(neurobraille.BrailleError, match="cut.aedat4"):
+        neurobraille.read_events(truncated)
+    with pytest.raises(neurobraille.BrailleError, match=r"bad.csv"):
+        neurobraille.read_events(bad, resolution=(1, 1))
 
 
 def test_bad_arrays_name_the_event():
     ev = sample_events(10)
     ev["t"][7] = 0
-    with pytest.raises(braille.BrailleError, match=r"events\[7\]"):
-        braille.write_events("/tmp/never.npy", ev)
+    with pytest.raises(neurobraille.BrailleError, match=r"events\[7\]"):
+        neurobraille.write_events("/tmp/never.npy", ev)
     with pytest.raises(TypeError, match="structured array"):
-        braille.write_events("/tmp/never.npy", np.zeros(4))
+        neurobraille.write_events("/tmp/never.npy", np.zeros(4))
     with pytest.raises(ValueError, match='no field "p"'):
-        braille.write_events("/tmp/never.npy", np.zeros(4, dtype=[("x", "i8"), ("y", "i8"), ("t", "i8")]))
-    with pytest.raises(braille.BrailleError, match=r"events\[1\].*outside"):
+        neurobraille.write_events("/tmp/never.npy", np.zeros(4, dtype=[("x", "i8"), ("y", "i8"), ("t", "i8")]))
+    with pytest.raises(neurobraille.BrailleError, match=r"events\[1\].*outside"):
         a = np.zeros(3, dtype=[("x", "i8"), ("y", "i8"), ("t", "i8"), ("p", "i8")])
         a["x"][1] = -1
-        braille.write_events("/tmp/never.npy", a)
+        neurobraille.write_events("/tmp/never.npy", a)
     with pytest.raises(ValueError, match="resolution"):
-        braille.read_events("/tmp/never.npy", resolution=(0, 3))
+        neurobraille.read_events("/tmp/never.npy", resolution=(0, 3))

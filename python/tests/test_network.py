@@ -7,7 +7,7 @@ import subprocess
 import numpy as np
 import pytest
 
-import braille
+import neurobraille
 from conftest import NIR_FIXTURES, ROOT, spikes_to_events
 
 DT_US = 100  # the fixtures' dt = 1e-4 s
@@ -21,7 +21,7 @@ def golden_spikes(path):
 
 @pytest.mark.parametrize("name,layers", [("conv", 3), ("dense", 2)])
 def test_nir_fixture_gives_snntorchs_spikes(name, layers):
-    net = braille.Network.load(NIR_FIXTURES / name / f"{name}_snn.nir", dt_us=DT_US)
+    net = neurobraille.Network.load(NIR_FIXTURES / name / f"{name}_snn.nir", dt_us=DT_US)
     assert net.source == "nir_graph"
     spikes = np.load(NIR_FIXTURES / name / "input_spikes.npy")
     rec = net.record(spikes_to_events(spikes, DT_US), steps=spikes.shape[0])
@@ -38,8 +38,8 @@ def test_python_and_cli_agree_on_a_nir_fixture(tmp_path, cli, name):
     spikes = np.load(NIR_FIXTURES / name / "input_spikes.npy")
     events = spikes_to_events(spikes, DT_US)
     path = tmp_path / "in.npy"
-    braille.write_events(path, events)
-    net = braille.Network.load(graph, dt_us=DT_US)
+    neurobraille.write_events(path, events)
+    net = neurobraille.Network.load(graph, dt_us=DT_US)
 
     # every spike: `braille run` against Network.record
     out = tmp_path / "spikes.csv"
@@ -58,7 +58,7 @@ def test_python_and_cli_agree_on_a_nir_fixture(tmp_path, cli, name):
         )
         try:
             r = net.run(events, mode=mode, t_start_us=int(events["t"][0]))
-        except braille.BrailleError as e:
+        except neurobraille.BrailleError as e:
             assert bench.returncode != 0, f"Python refused {mode} but the CLI ran it: {e}"
             assert "async mode runs" in str(e)
             continue
@@ -72,7 +72,7 @@ def test_python_and_cli_agree_on_a_nir_fixture(tmp_path, cli, name):
 
 
 def test_batch_equals_single_runs_and_threads_share_the_network():
-    net, samples = braille.peer_benchmark(6)
+    net, samples = neurobraille.peer_benchmark(6)
     assert net.input_shape == [2, 60, 80] and net.dt_us == 1000 and net.readout == "spike-count"
     single = [net.run(s, t_end_us=20_000) for s in samples]
     batch = net.run_batch(samples, t_end_us=20_000)
@@ -92,15 +92,15 @@ def test_batch_equals_single_runs_and_threads_share_the_network():
 
 def test_model_file_exports_to_nir_and_reloads_the_same(tmp_path):
     model = ROOT / "models" / "icub" / "nir" / "snn-th10.safetensors"
-    net = braille.Network.load(model)
+    net = neurobraille.Network.load(model)
     assert net.source == "model_file" and net.readout == "max-membrane"
     out = tmp_path / "th10.nir"
     dt_s = net.export(out, target="loihi2")
     assert dt_s == pytest.approx(net.dt_us * 1e-6)
-    back = braille.Network.load(out, dt_us=net.dt_us)
+    back = neurobraille.Network.load(out, dt_us=net.dt_us)
     rng = np.random.default_rng(0)
     n = 400
-    ev = np.empty(n, dtype=braille.EVENTS_DTYPE)
+    ev = np.empty(n, dtype=neurobraille.EVENTS_DTYPE)
     ev["t"] = np.sort(rng.integers(0, 100 * net.dt_us, n))
     ev["x"], ev["y"], ev["p"] = rng.integers(0, net.n_inputs // 2, n), 0, rng.integers(0, 2, n)
     a, b = net.run(ev), back.run(ev)
@@ -111,23 +111,23 @@ def test_model_file_exports_to_nir_and_reloads_the_same(tmp_path):
 
 
 def test_chip_rules_and_bad_input_are_named(tmp_path):
-    net = braille.Network.load(ROOT / "models" / "icub" / "nir" / "snn-th10.safetensors")
-    with pytest.raises(braille.BrailleError, match="xylo|Xylo"):
+    net = neurobraille.Network.load(ROOT / "models" / "icub" / "nir" / "snn-th10.safetensors")
+    with pytest.raises(neurobraille.BrailleError, match="xylo|Xylo"):
         net.check("xylo")
     with pytest.raises(ValueError, match="one of generic"):
         net.check("tpu")
-    shipped = braille.Network.load(ROOT / "models" / "icub" / "snn-th10.safetensors")
-    with pytest.raises(braille.BrailleError, match="subtraction"):
+    shipped = neurobraille.Network.load(ROOT / "models" / "icub" / "snn-th10.safetensors")
+    with pytest.raises(neurobraille.BrailleError, match="subtraction"):
         shipped.export(tmp_path / "x.nir")
     garbage = tmp_path / "garbage.safetensors"
     garbage.write_bytes(b"not a model at all")
-    with pytest.raises(braille.BrailleError, match="garbage.safetensors"):
-        braille.Network.load(garbage)
+    with pytest.raises(neurobraille.BrailleError, match="garbage.safetensors"):
+        neurobraille.Network.load(garbage)
     with pytest.raises(FileNotFoundError, match="nothing.nir"):
-        braille.Network.load(tmp_path / "nothing.nir")
-    ev = np.zeros(2, dtype=braille.EVENTS_DTYPE)
+        neurobraille.Network.load(tmp_path / "nothing.nir")
+    ev = np.zeros(2, dtype=neurobraille.EVENTS_DTYPE)
     ev["x"][1] = 5000
-    with pytest.raises(braille.BrailleError, match=r"event 1 .*outside the network's input"):
+    with pytest.raises(neurobraille.BrailleError, match=r"event 1 .*outside the network's input"):
         net.run(ev)
     with pytest.raises(ValueError, match="mode"):
         net.run(ev[:1], mode="sometimes")
@@ -144,13 +144,13 @@ def test_python_runs_the_xylo_model_in_xylos_arithmetic_as_the_cli(tmp_path, cli
         check=True, capture_output=True,
     )
     trace = json.loads(trace_path.read_text())
-    net = braille.Network.load(model)
+    net = neurobraille.Network.load(model)
     dt = net.dt_us
     taxels = net.n_inputs // 2
     for s in trace["samples"][:12]:
         x = np.array(s["input"])
         rows = [(k * dt + 10, i) for k, i in zip(*np.nonzero(x)) for _ in range(x[k, i])]
-        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev = np.zeros(len(rows), dtype=neurobraille.EVENTS_DTYPE)
         ev["t"] = [t for t, _ in rows]
         ev["x"] = [i % taxels for _, i in rows]
         ev["p"] = [i // taxels for _, i in rows]
@@ -178,11 +178,11 @@ def test_python_runs_the_speck_model_in_specks_arithmetic_as_the_cli(tmp_path, c
     )
     trace = json.loads(trace_path.read_text())
     c, h, w = trace["spec"]["cores"][0]["in_shape"]
-    net = braille.Network.load(model)
+    net = neurobraille.Network.load(model)
     dt = net.dt_us
     for s in trace["samples"][:6]:
         rows = [(t * dt + 10, ch) for t, ch, n in s["input"] for _ in range(n)]
-        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev = np.zeros(len(rows), dtype=neurobraille.EVENTS_DTYPE)
         ev["t"] = [t for t, _ in rows]
         ev["x"] = [ch % w for _, ch in rows]
         ev["y"] = [(ch // w) % h for _, ch in rows]
@@ -195,7 +195,7 @@ def test_python_runs_the_speck_model_in_specks_arithmetic_as_the_cli(tmp_path, c
             per_core = [sum(n for _, c, _, n in s["spikes"] if c == k) for k in range(3)]
             assert list(r.spikes_per_layer) == per_core
             assert per_core[-1] == sum(s["out_counts"])
-    with pytest.raises(braille.BrailleError, match="one threshold"):
+    with pytest.raises(neurobraille.BrailleError, match="one threshold"):
         net.run(ev, chip="speck", quantisation="channel")
 
 
@@ -212,12 +212,12 @@ def test_python_runs_a_model_in_loihi_2s_arithmetic_as_the_cli(tmp_path, cli):
     )
     trace = json.loads(trace_path.read_text())
     layers = len(trace["spec"]["layers"])
-    net = braille.Network.load(model)
+    net = neurobraille.Network.load(model)
     dt = net.dt_us
     taxels = net.n_inputs // 2
     for s in trace["samples"][:8]:
         rows = [(t * dt + 10, ch) for t, ch, n in s["input"] for _ in range(n)]
-        ev = np.zeros(len(rows), dtype=braille.EVENTS_DTYPE)
+        ev = np.zeros(len(rows), dtype=neurobraille.EVENTS_DTYPE)
         ev["t"] = [t for t, _ in rows]
         ev["x"] = [ch % taxels for _, ch in rows]
         ev["p"] = [ch // taxels for _, ch in rows]
@@ -227,5 +227,5 @@ def test_python_runs_a_model_in_loihi_2s_arithmetic_as_the_cli(tmp_path, cli):
             assert r.prediction == s["predicted"]
             per_layer = [sum(1 for _, k, _ in s["spikes"] if k == layer) for layer in range(layers)]
             assert list(r.spikes_per_layer) == per_layer and per_layer[0] > 0
-    with pytest.raises(braille.BrailleError, match="one weight exponent"):
+    with pytest.raises(neurobraille.BrailleError, match="one weight exponent"):
         net.run(ev, chip="loihi2", quantisation="channel")

@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 
-import braille
+import neurobraille
 
 
 @pytest.fixture(scope="module")
@@ -25,13 +25,13 @@ def folder(cli, tmp_path_factory):
 
 
 def test_a_folder_gives_its_lines_and_events(folder, cli):
-    rec = braille.Recordings(folder)
+    rec = neurobraille.Recordings(folder)
     assert len(rec) == 2 and "1 train" in repr(rec) and "1 test" in repr(rec)
     [test] = rec.scans("test")
     assert (test.role, test.text, test.speed_mm_s, test.depth_mm, test.line) == ("test", "STOP HELP", 32.0, 1.0, 3)
     ev = test.events()
-    assert ev.dtype == braille.EVENTS_DTYPE and len(ev) > 1000
-    np.testing.assert_array_equal(ev, braille.read_events(test.path))
+    assert ev.dtype == neurobraille.EVENTS_DTYPE and len(ev) > 1000
+    np.testing.assert_array_equal(ev, neurobraille.read_events(test.path))
     assert [r.file.name for r in rec.scans()] == ["00001.aedat4", "00002.aedat4"]
     # the summary is the command line's, field for field
     summary = rec.check()
@@ -47,5 +47,5 @@ def test_a_bad_manifest_is_refused_by_line_and_field(folder, tmp_path):
     bad.mkdir()
     (bad / "00001.aedat4").write_bytes((folder / "00001.aedat4").read_bytes())
     (bad / "manifest.csv").write_text("file,role,text,speed_mm_s,depth_mm\n00001.aedat4,train,HELLO,fast,1\n")
-    with pytest.raises(braille.BrailleError, match=r"line 2: field `speed_mm_s`"):
-        braille.Recordings(bad)
+    with pytest.raises(neurobraille.BrailleError, match=r"line 2: field `speed_mm_s`"):
+        neurobraille.Recordings(bad)

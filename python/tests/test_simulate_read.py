@@ -4,7 +4,7 @@ incrementally, by both architectures, and bad input."""
 import numpy as np
 import pytest
 
-import braille
+import neurobraille
 from conftest import ROOT
 
 SPEED = 16.0
@@ -12,27 +12,27 @@ SPEED = 16.0
 
 @pytest.fixture(scope="module")
 def scan():
-    return braille.simulate(board="text:LEFT OPEN", row=0, speed_mm_s=SPEED, seed=7)
+    return neurobraille.simulate(board="text:LEFT OPEN", row=0, speed_mm_s=SPEED, seed=7)
 
 
 def test_simulation_is_seeded_and_carries_its_truth(scan):
     assert scan.text == "LEFT OPEN"
-    assert scan.events.dtype == braille.EVENTS_DTYPE and len(scan.events) > 100_000
+    assert scan.events.dtype == neurobraille.EVENTS_DTYPE and len(scan.events) > 100_000
     assert np.all(np.diff(scan.events["t"]) >= 0)
     assert scan.resolution == (640, 480)
     assert scan.truth["row_text"] == "LEFT OPEN"
     assert len(scan.truth["characters"]) == len("LEFT OPEN")
     assert scan.truth["scan"]["speed_mm_s"] == SPEED
     small = dict(board="text:AB", row=0, speed_mm_s=32.0, resolution=(160, 120))
-    a, b = braille.simulate(seed=1, **small), braille.simulate(seed=1, **small)
+    a, b = neurobraille.simulate(seed=1, **small), neurobraille.simulate(seed=1, **small)
     np.testing.assert_array_equal(a.events, b.events)
-    c = braille.simulate(seed=2, **small)
+    c = neurobraille.simulate(seed=2, **small)
     assert len(c.events) != len(a.events) or not np.array_equal(c.events, a.events)
 
 
 @pytest.mark.parametrize("arch", ["snn", "resnet"])
 def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
-    reader = braille.Reader(arch=arch, spell="none")
+    reader = neurobraille.Reader(arch=arch, spell="none")
     whole = reader.read(scan.events)
     # the reader gets the events only: nothing of the truth, not the speed
     assert [w.text for w in whole] == ["LEFT", "OPEN"], whole
@@ -45,7 +45,7 @@ def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
     assert [(w.text, w.t_start_us, w.t_end_us) for w in chunked] == [(w.text, w.t_start_us, w.t_end_us) for w in whole]
     assert all(len(w.confidences) == len(w.raw) for w in whole)
     assert whole[0].details["text"] == "LEFT"
-    with pytest.raises(braille.BrailleError, match="finished"):
+    with pytest.raises(neurobraille.BrailleError, match="finished"):
         stream.push(scan.events[:10])
 
 
@@ -54,44 +54,44 @@ def test_the_exportable_reader_reads_in_loihi_2s_arithmetic(scan):
     a ResNet runs on no chip, and Xylo cannot hold a window."""
     twins = ROOT / "models" / "nominal" / "nir"
     files = dict(segmenter=twins / "snn-segment.safetensors", classifier=twins / "snn-words.safetensors")
-    reader = braille.Reader(spell="none", chip="loihi2", **files)
+    reader = neurobraille.Reader(spell="none", chip="loihi2", **files)
     assert [w.text for w in reader.read(scan.events)] == ["LEFT", "OPEN"]
-    with pytest.raises(braille.BrailleError, match="ResNet"):
-        braille.Reader(arch="resnet", chip="loihi2")
-    with pytest.raises(braille.BrailleError, match="snn-segment.safetensors.*Xylo"):
-        braille.Reader(chip="xylo", **files)
+    with pytest.raises(neurobraille.BrailleError, match="ResNet"):
+        neurobraille.Reader(arch="resnet", chip="loihi2")
+    with pytest.raises(neurobraille.BrailleError, match="snn-segment.safetensors.*Xylo"):
+        neurobraille.Reader(chip="xylo", **files)
     with pytest.raises(ValueError, match="chip"):
-        braille.Reader(chip="truenorth")
+        neurobraille.Reader(chip="truenorth")
 
 
 def test_a_ueb_reader_reads_cells_back_to_print():
     # "The children" in contracted UEB, printed as its cells
-    cells = braille.simulate(board="text:⠠⠮ ⠡⠝", row=0, speed_mm_s=SPEED, seed=7)
-    reader = braille.Reader(braille="ueb-g2")
+    cells = neurobraille.simulate(board="text:⠠⠮ ⠡⠝", row=0, speed_mm_s=SPEED, seed=7)
+    reader = neurobraille.Reader(braille="ueb-g2")
     assert reader.braille == "ueb-g2"
     words = reader.read(cells.events)
     assert words, "a word read"
     assert all(all("\u2801" <= c <= "\u283f" for c in w.raw) for w in words)
     assert " ".join(w.text for w in words) != " ".join(w.raw for w in words), "print, not cells"
     with pytest.raises(ValueError, match="one of grade1-letters, ueb-g1, ueb-g2"):
-        braille.Reader(braille="ueb-g3")
+        neurobraille.Reader(braille="ueb-g3")
 
 
 def test_reader_refuses_bad_streams_and_models(scan, tmp_path):
-    reader = braille.Reader(spell="none", timing="given", speed_mm_s=SPEED)
+    reader = neurobraille.Reader(spell="none", timing="given", speed_mm_s=SPEED)
     stream = reader.stream()
     stream.push(scan.events[1000:2000])
-    with pytest.raises(braille.BrailleError, match="chunk from event 1000"):
+    with pytest.raises(neurobraille.BrailleError, match="chunk from event 1000"):
         stream.push(scan.events[:10])
     with pytest.raises(ValueError, match="needs a speed"):
-        braille.Reader(timing="given")
+        neurobraille.Reader(timing="given")
     with pytest.raises(ValueError, match="one of snn, resnet"):
-        braille.Reader(arch="transformer")
+        neurobraille.Reader(arch="transformer")
     with pytest.raises(FileNotFoundError, match="nowhere"):
-        braille.Reader(models_dir=tmp_path / "nowhere")
-    with pytest.raises(braille.BrailleError, match="not a character classifier of 26 letters or 63 cells"):
-        braille.Reader(classifier=ROOT / "models" / "clean" / "snn-segment.safetensors")
+        neurobraille.Reader(models_dir=tmp_path / "nowhere")
+    with pytest.raises(neurobraille.BrailleError, match="not a character classifier of 26 letters or 63 cells"):
+        neurobraille.Reader(classifier=ROOT / "models" / "clean" / "snn-segment.safetensors")
     with pytest.raises(ValueError, match="board"):
-        braille.simulate(board="text:")
-    with pytest.raises(braille.BrailleError, match="row 3"):
-        braille.simulate(board="text:AB", row=3)
+        neurobraille.simulate(board="text:")
+    with pytest.raises(neurobraille.BrailleError, match="row 3"):
+        neurobraille.simulate(board="text:AB", row=3)

@@ -154,7 +154,7 @@ fn windows(m: &ResnetModel, w: &Windows, progress: &dyn Progress) -> Result<(Vec
                 sweep: None,
             };
             let (raw, _) = corpus::windows::build(&spec, &m.input, progress)?;
-            let ims = raw.data.iter().map(|d| m.input.prepare(d, None)).collect();
+            let ims = raw.data.iter().map(|d| m.input.prepare(d)).collect();
             Ok((ims, format!("SIMULATED {} at 8 mm/s, 1.5 mm, {realism:?}", corpus::boards::board_name(board))))
         }
     }

@@ -168,7 +168,7 @@ impl CharModel {
             Model::Resnet(m) => {
                 let set = ImageSet {
                     shape: raw.shape,
-                    data: raw.data.par_iter().map(|d| m.input.prepare(d, None)).collect(),
+                    data: raw.data.par_iter().map(|d| m.input.prepare(d)).collect(),
                     labels: raw.labels.clone(),
                 };
                 // (its accuracy, hits over windows, is the confusion's)

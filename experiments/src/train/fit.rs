@@ -495,8 +495,12 @@ pub fn train_windows(
         rows,
         cols: LITE_COLS,
         pool,
-        preprocess: if r.center { pipeline::augment::Preprocess::Norm } else { pipeline::augment::Preprocess::Raw },
-        augment: pipeline::augment::AugmentConfig::default(),
+        preprocess: if r.center {
+            pipeline::preprocess::Preprocess::Norm
+        } else {
+            pipeline::preprocess::Preprocess::Raw
+        },
+        augment: pipeline::preprocess::AugmentConfig::default(),
         band: r.band_rows.map(|[first, end]| first..end),
     };
     input.check_band()?;

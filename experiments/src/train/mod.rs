@@ -1,8 +1,9 @@
-//! Training: SNN recipes ([`recipe`]) and the keys that set them ([`settings`]), fitting an SNN on simulated windows or a tactile dataset
+//! Training: the classifiers' augmentation ([`augment`]), SNN recipes ([`recipe`]) and the keys that set them ([`settings`]), fitting an SNN on simulated windows or a tactile dataset
 //! ([`fit`]), the validation-driven search on any dataset folder ([`search`], run whole by
 //! [`search::run`]), the linear floors ([`baselines`]), the conventional networks chosen by the same
 //! protocol ([`networks`]) and the ResNet's training ([`resnet`]).
 
+pub mod augment;
 pub mod baselines;
 pub mod fit;
 pub mod networks;

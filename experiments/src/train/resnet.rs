@@ -6,10 +6,10 @@ use crate::Progress;
 use crate::error::{Error, Result};
 use corpus::windows::{Task, training_windows};
 use learn::resnet::{ImageSet, ResnetConfig};
-use pipeline::augment::{AugmentConfig, Preprocess};
 use pipeline::input::{CharInput, LITE_COLS, LITE_ROWS};
 use pipeline::labeling::LabelerConfig;
 use pipeline::models::ResnetModel;
+use pipeline::preprocess::{AugmentConfig, Preprocess};
 use serde::{Deserialize, Serialize};
 
 /// The ResNet's size.
@@ -165,7 +165,7 @@ pub fn train_resnet(
             .iter()
             .map(|&i| {
                 let img = std::mem::take(&mut all.data[i]);
-                if prepared { input.prepare(&img, None) } else { img }
+                if prepared { input.prepare(&img) } else { img }
             })
             .collect(),
         labels: idx.iter().map(|&i| all.labels[i]).collect(),
@@ -187,7 +187,8 @@ pub fn train_resnet(
         }
     };
     let started = std::time::Instant::now();
-    let augment = |img: &[f32], rng: &mut rand_chacha::ChaCha8Rng| input.prepare(img, Some(rng));
+    let augment =
+        |img: &[f32], rng: &mut rand_chacha::ChaCha8Rng| crate::train::augment::prepare_augmented(&input, img, rng);
     let start = match init {
         Some(path) => {
             let bad = |what: &str| Error::Model { path: path.to_path_buf(), what: what.into() };

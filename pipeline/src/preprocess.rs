@@ -1,5 +1,6 @@
-//! The paper's input preparation for the character classifiers: vertical centring, the
-//! normalisation, and training-time augmentation (NormAug and its ablations).
+//! The paper's input preparation for the character classifiers: vertical centring and the
+//! normalisation, and the record of the training-time augmentation a model was trained with
+//! ([`AugmentConfig`]; the augmentation itself is training's, `experiments::train::augment`).
 //!
 //! The paper calls its normalisation custom and does not define it. Ours: each count `c` becomes
 //! `ln(1 + c)`, divided by the sample's largest such value, so every sample spans [0, 1]. Events
@@ -9,7 +10,6 @@
 //! strong ones.
 
 use encoders::heatmap::Heatmap;
-use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 /// The paper's four input configurations.
@@ -46,7 +46,7 @@ impl Preprocess {
     }
 }
 
-/// Training-time augmentation, the paper's values.
+/// Training-time augmentation, the paper's values, as a model file records it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AugmentConfig {
     /// Probability of the spatial transform, and its ranges.
@@ -143,93 +143,6 @@ fn ln_1p_count(c: f32, table: &[f32; 256]) -> f32 {
     if (1..256).contains(&i) && i as f32 == c { table[i] } else { c.ln_1p() }
 }
 
-/// The same rotation, scaling and shift for every frame and channel, sampled bilinearly about
-/// the centre; what falls outside is zero.
-pub fn affine(map: &Heatmap, rotation_deg: f64, scale: f64, shift_x: f64, shift_y: f64) -> Heatmap {
-    let (h, w) = (map.height, map.width);
-    let (cy, cx) = ((h as f64 - 1.0) / 2.0, (w as f64 - 1.0) / 2.0);
-    let (s, c) = rotation_deg.to_radians().sin_cos();
-    let mut out = map.clone();
-    for (src, dst) in map.counts.chunks_exact(h * w).zip(out.counts.chunks_exact_mut(h * w)) {
-        for y in 0..h {
-            for x in 0..w {
-                // inverse map: output pixel -> input position
-                let (dx, dy) = ((x as f64 - cx - shift_x) / scale, (y as f64 - cy - shift_y) / scale);
-                let (sx, sy) = (c * dx + s * dy + cx, -s * dx + c * dy + cy);
-                dst[y * w + x] = bilinear(src, w, h, sx, sy);
-            }
-        }
-    }
-    out
-}
-
-fn bilinear(p: &[f32], w: usize, h: usize, x: f64, y: f64) -> f32 {
-    if x < 0.0 || y < 0.0 || x > (w - 1) as f64 || y > (h - 1) as f64 {
-        return 0.0;
-    }
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (tx, ty) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
-    let top = p[y0 * w + x0] * (1.0 - tx) + p[y0 * w + x1] * tx;
-    let bottom = p[y1 * w + x0] * (1.0 - tx) + p[y1 * w + x1] * tx;
-    top * (1.0 - ty) + bottom * ty
-}
-
-/// Training-time augmentation: with `p_affine` a random rotation, scaling and shift; with
-/// `p_salt_pepper` each cell toggled (empty to the sample's maximum, else to empty) at
-/// `salt_pepper_rate`.
-pub fn augment(map: &Heatmap, cfg: &AugmentConfig, rng: &mut impl Rng) -> Heatmap {
-    let mut out = if rng.random_bool(cfg.p_affine) {
-        let rot = rng.random_range(-cfg.rotation_deg..=cfg.rotation_deg);
-        let scale = rng.random_range(cfg.scale_min..=cfg.scale_max);
-        let tx = rng.random_range(-cfg.translation..=cfg.translation) * map.width as f64;
-        let ty = rng.random_range(-cfg.translation..=cfg.translation) * map.height as f64;
-        affine(map, rot, scale, tx, ty)
-    } else {
-        map.clone()
-    };
-    if rng.random_bool(cfg.p_salt_pepper) && cfg.salt_pepper_rate > 0.0 {
-        let high = out.counts.iter().cloned().fold(0.0f32, f32::max).max(1.0);
-        // Toggled cells are drawn by geometric gaps, so the cost follows the toggles, not the cells.
-        let n = out.counts.len();
-        let ln_q = (1.0 - cfg.salt_pepper_rate).ln();
-        let mut i = 0usize;
-        loop {
-            let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-            i += (u.ln() / ln_q).floor() as usize;
-            if i >= n {
-                break;
-            }
-            out.counts[i] = if out.counts[i] > 0.0 { 0.0 } else { high };
-            i += 1;
-        }
-    }
-    out
-}
-
-/// Prepares one sample: centring and normalisation for `Norm`/`NormAug`, then (in training, when
-/// `rng` is given) augmentation for `Aug`/`NormAug`.
-pub fn prepare(map: &Heatmap, mode: Preprocess, cfg: &AugmentConfig, rng: Option<&mut dyn rand::RngCore>) -> Heatmap {
-    prepare_centred(map, mode, mode.normalises(), cfg, rng)
-}
-
-/// [`prepare`] with the vertical centring as `centre` says, whatever `mode` says of it: `false`
-/// for a crop the band has centred already ([`crate::input::CharInput::band`]).
-pub fn prepare_centred(
-    map: &Heatmap,
-    mode: Preprocess,
-    centre: bool,
-    cfg: &AugmentConfig,
-    rng: Option<&mut dyn rand::RngCore>,
-) -> Heatmap {
-    let mut m = map.clone();
-    centre_and_scale(&mut m, mode, centre);
-    match (mode.augments(), rng) {
-        (true, Some(rng)) => augment(&m, cfg, &mut RngRef(rng)),
-        _ => m,
-    }
-}
-
 /// The preparation without augmentation, in place: centring as `centre` says (what `mode` says,
 /// unless a band has centred the crop already), normalisation as `mode` says.
 pub fn centre_and_scale(map: &mut Heatmap, mode: Preprocess, centre: bool) {
@@ -241,27 +154,10 @@ pub fn centre_and_scale(map: &mut Heatmap, mode: Preprocess, centre: bool) {
     }
 }
 
-/// Lends a `dyn RngCore` as an `Rng`.
-struct RngRef<'a>(&'a mut dyn rand::RngCore);
-
-impl rand::RngCore for RngRef<'_> {
-    fn next_u32(&mut self) -> u32 {
-        self.0.next_u32()
-    }
-    fn next_u64(&mut self) -> u64 {
-        self.0.next_u64()
-    }
-    fn fill_bytes(&mut self, dst: &mut [u8]) {
-        self.0.fill_bytes(dst)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use encoders::Resolution;
-    use rand::SeedableRng;
-    use rand_chacha::ChaCha8Rng;
 
     /// The looked-up logarithm is the computed one to the bit: whole counts, fractions, both
     /// zeros, NaN, the table's edges and beyond.
@@ -306,37 +202,16 @@ mod tests {
     }
 
     #[test]
-    fn identity_affine_changes_nothing_and_rotation_keeps_mass() {
-        let m = blob(13, 18);
-        assert_eq!(affine(&m, 0.0, 1.0, 0.0, 0.0), m);
-        let r = affine(&m, 10.0, 1.0, 0.0, 0.0);
-        assert!((r.total() - m.total()).abs() / m.total() < 0.1, "{} vs {}", r.total(), m.total());
-        let shifted = affine(&m, 0.0, 1.0, 3.0, 0.0);
-        assert_eq!(shifted.get(1, 1, 14, 22), m.get(1, 1, 14, 19));
-    }
-
-    #[test]
-    fn augmentation_is_seeded_and_salt_and_pepper_follows_its_rate() {
-        let m = blob(13, 18);
-        let cfg = AugmentConfig::default();
-        let a = augment(&m, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
-        let b = augment(&m, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
-        assert_eq!(a, b);
-        let noisy = AugmentConfig { p_affine: 0.0, p_salt_pepper: 1.0, salt_pepper_rate: 0.01, ..cfg };
-        let big = Heatmap::zeros(0, 1, 20, Resolution::new(160, 120));
-        let n = augment(&big, &noisy, &mut ChaCha8Rng::seed_from_u64(1)).counts.iter().filter(|&&v| v > 0.0).count();
-        let expected = 0.01 * big.counts.len() as f64;
-        assert!((n as f64 / expected - 1.0).abs() < 0.1, "{n} toggles, expected {expected}");
-    }
-
-    #[test]
-    fn evaluation_never_augments() {
+    fn evaluation_centres_and_normalises_as_configured() {
         let m = blob(3, 10);
-        let p = prepare(&m, Preprocess::NormAug, &AugmentConfig::default(), None);
+        let mut p = m.clone();
+        centre_and_scale(&mut p, Preprocess::NormAug, true);
         let mut expected = m.clone();
         center_vertically(&mut expected);
         normalise(&mut expected);
         assert_eq!(p, expected);
-        assert_eq!(prepare(&m, Preprocess::Raw, &AugmentConfig::default(), None), m);
+        let mut raw = m.clone();
+        centre_and_scale(&mut raw, Preprocess::Raw, false);
+        assert_eq!(raw, m);
     }
 }

@@ -1,6 +1,7 @@
 """Neuromorphic Braille reading from event-based touch, from Python.
 
-The Rust engine of the ``braille`` project, in process:
+The Rust engine of the ``braille`` project, in process (the distribution and module are called
+``neurobraille``: PyPI's ``braille`` is an unrelated package; the command line stays ``braille``):
 
 * event files (AEDAT 4.0, CSV, NumPy) as NumPy structured arrays with Tonic's fields
   ``x, y, t, p`` (:data:`EVENTS_DTYPE`), whole or in chunks;

@@ -1,4 +1,4 @@
-"""Type stubs of the native module (``braille._braille``); see each function's docstring."""
+"""Type stubs of the native module (``neurobraille._braille``); see each function's docstring."""
 
 import os
 from pathlib import Path
