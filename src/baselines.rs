@@ -71,10 +71,10 @@ pub struct Args {
     quiet: bool,
 }
 
-/// A line per trial and final model.
-struct Lines;
+/// Prints a line to standard error per trial, skipped trial and final model of the networks' search.
+struct TrialPrinter;
 
-impl NetworkObserver for Lines {
+impl NetworkObserver for TrialPrinter {
     fn trial(&mut self, kind: TemporalKind, t: &NetworkTrial) {
         eprintln!(
             "{}: trial {}: validation {:.1}% (best epoch {} of {}), {:.1} min",
@@ -148,7 +148,7 @@ pub fn run(a: Args) -> Result<()> {
             a.val_seed,
             &s,
             eval_test,
-            &mut Lines,
+            &mut TrialPrinter,
             &mut Epochs::new(a.quiet),
         )?
     } else {

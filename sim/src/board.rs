@@ -3,7 +3,7 @@
 //! as dots with positions and heights, including manufacturing tolerances drawn from the board's
 //! own seed.
 
-use crate::braille::{Cell, cell_on_board};
+use encoders::braille::{Cell, cell_on_board};
 use crate::error::{Error, Result, check};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -9,7 +9,7 @@
 //! loop of a press and release) and the spread between sensor builds follow the eight.
 
 use crate::board::{Board, BoardGeometry, BoardKind};
-use crate::braille::{Cell, cell_of};
+use encoders::braille::{Cell, cell_of};
 use crate::error::Result;
 use crate::mount::{Contact, StickSlip};
 use crate::realism::{Realism, Setup};

@@ -20,7 +20,6 @@
 //! ```
 
 pub mod board;
-pub mod braille;
 pub mod checks;
 pub mod error;
 pub mod mount;
