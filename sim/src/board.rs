@@ -3,8 +3,8 @@
 //! as dots with positions and heights, including manufacturing tolerances drawn from the board's
 //! own seed.
 
-use encoders::braille::{Cell, cell_on_board};
 use crate::error::{Error, Result, check};
+use encoders::braille::{Cell, cell_on_board};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

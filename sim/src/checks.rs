@@ -9,12 +9,12 @@
 //! loop of a press and release) and the spread between sensor builds follow the eight.
 
 use crate::board::{Board, BoardGeometry, BoardKind};
-use encoders::braille::{Cell, cell_of};
 use crate::error::Result;
 use crate::mount::{Contact, StickSlip};
 use crate::realism::{Realism, Setup};
 use crate::scan::{Direction, Scan, ScanConfig, simulate};
 use crate::sensor::{GelConfig, GelDynamics, Sensor};
+use encoders::braille::{Cell, cell_of};
 use encoders::{Event, Polarity};
 use serde::Serialize;
 use std::collections::BTreeMap;
