@@ -171,13 +171,10 @@ pub fn flags_as_keys(argv: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
                 }
                 _ => "true".into(),
             },
-            None => match rest.next().and_then(|v| v.to_str()) {
-                Some(v) => v.to_string(),
-                // a flag without its value: clap says so
-                None => {
-                    out.push(arg.clone());
-                    continue;
-                }
+            // the next argument is the value, unless it is a flag: then a switch
+            None => match rest.next_if(|v| !v.to_str().is_some_and(|v| v.starts_with("--"))) {
+                Some(v) => v.to_string_lossy().into_owned(),
+                None => "true".into(),
             },
         };
         out.push("--set".into());
