@@ -1,4 +1,4 @@
-//! `braille chars-report`: the paper's Table I (Raw / Norm / Aug / NormAug) and its depth figure
+//! `braille report chars`: the paper's Table I (Raw / Norm / Aug / NormAug) and its depth figure
 //! on SIMULATED scans of the RAB board at 8 mm/s, with the SNN beside the ResNet on the same
 //! windows, and confusion matrices. Markdown, JSON and PNG.
 

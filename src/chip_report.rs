@@ -1,4 +1,4 @@
-//! `braille chip-report`: what exporting the shipped SNNs faithfully costs, and the chip table
+//! `braille report chip`: what exporting the shipped SNNs faithfully costs, and the chip table
 //! (each exportable model against each chip's rules, with accuracy, work and energy estimates).
 
 use crate::common::Bar;

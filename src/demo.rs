@@ -118,7 +118,7 @@ pub fn run(args: Args) -> Result<()> {
         println!("  taxel {taxel:>2} {row}");
     }
     read_letters(&back, resolution, &spelled, sample_us, &ds.classes, args.threshold)?;
-    println!("\nMore: `braille words-report`, `braille eval words`, `braille eval chars`; see the README.");
+    println!("\nMore: `braille report words`, `braille eval words`, `braille eval chars`; see the README.");
     Ok(())
 }
 

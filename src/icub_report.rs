@@ -1,4 +1,4 @@
-//! `braille icub-report`: the shipped SNNs on the real iCub Braille recordings (fixed test
+//! `braille report icub`: the shipped SNNs on the real iCub Braille recordings (fixed test
 //! splits), run by the event-driven engine, beside the published and measured baselines; a
 //! Markdown table and a bar chart.
 

@@ -1,4 +1,4 @@
-//! `braille label-check`: the paper's labeling pipeline against the simulator's ground truth on
+//! `braille sim labels`: the paper's labeling pipeline against the simulator's ground truth on
 //! fresh simulated scans.
 
 use anyhow::Result;

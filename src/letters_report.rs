@@ -1,4 +1,4 @@
-//! `braille letters-report`: every letter at every place in a row, read by both architectures
+//! `braille report letters`: every letter at every place in a row, read by both architectures
 //! from SIMULATED scans of the all-letters board over speed and depth (Markdown and JSON).
 
 use crate::common::Bar;

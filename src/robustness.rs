@@ -1,4 +1,4 @@
-//! `braille robustness`: each architecture's shipped character classifier against one nuisance
+//! `braille sim robustness`: each architecture's shipped character classifier against one nuisance
 //! of the virtual Evetac at a time (SIMULATED): Markdown, JSON and a PNG per nuisance.
 
 use crate::common::Bar;

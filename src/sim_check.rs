@@ -1,4 +1,4 @@
-//! `braille sim-check`: the simulator's physics checks on fresh scans, at a realism preset.
+//! `braille sim check`: the simulator's physics checks on fresh scans, at a realism preset.
 
 use anyhow::Result;
 use sim::Realism;

@@ -1,4 +1,4 @@
-//! `braille sim-dataset`: a SIMULATED tactile dataset of another layout than the iCub sets (a
+//! `braille sim dataset`: a SIMULATED tactile dataset of another layout than the iCub sets (a
 //! grid of event taxels under each Braille character), written as a dataset folder.
 
 use anyhow::Result;

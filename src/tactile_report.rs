@@ -1,4 +1,4 @@
-//! `braille tactile-report`: per tactile dataset, the SNN search's final models beside the
+//! `braille report tactile`: per tactile dataset, the SNN search's final models beside the
 //! conventional networks and linear floors chosen by the same protocol
 //! (`experiments::reports::tactile`).
 

@@ -1,4 +1,4 @@
-//! `braille words-report`: the paper's speed table on SIMULATED EV scans for both architectures,
+//! `braille report words`: the paper's speed table on SIMULATED EV scans for both architectures,
 //! with and without spelling (Markdown, JSON and a plot); with `--braille ueb-g1|ueb-g2`, the UEB
 //! readers' cells and contracted sentences against speed.
 
