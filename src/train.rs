@@ -103,8 +103,8 @@ pub struct Args {
     quiet: bool,
 }
 
-/// The flags `braille train` took before its options became keys, and the keys they set: each
-/// `--flag VALUE` reads as `--set key=VALUE`, a switch (`--bias`) as `key=true`.
+/// The flags `braille train` took before its options became keys, where the key has another name:
+/// each `--flag VALUE` reads as `--set key=VALUE`, a switch (`--bias`) as `key=true`.
 const FLAG_KEYS: [(&str, &str); 13] = [
     ("words", "word_rows"),
     ("train-speeds", "train_speeds_mm_s"),
@@ -120,10 +120,6 @@ const FLAG_KEYS: [(&str, &str); 13] = [
     ("distill-weight", "distill.weight"),
     ("distill-temperature", "distill.temperature"),
 ];
-
-/// Flags that were switches, taking no value.
-const SWITCHES: [&str; 6] =
-    ["interpolate", "bias", "recurrent", "check-truncation", "search-halving", "both-gradients"];
 
 /// `argv` with `braille train`'s earlier flags written as `--set` (the flags of `braille train
 /// --help` and any other command's arguments pass as they are).
@@ -163,15 +159,8 @@ pub fn flags_as_keys(argv: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
         };
         let value = match inline {
             Some(v) => v,
-            None if SWITCHES.contains(&name) => match rest.peek().and_then(|v| v.to_str()) {
-                Some(v @ ("true" | "false")) => {
-                    let v = v.to_string();
-                    rest.next();
-                    v
-                }
-                _ => "true".into(),
-            },
-            // the next argument is the value, unless it is a flag: then a switch
+            // the next argument is the value (`--bias true`), unless it is a flag or there is none:
+            // then a switch (`--bias`)
             None => match rest.next_if(|v| !v.to_str().is_some_and(|v| v.starts_with("--"))) {
                 Some(v) => v.to_string_lossy().into_owned(),
                 None => "true".into(),
