@@ -2,10 +2,12 @@
 //! (`experiments::bench::engine`), or a BPTT training step of that network on burn; with `--model`, any
 //! model file or NIR graph on any events (`experiments::bench::models`).
 
+use crate::common::emit;
 use anyhow::{Result, bail};
 use experiments::bench::models::{self as model_bench, BenchInput, NirReading};
 use experiments::eval::tactile::SplitChoice;
 use snn::engine::Mode;
+use snn::model_file::Arch;
 use snn::nir::ImportReset;
 use std::path::PathBuf;
 
@@ -109,6 +111,25 @@ pub enum BenchSplit {
     All,
 }
 
+pub fn run(args: Args) -> Result<()> {
+    if let Some(path) = args.model.clone() {
+        return model(&args, &path);
+    }
+    if args.live {
+        let spec = experiments::bench::live::LiveSpec::ev_nominal(args.live_rows, args.live_speed, args.live_depth);
+        let models = crate::common::repo_path("models/nominal");
+        let r = experiments::bench::live::live(&spec, &models, &[Arch::Snn, Arch::Resnet])?;
+        return emit(&r, args.json);
+    }
+    if args.train {
+        return emit(
+            &experiments::bench::engine::train_step(args.batch, args.repeats, args.gradient_cutoff)?,
+            args.json,
+        );
+    }
+    emit(&experiments::bench::engine::engine(args.samples, args.repeats, args.streams)?, args.json)
+}
+
 fn model(args: &Args, path: &std::path::Path) -> Result<()> {
     // a ResNet model file is timed on windows; anything else (an SNN file, a NIR graph) on events,
     // whose loader names what is wrong with the file
@@ -116,109 +137,25 @@ fn model(args: &Args, path: &std::path::Path) -> Result<()> {
         return resnet(args, path, &m);
     }
     let net = model_bench::load_network(path, NirReading { dt_us: args.dt_us, reset: args.reset })?;
+    let split = match args.split {
+        BenchSplit::Train => SplitChoice::Train,
+        BenchSplit::Test => SplitChoice::Test,
+        BenchSplit::All => SplitChoice::All,
+    };
     let input = match (&args.events, &args.data) {
         (Some(e), _) => BenchInput::Events { path: e.clone(), time_scale: args.time_scale },
-        (None, Some(d)) => BenchInput::Data {
-            dir: d.clone(),
-            split: match args.split {
-                BenchSplit::Train => SplitChoice::Train,
-                BenchSplit::Test => SplitChoice::Test,
-                BenchSplit::All => SplitChoice::All,
-            },
-            like: args.like.clone(),
-        },
+        (None, Some(d)) => BenchInput::Data { dir: d.clone(), split, like: args.like.clone() },
         (None, None) => BenchInput::Random { samples: args.samples },
     };
-    if let Some(chip) = args.chip {
-        if args.mode != Mode::Stepped || args.streams != 1 {
-            bail!("--chip runs one stream beside the float engine in stepped mode (no --mode async, no --streams)");
-        }
-        let choice = experiments::eval::chip::ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
-        let r = experiments::bench::chip::run(&net, &path.display().to_string(), &input, choice)?;
-        if args.json {
-            println!("{}", serde_json::to_string_pretty(&r)?);
-        } else {
-            print!("{r}");
-        }
-        return Ok(());
+    let name = path.display().to_string();
+    let Some(chip) = args.chip else {
+        return emit(&model_bench::run(&net, &name, &input, args.mode, args.streams)?, args.json);
+    };
+    if args.mode != Mode::Stepped || args.streams != 1 {
+        bail!("--chip runs one stream beside the float engine in stepped mode (no --mode async, no --streams)");
     }
-    let r = model_bench::run(&net, &path.display().to_string(), &input, args.mode, args.streams)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
-        return Ok(());
-    }
-    print!("{r}");
-    Ok(())
-}
-
-pub fn run(args: Args) -> Result<()> {
-    if let Some(path) = args.model.clone() {
-        return model(&args, &path);
-    }
-    if args.live {
-        let realism = sim::Realism::Nominal;
-        let spec = experiments::bench::live::LiveSpec {
-            board: sim::BoardKind::Ev,
-            rows: args.live_rows,
-            speed_mm_s: args.live_speed,
-            depth_mm: args.live_depth,
-            seed: corpus::world::TEST_SEED,
-            realism,
-            sensor_seed: corpus::World::test(realism).sensor_seed(0),
-            gap_s: 1.0,
-            pace: 1.0,
-        };
-        let models = crate::common::repo_path("models/nominal");
-        let r = experiments::bench::live::live(
-            &spec,
-            &models,
-            &[snn::model_file::Arch::Snn, snn::model_file::Arch::Resnet],
-        )?;
-        if args.json {
-            println!("{}", serde_json::to_string_pretty(&r)?);
-        } else {
-            println!(
-                "SIMULATED: {} rows of EV at {} mm/s, {} mm, served over TCP at the recorded pace",
-                spec.rows, spec.speed_mm_s, spec.depth_mm
-            );
-            for run in &r.runs {
-                let s = &run.summary;
-                let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
-                println!(
-                    "{}: {} of {} words timed; word latency p50 {}, p99 {}, max {} (a word's last detection arriving to the word printed, the word gap included); completion p50 {}, p99 {}; word accuracy {:.3} (1 - WER), percent correct {:.3}; {:.1} s of stream in {:.1} s",
-                    run.arch,
-                    s.words_timed,
-                    run.words_printed,
-                    ms(s.word_latency_ms_p50),
-                    ms(s.word_latency_ms_p99),
-                    ms(s.word_latency_ms_max),
-                    ms(s.completion_latency_ms_p50),
-                    ms(s.completion_latency_ms_p99),
-                    run.word_accuracy,
-                    run.percent_correct,
-                    s.stream_s,
-                    s.read_s
-                );
-            }
-        }
-        return Ok(());
-    }
-    if args.train {
-        let r = experiments::bench::engine::train_step(args.batch, args.repeats, args.gradient_cutoff)?;
-        if args.json {
-            println!("{}", serde_json::to_string_pretty(&r)?);
-        } else {
-            print!("{r}");
-        }
-        return Ok(());
-    }
-    let r = experiments::bench::engine::engine(args.samples, args.repeats, args.streams)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
-    } else {
-        print!("{r}");
-    }
-    Ok(())
+    let choice = experiments::eval::chip::ChipChoice { chip, quantisation: args.quantisation, run: args.chip_run };
+    emit(&experiments::bench::chip::run(&net, &name, &input, choice)?, args.json)
 }
 
 /// `--model` with a ResNet model file: our folded path and burn's on the same windows.
@@ -234,17 +171,8 @@ fn resnet(args: &Args, path: &std::path::Path, m: &pipeline::models::ResnetModel
         Some(board) => Windows::Board { board: board.clone(), realism: sim::Realism::Nominal },
         None => Windows::Random { count: args.samples as usize, density: args.density, seed: 1 },
     };
-    let spec = ResnetBenchSpec {
-        windows,
-        batch: args.batch,
-        threads: args.threads.unwrap_or_else(rayon::current_num_threads),
-        repeats: args.repeats,
-    };
+    let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
+    let spec = ResnetBenchSpec { windows, batch: args.batch, threads, repeats: args.repeats };
     let r = experiments::bench::resnet::run(m, &path.display().to_string(), &spec, &crate::common::Bar::default())?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
-    } else {
-        print!("{r}");
-    }
-    Ok(())
+    emit(&r, args.json)
 }

@@ -6,17 +6,17 @@ use learn::train::{EpochReport, Observer};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// A file of the repository: from the working directory, else from where the binary was built.
-/// A flag's two pooled rows of the labeler's grid, first and last plus one (`--crop-rows`,
-/// `--band-rows`, `set-band --rows`), checked by the library's rule (within the grid, first below
-/// last) with the flag named in the error.
-pub fn pooled_rows(flag: &str, rows: &[usize]) -> anyhow::Result<[usize; 2]> {
-    use anyhow::Context;
-    let [first, end] = rows[..] else { anyhow::bail!("{flag} {rows:?}: two pooled rows, first and last plus one") };
-    experiments::train::resnet::crop_rows(Some([first, end])).with_context(|| format!("{flag} {rows:?}"))?;
-    Ok([first, end])
+/// A result as pretty JSON (`json`), else as its text.
+pub fn emit<T: serde::Serialize + std::fmt::Display>(r: &T, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(r)?);
+    } else {
+        print!("{r}");
+    }
+    Ok(())
 }
 
+/// A file of the repository: from the working directory, else from where the binary was built.
 pub fn repo_path(rel: &str) -> PathBuf {
     let local = PathBuf::from(rel);
     if local.exists() { local } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(rel) }
@@ -94,32 +94,9 @@ impl Observer for Epochs {
         if let Some(b) = self.bar.take() {
             b.finish_and_clear();
         }
-        eprintln!(
-            "epoch {:>3}: lr {:.2e} train loss {:.3} acc {:5.1}% | val loss {:.3} acc {:5.1}% | spikes/sample {:?} | {:.1} s",
-            r.epoch,
-            r.lr,
-            r.train_loss,
-            100.0 * r.train_accuracy,
-            r.val_loss,
-            100.0 * r.val_accuracy,
-            r.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect::<Vec<_>>(),
-            r.seconds
-        );
-        if r.undone {
-            eprintln!(
-                "           undone (the training loss jumped): back to the weights before it, the learning rate halved"
-            );
-        }
-        if let Some(t) = &r.truncation {
-            eprintln!(
-                "epoch {:>3}: truncated against exact gradient over {} batches: cosine mean {:.4}, lowest {:.4}; relative error mean {:.3}",
-                r.epoch, t.batches, t.cosine_mean, t.cosine_min, t.relative_error_mean
-            );
-        }
+        eprintln!("{r}");
     }
 }
-
-pub use corpus::scans::{truth_path, write_events};
 
 /// `--realism` of the commands that score the shipped models on simulated scans. Its default is
 /// `nominal`, the world of every published table; `clean` is the simulator before its nuisances,
@@ -144,10 +121,6 @@ pub fn default_models_dir() -> PathBuf {
 }
 
 impl RealismArg {
-    pub fn test_world(self) -> corpus::world::World {
-        self.world(SensorBuilds::Test)
-    }
-
     /// The world of these sensor builds at this preset.
     pub fn world(self, builds: SensorBuilds) -> corpus::world::World {
         corpus::world::World::of(self.realism, builds)
@@ -206,4 +179,49 @@ impl CompressionArg {
             CompressionArg::Zstd => Compression::Zstd,
         }
     }
+}
+
+/// A model in a chip's arithmetic (`--chip`), shared by `eval` and `eval chars`.
+#[derive(clap::Args)]
+pub struct ChipArgs {
+    /// Run the model in a chip's arithmetic (docs/chips.md): mapped into its number formats
+    /// (integer weights, fixed-point state, decays by bit shifts or integer multiplies), every
+    /// sample as the chip computes.
+    #[arg(long, value_enum)]
+    pub chip: Option<snn::chip::Chip>,
+    /// --chip: how float weights become the chip's integers (Xylo: Rockpool's quantisers; Speck:
+    /// Sinabs's one scale per core; Loihi 2: one exponent per layer; the last two `global` only).
+    #[arg(long, value_enum, default_value = "global", requires = "chip")]
+    pub quantisation: snn::chip::xylo::Quantisation,
+    /// --chip: every neuron every step (`stepped`, the vendor simulator's loop) or only neurons
+    /// with state or input (`event-driven`); the two agree bit for bit.
+    #[arg(long, value_enum, default_value = "event-driven", requires = "chip")]
+    pub chip_run: snn::chip::xylo::Run,
+    /// --chip: also write every sample as the chip ran it (JSON: the mapped specification, the
+    /// inputs and every spike), for a spike-for-spike check with the vendor's simulator
+    /// (scripts/chips/xylosim_check.py, sinabs_check.py, lava_check.py).
+    #[arg(long, requires = "chip")]
+    pub trace: Option<PathBuf>,
+}
+
+impl ChipArgs {
+    pub fn choice(&self) -> Option<experiments::eval::chip::ChipChoice> {
+        let (quantisation, run) = (self.quantisation, self.chip_run);
+        self.chip.map(|chip| experiments::eval::chip::ChipChoice { chip, quantisation, run })
+    }
+
+    pub fn write_trace<T: serde::Serialize>(&self, trace: Option<T>) -> anyhow::Result<()> {
+        if let (Some(path), Some(trace)) = (&self.trace, trace) {
+            let json = serde_json::to_vec(&trace)?;
+            std::fs::write(path, json).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+/// A report's models and folder where none is given: those of its preset in the repository.
+pub fn place_defaults(place: &mut experiments::reports::jobs::ReportPlace) {
+    let preset = RealismArg { realism: place.realism };
+    place.models.get_or_insert_with(|| preset.models_dir());
+    place.out.get_or_insert_with(|| preset.results_dir());
 }

@@ -83,7 +83,7 @@ enum Command {
     /// build no model saw) and of a contracted UEB sentence, then real iCub recordings spelled
     /// into a stream, written to AEDAT4, read back and classified by the shipped SNN on the
     /// event-driven engine.
-    Demo(demo::Args),
+    Demo(experiments::demo::DemoSpec),
     /// The simulator's checks and other products: `sim check` (physics), `sim labels` (the
     /// labeling pipeline against the truth), `sim robustness` (the classifiers against each
     /// nuisance), `sim dataset` (a tactile dataset of another layout).
@@ -114,27 +114,6 @@ enum Command {
     /// Merge trained SNNs of one architecture into one network: the members side by side, their
     /// readouts summed at every step.
     Ensemble(ensemble::Args),
-    // The names these had before they were grouped, kept as hidden aliases.
-    #[command(hide = true)]
-    CharsReport(chars_report::Args),
-    #[command(hide = true)]
-    WordsReport(words_report::Args),
-    #[command(hide = true)]
-    LettersReport(letters_report::Args),
-    #[command(hide = true)]
-    IcubReport(icub_report::Args),
-    #[command(hide = true)]
-    TactileReport(tactile_report::Args),
-    #[command(hide = true)]
-    ChipReport(chip_report::Args),
-    #[command(hide = true)]
-    SimCheck(sim_check::Args),
-    #[command(hide = true)]
-    LabelCheck(label_check::Args),
-    #[command(hide = true)]
-    Robustness(robustness::Args),
-    #[command(hide = true)]
-    SimDataset(sim_dataset::Args),
 }
 
 fn main() -> ExitCode {
@@ -144,33 +123,23 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse_from(train::flags_as_keys(std::env::args_os().collect()));
+    let cli = Cli::parse_from(train::flags_as_keys(old_names(std::env::args_os().collect())));
     let result = match cli.command {
         Command::Info(a) => info::run(a),
         Command::Convert(a) => convert::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Simulate(a) => simulate::run(a),
-        Command::SimCheck(a) => sim_check::run(a),
-        Command::SimDataset(a) => sim_dataset::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
-        Command::LabelCheck(a) => label_check::run(a),
-        Command::Robustness(a) => robustness::run(a),
         Command::Train(a) => train::run(*a),
         Command::Eval(a) => eval::run(a),
         Command::Baselines(a) => baselines::run(a),
-        Command::IcubReport(a) => icub_report::run(a),
-        Command::TactileReport(a) => tactile_report::run(a),
-        Command::CharsReport(a) => chars_report::run(a),
-        Command::ChipReport(a) => chip_report::run(a),
         Command::Run(a) => run::run(a),
         Command::Read(a) => read::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Recordings(a) => recordings::run(a),
         Command::Report(a) => report::run(a),
         Command::Sim(a) => sim_jobs::run(a),
-        Command::WordsReport(a) => words_report::run(a),
-        Command::LettersReport(a) => letters_report::run(a),
         Command::CalibrateReader(a) => calibrate_reader::run(a),
         Command::SetBand(a) => set_band::run(a),
         Command::Export(a) => nir_cli::export(a),
@@ -185,6 +154,29 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The names of commands before they were grouped, kept for a release: `braille chars-report ...`
+/// reads as `braille report chars ...`.
+const OLD_NAMES: [(&str, [&str; 2]); 10] = [
+    ("chars-report", ["report", "chars"]),
+    ("words-report", ["report", "words"]),
+    ("letters-report", ["report", "letters"]),
+    ("icub-report", ["report", "icub"]),
+    ("tactile-report", ["report", "tactile"]),
+    ("chip-report", ["report", "chip"]),
+    ("sim-check", ["sim", "check"]),
+    ("label-check", ["sim", "labels"]),
+    ("robustness", ["sim", "robustness"]),
+    ("sim-dataset", ["sim", "dataset"]),
+];
+
+/// `argv` with an old command name written as its group and command.
+fn old_names(mut argv: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    if let Some((_, new)) = argv.get(1).and_then(|a| OLD_NAMES.iter().find(|(old, _)| a == old)) {
+        argv.splice(1..2, new.iter().map(std::ffi::OsString::from));
+    }
+    argv
 }
 
 /// The error and its causes, each cause once: a cause whose text its error already shows (an

@@ -72,12 +72,7 @@ pub fn run(args: Args) -> Result<()> {
     let json = args.json;
     let mut on_word = |w: &pipeline::reader::ReadWord| -> pipeline::Result<()> {
         let mut lock = stdout.lock();
-        let line = if json {
-            serde_json::to_string(w).expect("words serialise")
-        } else {
-            let c = w.chars.first().map_or(0, |c| c.t_start_us);
-            format!("{:>9.3} s  {:<12} (read {}, {} characters)", c as f64 / 1e6, w.text, w.raw, w.chars.len())
-        };
+        let line = if json { serde_json::to_string(w).expect("words serialise") } else { w.to_string() };
         let io = |source| pipeline::Error::Io { path: "standard output".into(), source };
         writeln!(lock, "{line}").map_err(io)?;
         lock.flush().map_err(io)
@@ -88,30 +83,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         println!("{}", serde_json::to_string(&s)?);
     } else {
-        println!(
-            "read {:?} from {:.1} s of stream in {:.2} s ({} architecture, spelling {:?}, {} timing, read at {} at the end, {} speed estimates); {} frames, segmentation network on {} ({:.0} ms), classifier on {} ({:.0} ms)",
-            s.text,
-            s.stream_s,
-            s.read_s,
-            s.arch,
-            s.spell,
-            args.timing,
-            s.speed_mm_s.map_or("no speed".into(), |v| format!("{v:.1} mm/s")),
-            s.stats.speed_estimates,
-            s.stats.frames,
-            s.stats.segmenter_calls,
-            s.segmenter_ms,
-            s.stats.classifier_calls,
-            s.classifier_ms
-        );
-        if let (Some(p50), Some(p99), Some(c50)) =
-            (s.word_latency_ms_p50, s.word_latency_ms_p99, s.completion_latency_ms_p50)
-        {
-            println!(
-                "word latency over {} words: p50 {p50:.1} ms, p99 {p99:.1} ms from a word's last detection arriving to the word printed (the word gap included); {c50:.2} ms p50 from the events that completed it",
-                s.words_timed
-            );
-        }
+        print!("{s}");
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! `NetworkReader` or DV itself.
 
 use anyhow::{Context, Result};
+use corpus::scans::RowStream;
 use encoders::Resolution;
 use encoders::formats::net::{ReplayOptions, serve};
 use encoders::formats::{self, OpenOptions};
@@ -76,19 +77,9 @@ pub fn run(args: Args) -> Result<()> {
         let mut source: Box<dyn encoders::EventSource> = match (&args.file, &args.board) {
             (Some(file), _) => formats::open(file, &OpenOptions { resolution: args.resolution, stream_id: None })?,
             (None, Some(board)) => {
-                let realism = sim::Realism::Nominal;
-                let scanner = corpus::scans::Scanner::new(
-                    board.clone(),
-                    None,
-                    corpus::World::test(realism).sensor_seed(0),
-                    realism,
-                    args.resolution.unwrap_or(Resolution::DVXPLORER),
-                    args.speed,
-                    args.depth,
-                    sim::Direction::Forward,
-                    corpus::world::TEST_SEED,
-                )?;
-                Box::new(corpus::scans::RowStream::new(scanner, None, Some(args.stream_min * 60.0), 1_000_000))
+                let resolution = args.resolution.unwrap_or(Resolution::DVXPLORER);
+                let stream_s = args.stream_min * 60.0;
+                Box::new(RowStream::nominal_test(board.clone(), resolution, args.speed, args.depth, stream_s)?)
             }
             (None, None) => unreachable!("clap requires a file or a board"),
         };
@@ -97,10 +88,7 @@ pub fn run(args: Args) -> Result<()> {
         if args.json {
             println!("{}", serde_json::to_string(&s)?);
         } else {
-            println!(
-                "sent {} events in {} packets ({:.2} s of stream) to {} in {:.2} s; latest packet {:.1} ms behind its time",
-                s.events, s.packets, s.stream_s, s.client, s.wall_s, s.max_lag_ms
-            );
+            print!("{s}");
         }
     }
     Ok(())

@@ -32,10 +32,10 @@ pub enum Kind {
     Chars(crate::chars_report::Args),
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
     /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
-    Words(crate::words_report::Args),
+    Words(experiments::reports::jobs::WordsReportJob),
     /// Every letter at every place in a row: both architectures on SIMULATED scans of the
     /// all-letters board over speed and depth (Markdown, JSON).
-    Letters(crate::letters_report::Args),
+    Letters(experiments::reports::jobs::LettersReportJob),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     Icub(crate::icub_report::Args),
     /// Per tactile dataset, the SNN search's models beside the GRU, LSTM, temporal CNN and linear

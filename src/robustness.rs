@@ -4,7 +4,7 @@
 use crate::common::Bar;
 use anyhow::{Context, Result};
 use experiments::eval::chars::CharModel;
-use experiments::eval::robustness::{Nuisance, SweepSpec, markdown, sweep};
+use experiments::eval::robustness::{Nuisance, SweepSpec, sweep};
 use sim::{BoardKind, Realism};
 use snn::model_file::Arch;
 use std::path::PathBuf;
@@ -61,11 +61,6 @@ pub fn run(args: Args) -> Result<()> {
     };
     let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
     let report = sweep(&spec, &refs, &Bar::default())?;
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let md = markdown(&report);
-    std::fs::write(out.join("robustness.md"), &md)?;
-    std::fs::write(out.join("robustness.json"), serde_json::to_string_pretty(&report)? + "\n")?;
-    experiments::reports::figures::robustness_figures(&report, &out)?;
-    print!("{md}");
+    print!("{}", experiments::reports::figures::write_robustness_report(&report, &out)?);
     Ok(())
 }

@@ -1,10 +1,9 @@
 //! `braille run`: a model file or NIR graph on an event file, every spike of every layer written
 //! as CSV (`layer,step,neuron`), for comparing this engine with another simulator spike for spike.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use experiments::bench::models::{self as model_bench, NirReading};
 use snn::nir::ImportReset;
-use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -33,18 +32,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let net = model_bench::load_network(&args.model, NirReading { dt_us: args.dt_us, reset: args.reset })?;
     let r = model_bench::run_events(&net, &args.events, args.steps)?;
-    let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?,
-    );
-    writeln!(f, "layer,step,neuron")?;
-    for (k, layer) in r.spikes.iter().enumerate() {
-        for (t, s) in layer.iter().enumerate() {
-            for j in s {
-                writeln!(f, "{k},{t},{j}")?;
-            }
-        }
-    }
-    f.flush()?;
+    r.write_spikes_csv(&args.out)?;
     eprintln!(
         "{} steps of {} us; spikes per layer {:?} (layers {:?}); the engine's output agrees with the time-stepped reference; wrote {}",
         r.steps,

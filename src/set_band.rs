@@ -2,7 +2,7 @@
 //! crop from now on, its weights unchanged (`pipeline::input::CharInput::band`): a row the
 //! board's yaw moves past the crop is centred back whole. The provenance records the change.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -20,11 +20,12 @@ pub fn run(args: Args) -> Result<()> {
     let band = match args.rows.as_str() {
         "none" => None,
         rows => {
-            let Ok(parsed) = rows.split(',').map(|r| r.trim().parse()).collect::<Result<Vec<usize>, _>>() else {
+            let parsed: Option<Vec<usize>> = rows.split(',').map(|r| r.trim().parse().ok()).collect();
+            let Some([first, end]) = parsed.and_then(|p| <[usize; 2]>::try_from(p).ok()) else {
                 bail!("--rows {rows:?}: two pooled rows, first and last plus one (e.g. 12,100), or none");
             };
-            let [first, end] = crate::common::pooled_rows("--rows", &parsed)?;
-            Some(first..end)
+            let band = experiments::train::resnet::crop_rows(Some([first, end]));
+            Some(band.with_context(|| format!("--rows {rows:?}"))?)
         }
     };
     let mut model = pipeline::models::load(&args.model)?;

@@ -61,18 +61,6 @@ pub fn run(args: Args) -> Result<()> {
         ..TaxelSetSpec::default()
     };
     let s = make_taxel_dataset(&spec, &args.out, args.force, &crate::common::Bar::default())?;
-    println!(
-        "{}: SIMULATED ({} realism), {} taxels, {} classes, {} training and {} test samples, {:.0} events per sample on average ({} with none), {:.2}-{:.2} s long",
-        args.out.display(),
-        spec.realism,
-        s.taxels,
-        s.classes,
-        s.train_samples,
-        s.test_samples,
-        s.mean_events_per_sample,
-        s.empty_samples,
-        s.duration_s_min,
-        s.duration_s_max
-    );
+    println!("{}: {s}", args.out.display());
     Ok(())
 }

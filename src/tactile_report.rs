@@ -2,8 +2,8 @@
 //! conventional networks and linear floors chosen by the same protocol
 //! (`experiments::reports::tactile`).
 
-use anyhow::{Result, bail};
-use experiments::reports::tactile::{SnnSearch, TactileSource, write_report};
+use anyhow::Result;
+use experiments::reports::tactile::{TactileSource, write_report};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -46,31 +46,10 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.datasets
     };
-    let mut sources = Vec::new();
-    for d in &datasets {
-        let Some((name, folder)) = d.split_once('=') else {
-            bail!("--dataset {d}: expected NAME=FOLDER");
-        };
-        let source = TactileSource {
-            name: name.to_string(),
-            data: PathBuf::from(folder),
-            snn: SnnSearch::under_rule(name, &search, &logs),
-            baselines: a.baselines.join(name),
-        };
-        if !source.data.is_dir() {
-            bail!(
-                "{}: no dataset folder here{}",
-                source.data.display(),
-                if name == "sim-taxels" {
-                    " (generate it: bash scripts/search_taxels.sh, or braille sim-dataset --out DIR)"
-                } else {
-                    ""
-                }
-            );
-        }
-        sources.push(source);
-    }
-    let md = write_report(&sources, &a.out)?;
-    print!("{md}");
+    let sources = datasets
+        .iter()
+        .map(|d| TactileSource::parse(d, &search, &logs, &a.baselines))
+        .collect::<experiments::Result<Vec<_>>>()?;
+    print!("{}", write_report(&sources, &a.out)?);
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! of liblouis's own test files (`--spec`).
 
 use anyhow::{Context, Result, bail};
-use experiments::eval::braille_spec::{Direction, check_spec};
+use experiments::eval::braille_spec::check_spec;
 use pipeline::code::{BrailleCode, parse_cells, unicode};
 use std::io::Write;
 use std::path::PathBuf;
@@ -54,38 +54,7 @@ pub fn run(args: Args) -> Result<()> {
             })
         })?;
     } else if let Some(spec) = &args.spec {
-        let report = check_spec(spec, args.braille)?;
-        if args.json {
-            println!("{}", serde_json::to_string_pretty(&report)?);
-            return Ok(());
-        }
-        println!("{} through {} (liblouis):", spec.display(), args.braille);
-        for (name, a) in [("backward (cells to print)", report.backward), ("forward (print to cells)", report.forward)]
-        {
-            if a.cases + a.xfail_cases == 0 {
-                continue;
-            }
-            println!(
-                "  {name}: {}/{} cases agree ({:.1}%); of the {} that liblouis itself is expected to fail (xfail), {} agree; all: {:.1}%",
-                a.agree,
-                a.cases,
-                100.0 * a.agree as f64 / a.cases.max(1) as f64,
-                a.xfail_cases,
-                a.xfail_agree,
-                100.0 * a.rate_all()
-            );
-        }
-        if report.skipped_block_cases > 0 {
-            println!("  {} block-form case(s) not read (emphasis only)", report.skipped_block_cases);
-        }
-        for f in &report.failures {
-            let way = match f.direction {
-                Direction::Forward => "forward",
-                Direction::Backward => "backward",
-            };
-            let xfail = if f.xfail { " (xfail)" } else { "" };
-            println!("  line {} {way}{xfail}: {:?} -> {:?}, expected {:?}", f.line, f.input, f.got, f.expected);
-        }
+        crate::common::emit(&check_spec(spec, args.braille)?, args.json)?;
     } else {
         bail!("give --to-cells TEXT, --to-text CELLS or --spec FILE");
     }

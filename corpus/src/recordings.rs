@@ -271,11 +271,12 @@ pub fn export(
         text.push('\n');
     }
     let scanner = crate::scans::Scanner::of(spec)?;
+    let kind = spec.board_kind()?;
     // the world's scans: its preset's setup, its board print, its builds
     let in_world = match world {
         Some(w) => {
             let setup = w.setup();
-            let board = w.board(&setup, &spec.board)?;
+            let board = w.board(&setup, &kind)?;
             let sensors = w.sensors_at(&setup, spec.resolution)?;
             Some((w, setup, board, sensors))
         }
@@ -297,7 +298,7 @@ pub fn export(
             let s = match &in_world {
                 None => scanner.scan(row, trial)?,
                 Some((w, setup, board, sensors)) => {
-                    let seed = w.scan_seed(spec.seed, &spec.board, row, trial, spec.speed, spec.depth);
+                    let seed = w.scan_seed(spec.seed, &kind, row, trial, spec.speed, spec.depth);
                     let sensor = &sensors[(trial % sensors.len() as u64) as usize];
                     sim::simulate(board, sensor, &setup.scan(spec.speed, spec.depth, row, seed))?
                 }
@@ -376,6 +377,42 @@ pub struct CheckSummary {
     pub groups: Vec<Group>,
 }
 
+/// What `braille recordings check` prints: a table per role and condition, each role's totals,
+/// and every event file that holds no events.
+impl std::fmt::Display for CheckSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "{}: {} scans", self.dir.display(), self.scans)?;
+        writeln!(f, "| role | speed (mm/s) | depth (mm) | scans | characters | events | duration (s) | events/s |")?;
+        writeln!(f, "| --- | --- | --- | --- | --- | --- | --- | --- |")?;
+        for g in &self.groups {
+            writeln!(
+                f,
+                "| {} | {} | {} | {} | {} | {} | {:.1} | {:.0} |",
+                g.role.name(),
+                g.speed_mm_s,
+                g.depth_mm,
+                g.scans,
+                g.characters,
+                g.events,
+                g.duration_s,
+                g.event_rate_hz
+            )?;
+        }
+        for r in &self.roles {
+            let name = r.role.name();
+            writeln!(
+                f,
+                "{name}: {} scans, {} characters, {} events, {:.1} s",
+                r.scans, r.characters, r.events, r.duration_s
+            )?;
+        }
+        for file in self.groups.iter().flat_map(|g| &g.empty_files) {
+            writeln!(f, "note: {} holds no events", file.display())?;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -445,7 +482,8 @@ mod tests {
     fn simulated_scans_export_as_a_folder_a_lab_would_keep() {
         let dir = tempfile::tempdir().unwrap();
         let spec = |board: &str, trials: u64, speed: f64| crate::scans::ScanSpec {
-            board: board.parse().unwrap(),
+            board: board.into(),
+            braille: pipeline::code::BrailleCode::Grade1Letters,
             speed,
             depth: 1.0,
             row: None,
@@ -455,7 +493,7 @@ mod tests {
             sensor_seed: 101,
             realism: sim::Realism::Nominal,
             direction: sim::Direction::Forward,
-            stick_slip: None,
+            mount_compliance_um_per_n: None,
             resolution: encoders::Resolution::DVXPLORER,
             out: dir.path().to_path_buf(),
             force: false,

@@ -7,33 +7,81 @@ use encoders::formats::aedat4::{self, EncoderOptions};
 use encoders::formats::{self, AtomicFile, EventSink, Format};
 use encoders::stats::StreamStats;
 use encoders::{Event, Resolution};
+use pipeline::code::BrailleCode;
 use rayon::prelude::*;
 use serde::Serialize;
 use sim::{Board, BoardKind, Direction, ScanConfig};
 use std::path::{Path, PathBuf};
 
-/// Which scans to simulate and where to write them.
+/// Which scans to simulate and where to write them (with the `clap` feature, `braille simulate`'s
+/// arguments).
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct ScanSpec {
-    pub board: BoardKind,
+    /// Board: SAB, UN, RAB, VAL (validation), EV, VAL-WORDS, VAL-LETTERS (validation words and
+    /// letters), ALL-LETTERS, or text:"ANY WORDS" (`/` starts a new row; long rows wrap), its
+    /// print written in `--braille`'s code (Unicode Braille cells are printed as they are).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "EV"))]
+    pub board: String,
+    /// The Braille code a `text:` board's print is written in: the paper's letters, or Unified
+    /// English Braille uncontracted or contracted (liblouis's tables; `braille translate`).
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = BrailleCode::Grade1Letters))]
+    pub braille: BrailleCode,
+    /// Sliding speed, mm/s (the paper: 8-32 mm/s).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 8.0))]
     pub speed: f64,
+    /// Indentation depth from first contact, mm (the paper: 0.2-1.5 mm).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.5))]
     pub depth: f64,
-    /// One row, or every row.
+    /// Row to scan [default: every row].
+    #[cfg_attr(feature = "clap", arg(long))]
     pub row: Option<usize>,
+    /// Scans per row.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1))]
     pub trials: u64,
+    /// Seed of the trials (misalignment, speed ripple, noise).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0))]
     pub seed: u64,
-    /// The printed board's tolerances (None: derived from the board's name).
+    /// Seed of the printed board's tolerances [default: derived from the board's name].
+    #[cfg_attr(feature = "clap", arg(long))]
     pub board_seed: Option<u64>,
+    /// Seed of the sensor build: its pixels (thresholds, hot pixels) and, beyond `clean`, its gel,
+    /// LED and noise rates.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1))]
     pub sensor_seed: u64,
-    /// The simulator's nuisances.
+    /// The simulator's nuisances (docs/simulator.md); `clean` is the simulator before them, kept
+    /// for regression.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = sim::Realism::Nominal))]
     pub realism: sim::Realism,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = Direction::Forward))]
     pub direction: Direction,
-    /// Stick-slip through the mount's compliance, beyond the preset's (None: the preset's).
-    pub stick_slip: Option<sim::StickSlip>,
+    /// Stick-slip of the gel on the board's face, seen through a mount of this compliance (um per
+    /// N; 33 is `harsh`'s mount, 10 `nominal`'s, 0 a rigid one), the rest of the mount as
+    /// `sim::StickSlip::LIGHT_MOUNT` [default: the preset's: none at `clean`].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub mount_compliance_um_per_n: Option<f64>,
+    /// Sensor resolution; the field of view stays the build's width (18.6 mm by design, drawn
+    /// per build beyond `clean`).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "640x480"))]
     pub resolution: Resolution,
-    /// An event file for one scan, or a folder for several.
+    /// An event file (.aedat4, .csv, .npy) for one scan, or a folder for several.
+    #[cfg_attr(feature = "clap", arg(long))]
     pub out: PathBuf,
+    /// Replace existing outputs.
+    #[cfg_attr(feature = "clap", arg(long))]
     pub force: bool,
+}
+
+impl ScanSpec {
+    /// The board the print names, in its code.
+    pub fn board_kind(&self) -> Result<BoardKind> {
+        crate::boards::parse_board_in(&self.board, self.braille)
+    }
+
+    /// Stick-slip through the mount's compliance, beyond the preset's (None: the preset's).
+    pub fn stick_slip(&self) -> Option<sim::StickSlip> {
+        self.mount_compliance_um_per_n.map(|c| sim::StickSlip::light_mount_with_compliance(c.max(1e-3)))
+    }
 }
 
 /// One scan written.
@@ -59,6 +107,24 @@ pub struct Summary {
     pub duration_s: f64,
     pub on_off_ratio: Option<f64>,
     pub files: Vec<FileSummary>,
+}
+
+/// What `braille simulate` prints: a line per file, then the totals.
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for s in &self.files {
+            let (events, truth) = (s.events.display(), s.truth.display());
+            writeln!(f, "{events} ({} events, {:.1} s; truth {truth})", s.events_count, s.duration_s)?;
+        }
+        writeln!(
+            f,
+            "simulated {} scans of {}: {} events, ON/OFF {:.2}",
+            self.scans,
+            self.board,
+            self.events,
+            self.on_off_ratio.unwrap_or(f64::NAN)
+        )
+    }
 }
 
 /// A board, a sensor and a scan setting, built once; each scan of a row and trial is simulated
@@ -99,7 +165,7 @@ impl Scanner {
     /// The scanner of `spec`.
     pub fn of(spec: &ScanSpec) -> Result<Scanner> {
         let mut scanner = Scanner::new(
-            spec.board.clone(),
+            spec.board_kind()?,
             spec.board_seed,
             spec.sensor_seed,
             spec.realism,
@@ -109,8 +175,8 @@ impl Scanner {
             spec.direction,
             spec.seed,
         )?;
-        if spec.stick_slip.is_some() {
-            scanner.setup.scan.stick_slip = spec.stick_slip;
+        if let Some(stick_slip) = spec.stick_slip() {
+            scanner.setup.scan.stick_slip = Some(stick_slip);
         }
         Ok(scanner)
     }
@@ -250,6 +316,23 @@ pub struct RowStream {
 }
 
 impl RowStream {
+    /// Rows of `board` at `nominal` on its first test build with the test seed, forward, for
+    /// `stream_s` seconds of stream (a second between rows): a simulated live sensor.
+    pub fn nominal_test(
+        board: BoardKind,
+        resolution: Resolution,
+        speed_mm_s: f64,
+        depth_mm: f64,
+        stream_s: f64,
+    ) -> Result<RowStream> {
+        let realism = sim::Realism::Nominal;
+        let sensor_seed = crate::World::test(realism).sensor_seed(0);
+        let seed = crate::world::TEST_SEED;
+        let (forward, gap_us) = (Direction::Forward, 1_000_000);
+        let scanner = Scanner::new(board, None, sensor_seed, realism, resolution, speed_mm_s, depth_mm, forward, seed)?;
+        Ok(RowStream::new(scanner, None, Some(stream_s), gap_us))
+    }
+
     /// `rows` rows of `scanner`'s board (cycling through its rows, one trial at a time), or rows
     /// until `stream_s` seconds of stream have been sent (or both, whichever ends first; neither:
     /// endless); `gap_us` of silence between rows.

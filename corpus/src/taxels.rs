@@ -96,6 +96,25 @@ pub struct TaxelSummary {
     pub empty_samples: usize,
 }
 
+/// What `braille sim dataset` prints after the folder's name.
+impl std::fmt::Display for TaxelSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "SIMULATED ({} realism), {} taxels, {} classes, {} training and {} test samples, {:.0} events per sample on average ({} with none), {:.2}-{:.2} s long",
+            self.spec.realism,
+            self.taxels,
+            self.classes,
+            self.train_samples,
+            self.test_samples,
+            self.mean_events_per_sample,
+            self.empty_samples,
+            self.duration_s_min,
+            self.duration_s_max
+        )
+    }
+}
+
 /// The events of a scan's characters on the taxel grid.
 fn scan_samples(spec: &TaxelSetSpec, scan: &sim::Scan, resolution: Resolution, test: bool) -> Vec<TaxelSample> {
     let truth = &scan.truth;

@@ -72,6 +72,27 @@ pub struct FileSummary {
     pub max_y: Option<u16>,
 }
 
+/// What `braille info` prints: one field per line.
+impl std::fmt::Display for FileSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let opt = |v: Option<String>| v.unwrap_or_else(|| "-".into());
+        let num = |v: Option<i64>| opt(v.map(|v| v.to_string()));
+        writeln!(f, "file         {}", self.path.display())?;
+        writeln!(f, "format       {}", self.format)?;
+        writeln!(f, "resolution   {}", self.resolution.as_deref().unwrap_or("not declared"))?;
+        if let Some(s) = &self.source {
+            writeln!(f, "source       {s}")?;
+        }
+        writeln!(f, "events       {} ({} ON, {} OFF)", self.events, self.on, self.off)?;
+        writeln!(f, "ON/OFF ratio {}", opt(self.on_off_ratio.map(|v| format!("{v:.3}"))))?;
+        writeln!(f, "duration     {:.6} s", self.duration_s)?;
+        writeln!(f, "event rate   {:.1} events/s", self.event_rate_hz)?;
+        writeln!(f, "time range   {} .. {} us", num(self.t_first_us), num(self.t_last_us))?;
+        let (x, y) = (num(self.max_x.map(i64::from)), num(self.max_y.map(i64::from)));
+        writeln!(f, "max x, y     {x}, {y}")
+    }
+}
+
 impl FileSummary {
     /// Reads every event of the file at `path`.
     pub fn of(path: &std::path::Path, options: &crate::formats::OpenOptions) -> crate::Result<FileSummary> {

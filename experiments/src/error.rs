@@ -5,6 +5,9 @@ pub enum Error {
     /// A setting outside what it can be: its name, the value given, what it must be.
     #[error("{name} = {value}: expected {expected}")]
     Setting { name: &'static str, value: String, expected: &'static str },
+    /// Options that do not go together, and why.
+    #[error("{0}")]
+    Options(String),
     /// A dataset folder that cannot serve the protocol asked of it.
     #[error("{}: {what}", path.display())]
     Data { path: std::path::PathBuf, what: String },
@@ -88,5 +91,11 @@ impl From<encoders::Error> for Error {
 impl From<corpus::Error> for Error {
     fn from(e: corpus::Error) -> Self {
         Error::Corpus(Box::new(e))
+    }
+}
+
+impl From<corpus::recordings::Error> for Error {
+    fn from(e: corpus::recordings::Error) -> Self {
+        Error::Corpus(Box::new(e.into()))
     }
 }

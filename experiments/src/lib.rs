@@ -9,6 +9,7 @@
 //! Everything here that runs on simulated scans is SIMULATED data and says so in what it returns.
 
 pub mod bench;
+pub mod demo;
 pub mod error;
 pub mod eval;
 pub mod reports;

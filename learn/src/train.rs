@@ -222,6 +222,39 @@ pub struct EpochReport {
     pub undone: bool,
 }
 
+/// An epoch's line: its learning rate, loss and accuracy on training and validation, spikes per
+/// sample and time; then whether it was undone, and the truncation check where one was run.
+impl std::fmt::Display for EpochReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let spikes: Vec<i64> = self.val_spikes_per_sample.iter().map(|s| s.round() as i64).collect();
+        write!(
+            f,
+            "epoch {:>3}: lr {:.2e} train loss {:.3} acc {:5.1}% | val loss {:.3} acc {:5.1}% | spikes/sample {spikes:?} | {:.1} s",
+            self.epoch,
+            self.lr,
+            self.train_loss,
+            100.0 * self.train_accuracy,
+            self.val_loss,
+            100.0 * self.val_accuracy,
+            self.seconds
+        )?;
+        if self.undone {
+            write!(
+                f,
+                "\n           undone (the training loss jumped): back to the weights before it, the learning rate halved"
+            )?;
+        }
+        if let Some(t) = &self.truncation {
+            write!(
+                f,
+                "\nepoch {:>3}: truncated against exact gradient over {} batches: cosine mean {:.4}, lowest {:.4}; relative error mean {:.3}",
+                self.epoch, t.batches, t.cosine_mean, t.cosine_min, t.relative_error_mean
+            )?;
+        }
+        Ok(())
+    }
+}
+
 impl EpochReport {
     /// An epoch of a network without spikes (the ResNet, the conventional baselines): the loss
     /// summed and the hits counted over `n` training samples, validation's loss and accuracy (NaN

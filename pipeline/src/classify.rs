@@ -534,6 +534,15 @@ pub struct ReaderModels {
 }
 
 impl ReaderModels {
+    /// Both networks in `chip`'s arithmetic ([`WindowModel::on_chip`]).
+    pub fn on_chip(self, chip: Chip, quantisation: Quantisation) -> Result<ReaderModels> {
+        Ok(ReaderModels {
+            segmenter: self.segmenter.on_chip(chip, quantisation)?,
+            classifier: self.classifier.on_chip(chip, quantisation)?,
+            cell_grid: self.cell_grid,
+        })
+    }
+
     /// Loads and checks the pair (either architecture, as each file's header says).
     pub fn load(segmenter: &Path, classifier: &Path, runner: SnnRunner) -> Result<ReaderModels> {
         let seg = WindowModel::load(segmenter, runner)?;

@@ -209,6 +209,22 @@ pub struct RunRecord {
     pub spikes_per_layer: Vec<u64>,
 }
 
+impl RunRecord {
+    /// Every spike as CSV, `layer,step,neuron` (`layer` counts the layers with neurons), to `path`.
+    pub fn write_spikes_csv(&self, path: &Path) -> Result<()> {
+        use std::io::Write;
+        let io = |source| Error::Io { path: path.to_path_buf(), source };
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+        writeln!(f, "layer,step,neuron").map_err(io)?;
+        for (k, layer) in self.spikes.iter().enumerate() {
+            for (t, spiked) in layer.iter().enumerate() {
+                spiked.iter().try_for_each(|j| writeln!(f, "{k},{t},{j}")).map_err(io)?;
+            }
+        }
+        f.flush().map_err(io)
+    }
+}
+
 /// Runs `net` on the events of `path` (mapped by [`InputMap`]), from time 0 for `steps` steps
 /// (default: up to the last event), on the time-stepped reference and on the engine in stepped
 /// mode; their output spikes must agree.

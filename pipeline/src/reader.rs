@@ -232,6 +232,14 @@ pub struct ReadWord {
     pub chars: Vec<ReadChar>,
 }
 
+/// A word as `braille read` prints it: its start in the stream, the word, and what was registered.
+impl std::fmt::Display for ReadWord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let start_s = self.chars.first().map_or(0, |c| c.t_start_us) as f64 / 1e6;
+        write!(f, "{start_s:>9.3} s  {:<12} (read {}, {} characters)", self.text, self.raw, self.chars.len())
+    }
+}
+
 /// What the reader gives as the stream goes on.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ReadOutput {

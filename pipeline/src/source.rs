@@ -58,6 +58,39 @@ pub struct ReadSummary {
     pub peak_rss_mb: Option<f64>,
 }
 
+/// What `braille read` prints at the end: what was read, at what cost, and the words' latency.
+impl std::fmt::Display for ReadSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "read {:?} from {:.1} s of stream in {:.2} s ({} architecture, spelling {:?}, {} timing, read at {} at the end, {} speed estimates); {} frames, segmentation network on {} ({:.0} ms), classifier on {} ({:.0} ms)",
+            self.text,
+            self.stream_s,
+            self.read_s,
+            self.arch,
+            self.spell,
+            self.timing.mode(),
+            self.speed_mm_s.map_or("no speed".into(), |v| format!("{v:.1} mm/s")),
+            self.stats.speed_estimates,
+            self.stats.frames,
+            self.stats.segmenter_calls,
+            self.segmenter_ms,
+            self.stats.classifier_calls,
+            self.classifier_ms
+        )?;
+        if let (Some(p50), Some(p99), Some(c50)) =
+            (self.word_latency_ms_p50, self.word_latency_ms_p99, self.completion_latency_ms_p50)
+        {
+            writeln!(
+                f,
+                "word latency over {} words: p50 {p50:.1} ms, p99 {p99:.1} ms from a word's last detection arriving to the word printed (the word gap included); {c50:.2} ms p50 from the events that completed it",
+                self.words_timed
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// Wall-time latencies in microseconds, 1 us to an hour, three significant digits, in constant
 /// memory.
 fn latency_histogram() -> hdrhistogram::Histogram<u64> {

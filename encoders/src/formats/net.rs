@@ -122,6 +122,17 @@ pub struct ReplayStats {
     pub max_lag_ms: f64,
 }
 
+/// The line `braille replay` prints per client.
+impl std::fmt::Display for ReplayStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "sent {} events in {} packets ({:.2} s of stream) to {} in {:.2} s; latest packet {:.1} ms behind its time",
+            self.events, self.packets, self.stream_s, self.client, self.wall_s, self.max_lag_ms
+        )
+    }
+}
+
 /// Waits for one client on `listener` and sends it every event of `source` in DV's network
 /// framing, each packet when its last event is due at `options.pace`, then closes the connection.
 pub fn serve(

@@ -56,6 +56,61 @@ pub struct LiveBench {
     pub runs: Vec<LiveRun>,
 }
 
+impl LiveSpec {
+    /// `rows` rows of the EV board at `nominal` on its first test build, the test seed, a second
+    /// between rows, served at the recorded pace.
+    pub fn ev_nominal(rows: usize, speed_mm_s: f64, depth_mm: f64) -> LiveSpec {
+        let realism = Realism::Nominal;
+        LiveSpec {
+            board: BoardKind::Ev,
+            rows,
+            speed_mm_s,
+            depth_mm,
+            seed: corpus::world::TEST_SEED,
+            realism,
+            sensor_seed: corpus::World::test(realism).sensor_seed(0),
+            gap_s: 1.0,
+            pace: 1.0,
+        }
+    }
+}
+
+/// What `braille bench --live` prints: a line per architecture.
+impl std::fmt::Display for LiveBench {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let spec = &self.spec;
+        writeln!(
+            f,
+            "SIMULATED: {} rows of {} at {} mm/s, {} mm, served over TCP at the recorded pace",
+            spec.rows,
+            spec.board.name(),
+            spec.speed_mm_s,
+            spec.depth_mm
+        )?;
+        let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
+        for run in &self.runs {
+            let s = &run.summary;
+            writeln!(
+                f,
+                "{}: {} of {} words timed; word latency p50 {}, p99 {}, max {} (a word's last detection arriving to the word printed, the word gap included); completion p50 {}, p99 {}; word accuracy {:.3} (1 - WER), percent correct {:.3}; {:.1} s of stream in {:.1} s",
+                run.arch,
+                s.words_timed,
+                run.words_printed,
+                ms(s.word_latency_ms_p50),
+                ms(s.word_latency_ms_p99),
+                ms(s.word_latency_ms_max),
+                ms(s.completion_latency_ms_p50),
+                ms(s.completion_latency_ms_p99),
+                run.word_accuracy,
+                run.percent_correct,
+                s.stream_s,
+                s.read_s
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// Serves `spec`'s rows to each architecture's shipped reader in `models` (estimated timing,
 /// lexicon spelling), one after the other.
 pub fn live(spec: &LiveSpec, models: &Path, archs: &[Arch]) -> Result<LiveBench> {

@@ -77,6 +77,40 @@ pub struct SpecReport {
     pub failures: Vec<SpecFailure>,
 }
 
+/// What `braille translate --spec` prints: each direction's agreement, then every case that differs.
+impl std::fmt::Display for SpecReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "{} through {} (liblouis):", self.file.display(), self.code)?;
+        for (name, a) in [("backward (cells to print)", self.backward), ("forward (print to cells)", self.forward)] {
+            if a.cases + a.xfail_cases == 0 {
+                continue;
+            }
+            writeln!(
+                f,
+                "  {name}: {}/{} cases agree ({:.1}%); of the {} that liblouis itself is expected to fail (xfail), {} agree; all: {:.1}%",
+                a.agree,
+                a.cases,
+                100.0 * a.agree as f64 / a.cases.max(1) as f64,
+                a.xfail_cases,
+                a.xfail_agree,
+                100.0 * a.rate_all()
+            )?;
+        }
+        if self.skipped_block_cases > 0 {
+            writeln!(f, "  {} block-form case(s) not read (emphasis only)", self.skipped_block_cases)?;
+        }
+        for c in &self.failures {
+            let way = match c.direction {
+                Direction::Forward => "forward",
+                Direction::Backward => "backward",
+            };
+            let xfail = if c.xfail { " (xfail)" } else { "" };
+            writeln!(f, "  line {} {way}{xfail}: {:?} -> {:?}, expected {:?}", c.line, c.input, c.got, c.expected)?;
+        }
+        Ok(())
+    }
+}
+
 /// Read a spec file's cases in order.
 pub fn parse_spec(path: &Path) -> Result<Vec<SpecCase>> {
     let text = std::fs::read_to_string(path)

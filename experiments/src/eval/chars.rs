@@ -387,6 +387,20 @@ pub fn eval_recordings(
     Ok(out)
 }
 
+/// What `braille eval chars --chip` prints: the score, then what the chip's mapping changed.
+impl std::fmt::Display for CharChipEval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.eval)?;
+        let c = &self.chip;
+        writeln!(
+            f,
+            "in {}'s arithmetic ({:?} quantisation, {:?} run): {:.0} neuron updates per window; what the mapping changed:",
+            c.chip, c.quantisation, c.run, self.neuron_updates_per_sample
+        )?;
+        self.approximations.iter().try_for_each(|a| writeln!(f, "  {a}"))
+    }
+}
+
 /// The line `braille eval chars` prints.
 impl std::fmt::Display for CharEval {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

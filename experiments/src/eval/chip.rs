@@ -37,6 +37,32 @@ pub struct ChipEval {
     pub neuron_updates_per_sample: f64,
 }
 
+/// What `braille eval --data --chip` prints: the score in the chip's arithmetic, then what the
+/// mapping changed.
+impl std::fmt::Display for ChipEval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let e = &self.eval;
+        writeln!(
+            f,
+            "{} ({} split, {} samples) in {}'s arithmetic ({:?} quantisation, weight shifts {:?}, {} run): accuracy {:.2}%; {:.0} synops, {:.0} spikes, {:.0} neuron updates, {:.1} input events per sample",
+            e.data,
+            e.split,
+            e.n,
+            self.chip.chip,
+            self.chip.quantisation,
+            self.weight_shifts,
+            e.mode,
+            100.0 * e.accuracy,
+            e.synops_per_sample,
+            e.spikes_per_sample,
+            self.neuron_updates_per_sample,
+            e.input_events_per_sample
+        )?;
+        writeln!(f, "what the mapping changed:")?;
+        self.approximations.iter().try_for_each(|a| writeln!(f, "  {a}"))
+    }
+}
+
 /// Every sample of `set` through `chip` as the chip computes: accuracy and work, scored as the
 /// float engine's ([`crate::eval::tactile::snn_accuracy`]), and neuron updates per sample.
 pub fn chip_accuracy(chip: &ChipModel, set: &SpikeSet, run: Run) -> Result<(Scored, f64)> {

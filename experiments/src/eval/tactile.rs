@@ -283,6 +283,24 @@ pub struct SplitEval {
     pub input_events_per_sample: f64,
 }
 
+/// The line `braille eval --data` prints.
+impl std::fmt::Display for SplitEval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} ({} split, {} samples): accuracy {:.2}% ({} engine); {:.0} synops, {:.0} spikes, {:.1} input events per sample",
+            self.data,
+            self.split,
+            self.n,
+            100.0 * self.accuracy,
+            self.mode,
+            self.synops_per_sample,
+            self.spikes_per_sample,
+            self.input_events_per_sample
+        )
+    }
+}
+
 /// The SNN at `model_path` on `split` of the dataset folder `data_dir`, run by the engine in
 /// `mode`; with each sample's truth, prediction and readout as CSV ([`predictions_csv`]).
 pub fn eval_split(model_path: &Path, data_dir: &Path, split: SplitChoice, mode: Mode) -> Result<(SplitEval, String)> {

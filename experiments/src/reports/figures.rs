@@ -401,6 +401,17 @@ pub fn write_letters_report(r: &crate::reports::letters::LettersReport, out: &Pa
     Ok(md)
 }
 
+/// The robustness sweep's files in `out`: `robustness.md`, `robustness.json` and a PNG per
+/// nuisance; the Markdown back.
+pub fn write_robustness_report(r: &crate::eval::robustness::Report, out: &Path) -> Result<String> {
+    create_dir(out)?;
+    let md = crate::eval::robustness::markdown(r);
+    write(&out.join("robustness.md"), &md)?;
+    crate::write_json(&out.join("robustness.json"), r, true)?;
+    robustness_figures(r, out)?;
+    Ok(md)
+}
+
 /// The report's three files in `out`.
 pub fn write_words_report(r: &WordsReport, out: &Path) -> Result<()> {
     create_dir(out)?;

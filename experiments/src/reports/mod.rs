@@ -6,6 +6,7 @@ pub mod chars;
 pub mod chips;
 pub mod figures;
 pub mod icub;
+pub mod jobs;
 pub mod letters;
 pub mod tactile;
 pub mod ueb;

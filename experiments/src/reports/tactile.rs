@@ -24,6 +24,28 @@ pub struct TactileSource {
     pub baselines: PathBuf,
 }
 
+impl TactileSource {
+    /// A dataset named on the command line as `NAME=FOLDER`: its SNN searches under the fixed
+    /// rule ([`SnnSearch::under_rule`]) in `search` and `logs`, its networks' and floors' results
+    /// `NAME/` under `baselines`; the folder must exist.
+    pub fn parse(arg: &str, search: &Path, logs: &Path, baselines: &Path) -> Result<TactileSource> {
+        let Some((name, folder)) = arg.split_once('=') else {
+            return Err(Error::Options(format!("--dataset {arg}: expected NAME=FOLDER")));
+        };
+        let data = PathBuf::from(folder);
+        if !data.is_dir() {
+            let hint = if name == "sim-taxels" {
+                " (generate it: bash scripts/search_taxels.sh, or braille sim dataset --out DIR)"
+            } else {
+                ""
+            };
+            return Err(Error::Data { path: data, what: format!("no dataset folder here{hint}") });
+        }
+        let snn = SnnSearch::under_rule(name, search, logs);
+        Ok(TactileSource { name: name.to_string(), data, snn, baselines: baselines.join(name) })
+    }
+}
+
 /// One SNN search: its final models (`RUN.safetensors`, `RUN.seed2.safetensors`, ...) and the
 /// folder of its trial log (`trials-*.jsonl`), whose winner's score (the mean validation accuracy
 /// over the last epochs and the trial's seeds) decides between the searches of a dataset.

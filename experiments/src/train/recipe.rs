@@ -330,6 +330,21 @@ pub const PRESETS: [&str; 10] =
     ["default", "raw1350", "th10", "chars", "words", "segment", "cells", "cells-segment", "xylo", "speck"];
 
 impl SnnRecipe {
+    /// The recipe as a search's trial line shows it: the network, its time constants and training.
+    pub fn trial_summary(&self) -> String {
+        format!(
+            "hidden {:?}{}, tau_mem {:.0} ms, tau_out {:.0} ms, dropout {}, lr {}, init gain {}, step {} ms",
+            self.hidden,
+            if self.recurrent { " recurrent from zero" } else { " feed-forward" },
+            self.tau_mem_us / 1000.0,
+            self.tau_out_us / 1000.0,
+            self.dropout,
+            self.lr,
+            self.init_gain,
+            self.dt_us as f64 / 1000.0
+        )
+    }
+
     /// A named preset (see [`PRESETS`]).
     pub fn preset(name: &str) -> Option<SnnRecipe> {
         let d = SnnRecipe::default();

@@ -11,6 +11,7 @@ use crate::train::search::{Halving, RULE_STEP_SCALE, SearchSpace};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
+use std::ffi::OsString;
 
 /// How `braille train --data DIR --search` searches (keys `search.*`); the space itself is
 /// [`SearchSpace`]'s documented one.
@@ -186,6 +187,65 @@ impl Error {
             other => other,
         }
     }
+}
+
+/// The flags `braille train` took before its options became keys, where the key has another name:
+/// each `--flag VALUE` reads as `--set key=VALUE`, a switch (`--bias`) as `key=true`.
+const FLAG_KEYS: [(&str, &str); 13] = [
+    ("words", "word_rows"),
+    ("train-speeds", "train_speeds_mm_s"),
+    ("train-depths", "train_depths_mm"),
+    ("freeze-layers", "frozen_layers"),
+    ("search-trials", "search.trials"),
+    ("search-epochs", "search.epochs"),
+    ("trial-seeds", "search.trial_seeds"),
+    ("search-halving", "search.halving"),
+    ("search-step-scale", "search.step_scale"),
+    ("both-gradients", "search.both_gradients"),
+    ("distill-from", "distill.from"),
+    ("distill-weight", "distill.weight"),
+    ("distill-temperature", "distill.temperature"),
+];
+
+/// A command's arguments with the earlier flags of its keys written as `--set KEY=VALUE`: every
+/// long flag but `help` and the command's own (`run_flags`) names a key, renamed as the earlier
+/// flags were, else with `-` read as `_` (a key that names nothing is refused by [`TrainSettings`],
+/// naming it). A flag followed by another flag or nothing is a switch, `KEY=true`.
+pub fn flags_as_keys(args: &[OsString], run_flags: &[String]) -> Vec<OsString> {
+    let key_of = |flag: &str| -> Option<String> {
+        if flag == "help" || run_flags.iter().any(|f| f == flag) {
+            return None;
+        }
+        let renamed = FLAG_KEYS.iter().find(|(f, _)| *f == flag).map(|(_, k)| k.to_string());
+        Some(renamed.unwrap_or_else(|| flag.replace('-', "_")))
+    };
+    let mut out = Vec::with_capacity(args.len());
+    let mut rest = args.iter().peekable();
+    while let Some(arg) = rest.next() {
+        let Some(flag) = arg.to_str().and_then(|a| a.strip_prefix("--")) else {
+            out.push(arg.clone());
+            continue;
+        };
+        let (name, inline) = match flag.split_once('=') {
+            Some((n, v)) => (n, Some(v.to_string())),
+            None => (flag, None),
+        };
+        let Some(key) = key_of(name) else {
+            out.push(arg.clone());
+            continue;
+        };
+        let value = match inline {
+            Some(v) => v,
+            // the next argument is the value (`--bias true`), unless it is a flag or there is none
+            None => match rest.next_if(|v| !v.to_str().is_some_and(|v| v.starts_with("--"))) {
+                Some(v) => v.to_string_lossy().into_owned(),
+                None => "true".into(),
+            },
+        };
+        out.push("--set".into());
+        out.push(format!("{key}={value}").into());
+    }
+    out
 }
 
 #[cfg(test)]

@@ -67,6 +67,22 @@ impl Shard {
     }
 }
 
+/// The line a trial ends with: its score, its best epoch, its time.
+impl std::fmt::Display for Trial {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(
+            f,
+            "trial {}: score {:.2}% (best {:.2}% at epoch {} of {}), {:.1} min",
+            self.trial,
+            100.0 * self.score,
+            100.0 * self.best_val_accuracy,
+            self.best_epoch,
+            self.epochs_run,
+            self.seconds / 60.0
+        )
+    }
+}
+
 impl std::fmt::Display for Shard {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}/{}", self.index, self.count)

@@ -47,6 +47,17 @@ pub enum SearchOutcome {
     Done { trials: Vec<Trial>, winner: usize, finals: Vec<FinalModel>, report: PathBuf, markdown: String },
 }
 
+/// The line of a final model: its seed, its test accuracy where the test split was looked at, its file.
+impl std::fmt::Display for FinalModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self.test_accuracy {
+            Some(a) => write!(f, "seed {}: test accuracy on the engine {:.2}%", self.seed, 100.0 * a)?,
+            None => write!(f, "seed {}: test split not looked at (--eval-test)", self.seed)?,
+        }
+        write!(f, "; wrote {}", self.path.display())
+    }
+}
+
 /// The model file of the final model with `seed` (seed 1 is `out` itself, seed K
 /// `OUT.seedK.safetensors`).
 pub fn seed_path(out: &Path, seed: u64) -> PathBuf {

@@ -18,6 +18,8 @@
 //! the point nearer the paper's. Before 2026-11-26 the rule measured percent correct (blind to
 //! inserted words); a model file's recorded `rule` says which.
 
+pub mod job;
+
 use crate::Progress;
 use crate::Result;
 use crate::eval::scoring::WordMetrics;

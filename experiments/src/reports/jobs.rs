@@ -1,0 +1,245 @@
+//! The word and letter reports as their commands ask for them (`braille report words`, `braille
+//! report letters`; with the `clap` feature, their arguments): the defaults of each code and
+//! board, the report computed, and its files written.
+
+use crate::reports::letters::{LettersReportSpec, letters_report};
+use crate::reports::ueb::{UebReportSpec, ueb_report};
+use crate::reports::words::{WordsReportSpec, words_report};
+use crate::{Error, Progress, Result};
+use corpus::boards::HeldOut;
+use corpus::world::{SensorBuilds, World};
+use pipeline::code::BrailleCode;
+use pipeline::reader::TimingMode;
+use pipeline::shipped::ReaderFiles;
+use sim::Realism;
+use snn::model_file::Arch;
+use std::path::PathBuf;
+
+/// Where a report's models come from and where it writes: `models/REALISM/` and
+/// `docs/results/REALISM/` unless given.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct ReportPlace {
+    /// The simulator's nuisances of the scans and of the default models (docs/simulator.md).
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = Realism::Nominal))]
+    pub realism: Realism,
+    /// The folder of the reading models [default: those trained at `--realism`, `models/REALISM/`].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub models: Option<PathBuf>,
+    /// Where to write the report's files [default: docs/results/REALISM/].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub out: Option<PathBuf>,
+}
+
+impl ReportPlace {
+    fn models(&self) -> Result<&PathBuf> {
+        self.models.as_ref().ok_or_else(|| Error::Options("no models folder (`models`)".into()))
+    }
+
+    fn out(&self) -> Result<&PathBuf> {
+        self.out.as_ref().ok_or_else(|| Error::Options("no folder for the report (`out`)".into()))
+    }
+}
+
+/// The paper's speed table on SIMULATED EV scans for both architectures, with and without
+/// spelling; in UEB, the cell readers' cells and contracted sentences against speed.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct WordsReportJob {
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub place: ReportPlace,
+    /// Scans per row and speed [default: 30, the paper's, on EV; 3 on the UEB sentences].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub trials: Option<u64>,
+    /// Speeds of the arm, mm/s [default: 8,16,24,32,48,64; 8,16,32 in UEB].
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
+    pub speeds: Option<Vec<f64>>,
+    /// The Braille code: `grade1-letters` (the paper's speed table on EV), or `ueb-g1`/`ueb-g2`:
+    /// the cell readers of models/REALISM/ueb/ on every cell of RCB (`--cell-trials` scans a
+    /// row at 8 mm/s, 1.5 mm) and on UEB-SENTENCES at `--speeds` (`ueb.md`, `ueb.json`,
+    /// `ueb_speed.png` in `--out`/ueb/).
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value = "grade1-letters"))]
+    pub braille: BrailleCode,
+    /// UEB: scans per row of the cell board.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 30))]
+    pub cell_trials: u64,
+    /// UEB: the readers keep the classifier's column for cells of one dot column (no cell grid,
+    /// `pipeline::grid`), to measure what the grid does.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_cell_grid: bool,
+    /// UEB: the validation boards (VCB, VAL-UEB) scanned by the training builds, for choices,
+    /// in place of the test boards.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub validation: bool,
+    /// Mean speeds of hand-held scans, mm/s (none: `--hand-speeds` with no value).
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', num_args = 0.., default_value = "16,32"))]
+    pub hand_speeds: Vec<f64>,
+    /// How far a hand-held scan's speed swings around its mean (relative amplitude).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.4))]
+    pub hand_variation: f64,
+    /// Where the reader's speed comes from; every timing reads the same scans [default:
+    /// estimated,paper,given; estimated in UEB, which reads with one].
+    #[cfg_attr(feature = "clap", arg(long, value_enum, value_delimiter = ','))]
+    pub timings: Option<Vec<TimingMode>>,
+    /// Rows of a text board of words no training row used, read at the arm's speeds (0: none).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 4))]
+    pub unseen_rows: usize,
+    /// Scans per row of the unseen words.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 10))]
+    pub unseen_trials: u64,
+    /// The scans' depth, mm [default: 1.5 on EV, 1.0 on the UEB sentences].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub depth: Option<f64>,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = corpus::world::TEST_SEED))]
+    pub seed: u64,
+}
+
+/// Computes the report and writes its files; what it prints back (in UEB its Markdown, else
+/// nothing) and the files' folder.
+pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<(String, PathBuf)> {
+    let (models, out) = (job.place.models()?, job.place.out()?);
+    let realism = job.place.realism;
+    if job.braille != BrailleCode::Grade1Letters {
+        let (held_out, builds) = if job.validation {
+            (HeldOut::Validation, SensorBuilds::Training)
+        } else {
+            (HeldOut::Test, SensorBuilds::Test)
+        };
+        let timings = job.timings.clone().unwrap_or_else(|| vec![TimingMode::Estimated]);
+        let [timing] = timings[..] else {
+            return Err(Error::Options(format!(
+                "--braille {}: one --timings (the UEB report reads with one)",
+                job.braille
+            )));
+        };
+        let spec = UebReportSpec {
+            code: job.braille,
+            held_out,
+            cell_speed_mm_s: 8.0,
+            cell_depth_mm: 1.5,
+            cell_trials: job.cell_trials,
+            speeds_mm_s: job.speeds.clone().unwrap_or_else(|| vec![8.0, 16.0, 32.0]),
+            depth_mm: job.depth.unwrap_or(1.0),
+            trials: job.trials.unwrap_or(3),
+            timing,
+            cell_grid: !job.no_cell_grid,
+            seed: job.seed,
+            world: World::of(realism, builds),
+        };
+        let r = ueb_report(models, &spec, progress)?;
+        let out = out.join("ueb");
+        crate::reports::figures::write_ueb_report(&r, &out)?;
+        return Ok((crate::reports::ueb::markdown(&r), out));
+    }
+    let spec = WordsReportSpec {
+        speeds_mm_s: job.speeds.clone().unwrap_or_else(|| vec![8.0, 16.0, 24.0, 32.0, 48.0, 64.0]),
+        hand_speeds_mm_s: job.hand_speeds.clone(),
+        hand_speed_variation: job.hand_variation,
+        timings: job
+            .timings
+            .clone()
+            .unwrap_or_else(|| vec![TimingMode::Estimated, TimingMode::Paper, TimingMode::Given]),
+        depth_mm: job.depth.unwrap_or(1.5),
+        trials: job.trials.unwrap_or(30),
+        seed: job.seed,
+        world: World::test(realism),
+        unseen_rows: job.unseen_rows,
+        unseen_trials: job.unseen_trials,
+    };
+    let r = words_report(models, &spec, progress)?;
+    crate::reports::figures::write_words_report(&r, out)?;
+    Ok((String::new(), out.clone()))
+}
+
+/// Every letter at every place in a row, read by both architectures from SIMULATED scans of the
+/// all-letters board over speed and depth.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct LettersReportJob {
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub place: ReportPlace,
+    /// The validation board `VAL-LETTERS` with the training sensor builds and the validation seed,
+    /// for choices, in place of the test board `ALL-LETTERS` with the test builds and seed
+    /// (`val_letters.*` in place of `letters.*`).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub validation: bool,
+    /// With `--validation`: the sensor builds that scan it, `training` (the default) or
+    /// `validation` (builds held out of training and test, as the test builds are: for choices
+    /// that must hold on a sensor never trained on). The test builds are the test board's only.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, requires = "validation"))]
+    pub sensor_builds: Option<SensorBuilds>,
+    /// Read with this SNN classifier in place of the shipped one (a candidate).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub snn_classifier: Option<PathBuf>,
+    /// Read with this SNN segmentation network in place of the shipped one.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub snn_segmenter: Option<PathBuf>,
+    /// Which architectures read.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, value_delimiter = ',', default_value = "resnet,snn"))]
+    pub archs: Vec<Arch>,
+    /// Speeds of the arm, mm/s.
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', default_value = "8,16,24,32,48"))]
+    pub speeds: Vec<f64>,
+    /// Depths, mm.
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', default_value = "0.6,1.0,1.5"))]
+    pub depths: Vec<f64>,
+    /// Scans per row at each condition.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1))]
+    pub trials: u64,
+    /// The per-letter tables' condition, read with `--focus-trials` scans per row.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 16.0))]
+    pub focus_speed: f64,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.0))]
+    pub focus_depth: f64,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 4))]
+    pub focus_trials: u64,
+    /// Read only the board's first rows (a quick check, labelled as such).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub rows: Option<usize>,
+    /// Scan seed [default: the test seed, or the validation seed with `--validation`].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub seed: Option<u64>,
+}
+
+/// Computes the report and writes it; the lines of its targets and the Markdown file's path.
+pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<(Vec<String>, PathBuf)> {
+    let (models, out) = (job.place.models()?, job.place.out()?);
+    let (held_out, builds, seed) = if job.validation {
+        let builds = job.sensor_builds.unwrap_or(SensorBuilds::Training);
+        if builds == SensorBuilds::Test {
+            return Err(Error::Options(
+                "--sensor-builds test: the test builds read the test board only (choices are made on training or validation builds)".into(),
+            ));
+        }
+        (HeldOut::Validation, builds, corpus::world::VALIDATION_SEED)
+    } else {
+        (HeldOut::Test, SensorBuilds::Test, corpus::world::TEST_SEED)
+    };
+    let readers: Vec<ReaderFiles> = job
+        .archs
+        .iter()
+        .map(|&arch| {
+            let mut f = pipeline::shipped::reader_in(models, arch);
+            if arch == Arch::Snn {
+                f.classifier = job.snn_classifier.clone().unwrap_or(f.classifier);
+                f.segmenter = job.snn_segmenter.clone().unwrap_or(f.segmenter);
+            }
+            f
+        })
+        .collect();
+    let spec = LettersReportSpec {
+        held_out,
+        speeds_mm_s: job.speeds.clone(),
+        depths_mm: job.depths.clone(),
+        trials: job.trials,
+        focus_speed_mm_s: job.focus_speed,
+        focus_depth_mm: job.focus_depth,
+        focus_trials: job.focus_trials,
+        seed: job.seed.unwrap_or(seed),
+        world: World::of(job.place.realism, builds),
+        first_rows: job.rows,
+    };
+    let r = letters_report(&readers, &spec, progress)?;
+    let md = crate::reports::figures::write_letters_report(&r, out)?;
+    Ok((crate::reports::letters::targets(&r), md))
+}
