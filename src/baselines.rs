@@ -50,9 +50,8 @@ pub struct Args {
     /// SNN search's.
     #[arg(long, default_value_t = 15)]
     patience: usize,
-    /// --search: the networks, their trials taken in turn in this order (the cheapest first, so
-    /// that a budget cuts the dearest). whole time (trials and final models), in minutes; a trial starts
-    /// only while it and the final models are expected to fit.
+    /// --search: the whole time (trials and final models), in minutes; a trial starts only while
+    /// it and the final models are expected to fit.
     #[arg(long)]
     budget_min: Option<f64>,
     /// Score the test split (by default it is not looked at).

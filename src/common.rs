@@ -223,5 +223,28 @@ impl ChipArgs {
 pub fn place_defaults(place: &mut experiments::reports::jobs::ReportPlace) {
     let preset = RealismArg { realism: place.realism };
     place.models.get_or_insert_with(|| preset.models_dir());
-    place.out.get_or_insert_with(|| preset.results_dir());
+    place.out.get_or_insert_with(|| results_dir(preset, place.final_read));
+}
+
+/// A report's folder: `docs/results/REALISM/`, or its `sealed/` for a `--final` read.
+pub fn results_dir(realism: RealismArg, final_read: bool) -> PathBuf {
+    let dir = realism.results_dir();
+    if final_read { dir.join("sealed") } else { dir }
+}
+
+/// What a report job wrote, printed; a `--final` read recorded in docs/protocol.md's ledger with
+/// the command that made it, and the report's Markdown stamped with the count of reads.
+pub fn finish(w: experiments::reports::jobs::Written) -> anyhow::Result<()> {
+    if let Some(set) = &w.sealed_set {
+        let command: Vec<String> = std::env::args().collect();
+        let out = w.md.display().to_string();
+        let read = experiments::sealed::SealedRead { set: set.clone(), command: command.join(" "), out };
+        let ledger = w.ledger.clone().unwrap_or_else(|| repo_path("docs/protocol.md"));
+        let reads = experiments::sealed::record(&ledger, &read)?;
+        experiments::sealed::stamp(&w.md, set, reads)?;
+        eprintln!("sealed set {set:?}: read {reads} time(s), recorded in {}", ledger.display());
+    }
+    print!("{}", w.printed);
+    eprintln!("wrote {}", w.md.display());
+    Ok(())
 }

@@ -2,14 +2,10 @@
 //! from SIMULATED scans of the all-letters board over speed and depth (Markdown and JSON;
 //! `experiments::reports::jobs::letters`).
 
-use crate::common::Bar;
 use anyhow::Result;
 use experiments::reports::jobs::LettersReportJob;
 
 pub fn run(mut job: LettersReportJob) -> Result<()> {
     crate::common::place_defaults(&mut job.place);
-    let (targets, md) = experiments::reports::jobs::letters(&job, &Bar::default())?;
-    targets.iter().for_each(|line| println!("{line}"));
-    eprintln!("wrote {} and its JSON", md.display());
-    Ok(())
+    crate::common::finish(experiments::reports::jobs::letters(&job, &crate::common::Bar::default())?)
 }

@@ -29,7 +29,7 @@ pub struct Args {
 pub enum Kind {
     /// Table I and the depth curve on simulated RAB scans: the four ResNet configurations and the
     /// SNN on the same windows (Markdown, JSON, PNG).
-    Chars(crate::chars_report::Args),
+    Chars(experiments::reports::jobs::CharsReportJob),
     /// The paper's speed table on SIMULATED EV scans: both architectures, 8-64 mm/s and hand-held,
     /// every timing, unseen words, with and without spelling (Markdown, JSON, PNG).
     Words(experiments::reports::jobs::WordsReportJob),

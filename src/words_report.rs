@@ -2,14 +2,10 @@
 //! with and without spelling (Markdown, JSON and a plot); with `--braille ueb-g1|ueb-g2`, the UEB
 //! readers' cells and contracted sentences against speed (`experiments::reports::jobs::words`).
 
-use crate::common::Bar;
 use anyhow::Result;
 use experiments::reports::jobs::WordsReportJob;
 
 pub fn run(mut job: WordsReportJob) -> Result<()> {
     crate::common::place_defaults(&mut job.place);
-    let (printed, out) = experiments::reports::jobs::words(&job, &Bar::default())?;
-    print!("{printed}");
-    eprintln!("wrote {}", out.display());
-    Ok(())
+    crate::common::finish(experiments::reports::jobs::words(&job, &crate::common::Bar::default())?)
 }

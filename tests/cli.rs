@@ -645,6 +645,31 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
     for f in ["chars.md", "chars.json", "chars_depth.png", "chars_confusion_snn.png"] {
         assert!(out_dir.join(f).exists(), "{f}");
     }
+    // the sealed set: read only with --final, each read recorded in the ledger and counted
+    let ledger = dir.path().join("protocol.md");
+    let heading = experiments::sealed::LEDGER_HEADING;
+    std::fs::write(
+        &ledger,
+        format!("# P\n\n{heading}\n\n| date | set | command | output |\n| --- | --- | --- | --- |\n"),
+    )
+    .unwrap();
+    let sealed_dir = dir.path().join("sealed");
+    let (m, o, l) = (models.to_str().unwrap(), sealed_dir.to_str().unwrap(), ledger.to_str().unwrap());
+    let args =
+        ["report", "chars", "--final", "--models", m, "--out", o, "--ledger", l, "--trials", "1", "--depths", "1.5"];
+    for reads in ["read once", "read 2 times"] {
+        let o = braille(&args);
+        assert!(o.status.success(), "{}", text(&o).1);
+        let md = std::fs::read_to_string(sealed_dir.join("chars.md")).unwrap();
+        assert!(md.contains("**SEALED test set** (Table I (RAB), nominal)") && md.contains(reads), "{md}");
+        // scanned by the sealed builds, not the development test's
+        assert!(md.contains("[201, 202]") && !md.contains("[101, 102]"), "{md}");
+    }
+    let ledger = std::fs::read_to_string(&ledger).unwrap();
+    assert_eq!(ledger.matches("| Table I (RAB), nominal | `").count(), 2, "{ledger}");
+    // the sealed set is not a development scan seed or sensor build to choose
+    let o = braille(&["report", "chars", "--final", "--seed", "3", "--models", m]);
+    assert!(!o.status.success() && text(&o).1.contains("--seed"), "{}", text(&o).1);
 }
 
 #[test]

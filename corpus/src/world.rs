@@ -24,6 +24,9 @@ pub const VALIDATION_SENSORS: [u64; 2] = [51, 52];
 /// Builds kept for reads that choose or diagnose: 51 and 52 the `validation` world, 53-60 read
 /// build by build (`row_start`, `speck_builds`). Never trained on, like the test builds.
 pub const HELD_OUT_BUILDS: std::ops::RangeInclusive<u64> = 51..=60;
+/// The sealed test sets' sensor builds ([`World::sealed`]): never trained on, and read only by a
+/// report's `--final` run, which records the read in docs/protocol.md (`experiments::sealed`).
+pub const SEALED_SENSORS: [u64; 2] = [201, 202];
 
 /// A list of sensor builds as a command line gives it: numbers and inclusive ranges, `1-4,7,20-24`,
 /// in that order. What it may hold is [`World::train_on`]'s to say.
@@ -78,6 +81,10 @@ pub struct World {
     /// stick-slip costs is measured pair by pair.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mount_compliance_um_per_n: Option<f64>,
+    /// The seed the boards' print (their tolerances) is drawn with, in place of each board's own
+    /// (`None`): the sealed test sets print the test boards anew ([`World::sealed`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub print_seed: Option<u64>,
 }
 
 impl Default for World {
@@ -115,14 +122,14 @@ impl World {
     /// The simulator before its nuisances: one sensor build (seed 1) for training and test, and
     /// the scan seeds of then. The shipped models and tables were made in it.
     pub fn clean() -> World {
-        World { realism: Realism::Clean, sensors: vec![1], mount_compliance_um_per_n: None }
+        World { realism: Realism::Clean, sensors: vec![1], mount_compliance_um_per_n: None, print_seed: None }
     }
 
     /// Training scans at `realism`: the training builds ([`TRAIN_SENSORS`]; `clean` has one).
     pub fn train(realism: Realism) -> World {
         match realism {
             Realism::Clean => World::clean(),
-            _ => World { realism, sensors: TRAIN_SENSORS.to_vec(), mount_compliance_um_per_n: None },
+            _ => World { realism, sensors: TRAIN_SENSORS.to_vec(), mount_compliance_um_per_n: None, print_seed: None },
         }
     }
 
@@ -135,13 +142,16 @@ impl World {
         if builds.is_empty() {
             return Err(setting("at least one sensor build"));
         }
-        if builds.iter().any(|b| HELD_OUT_BUILDS.contains(b) || TEST_SENSORS.contains(b)) {
-            return Err(setting("builds outside 51-60 (validation) and 101-102 (test): they never train"));
+        if builds.iter().any(|b| HELD_OUT_BUILDS.contains(b) || TEST_SENSORS.contains(b) || SEALED_SENSORS.contains(b))
+        {
+            return Err(setting(
+                "builds outside 51-60 (validation), 101-102 (test) and 201-202 (sealed): they never train",
+            ));
         }
         if realism == Realism::Clean {
             return Err(setting("a realism with sensor builds: `clean` has one"));
         }
-        Ok(World { realism, sensors: builds.to_vec(), mount_compliance_um_per_n: None })
+        Ok(World { realism, sensors: builds.to_vec(), mount_compliance_um_per_n: None, print_seed: None })
     }
 
     /// Validation scans on builds never trained or tested on ([`VALIDATION_SENSORS`]; `clean` has
@@ -149,7 +159,12 @@ impl World {
     pub fn validation(realism: Realism) -> World {
         match realism {
             Realism::Clean => World::clean(),
-            _ => World { realism, sensors: VALIDATION_SENSORS.to_vec(), mount_compliance_um_per_n: None },
+            _ => World {
+                realism,
+                sensors: VALIDATION_SENSORS.to_vec(),
+                mount_compliance_um_per_n: None,
+                print_seed: None,
+            },
         }
     }
 
@@ -157,8 +172,17 @@ impl World {
     pub fn test(realism: Realism) -> World {
         match realism {
             Realism::Clean => World::clean(),
-            _ => World { realism, sensors: TEST_SENSORS.to_vec(), mount_compliance_um_per_n: None },
+            _ => World { realism, sensors: TEST_SENSORS.to_vec(), mount_compliance_um_per_n: None, print_seed: None },
         }
+    }
+
+    /// The sealed test set's world at `realism`: the test boards printed anew (their tolerances
+    /// from [`SEALED_SEED`]), scanned by builds no run has read ([`SEALED_SENSORS`]; `clean` has
+    /// one build, printed anew). Its scans take [`SEALED_SEED`]. Only a report's `--final` run
+    /// reads it.
+    pub fn sealed(realism: Realism) -> World {
+        let sensors = if realism == Realism::Clean { vec![1] } else { SEALED_SENSORS.to_vec() };
+        World { realism, sensors, mount_compliance_um_per_n: None, print_seed: Some(SEALED_SEED) }
     }
 
     /// The preset's setup, with the mount in place of its own when one is given.
@@ -186,9 +210,12 @@ impl World {
         seeds.iter().map(|&s| Ok(setup.sensor(resolution, s)?)).collect()
     }
 
-    /// A board printed as this world prints (its tolerances from the board's own seed).
+    /// A board printed as this world prints (its tolerances from the board's own seed, or from
+    /// the world's print seed).
     pub fn board(&self, setup: &Setup, kind: &BoardKind) -> Result<Board> {
-        Ok(Board::new(kind.clone(), setup.geometry.clone(), Board::default_seed(kind))?)
+        let own = Board::default_seed(kind);
+        let seed = self.print_seed.map_or(own, |p| sim::board::stable_hash(&format!("print/{p}/{own}")));
+        Ok(Board::new(kind.clone(), setup.geometry.clone(), seed)?)
     }
 
     /// The seed of one scan. Beyond `clean` (which keeps its old seeds for regression) it depends
@@ -229,7 +256,12 @@ pub fn scan_seed(seed: u64, board: &BoardKind, row: usize, trial: u64) -> u64 {
 pub const VALIDATION_SEED: u64 = 2_000_003;
 
 /// The scans of the simulated tests (the seed Table I, the depth curve and the words table test on).
+/// Read many times while the readers were developed: the development test sets.
 pub const TEST_SEED: u64 = 1_000_003;
+
+/// The sealed test sets' scans and print ([`World::sealed`]): no run before the first `--final`
+/// read drew from it.
+pub const SEALED_SEED: u64 = 3_000_017;
 
 #[cfg(test)]
 mod tests {

@@ -13,6 +13,7 @@ pub mod demo;
 pub mod error;
 pub mod eval;
 pub mod reports;
+pub mod sealed;
 pub mod train;
 
 pub use error::{Error, Result};
