@@ -3,7 +3,9 @@
 import json
 import sys
 
-rows = [json.loads(l) for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("{")]
+rows_all = [json.loads(l) for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("{")]
+# the single-run tables read the first round (files without rounds are one round)
+rows = [r for r in rows_all if r.get("round", 1) == 1]
 stamp = next((l[2:].strip() for l in open(sys.argv[1] if len(sys.argv) > 1 else "results.jsonl") if l.startswith("# 20")), "")
 peers = {(r["mode"], r["fw"]): r for r in rows if "fw" in r and not (r["mode"] == "infer" and r["batch"] > 1)}
 batched = {r["fw"]: r for r in rows if "fw" in r and r["mode"] == "infer" and r["batch"] > 1}
@@ -74,3 +76,30 @@ else:
 print(f"\nsparse trainer: truncation at {ours_train['gradient_cutoff']} of the surrogate's peak, gradient cosine {ours_train['truncation_cosine']:.4f} against the exact one on the first batch (whole epochs of the shipped recipes: docs/results/trainers.md) "
       f"(relative error {ours_train['truncation_relative_error']:.3f}), {100 * ours_train['kept_fraction']:.1f}% of neuron-steps kept")
 print(f"\nsynaptic events per sample (ours): {ours_infer['synops_per_sample']:.0f}; input events per sample: {ours_infer['input_events_per_sample']:.0f}")
+
+# the interleaved rounds: each ratio taken within its round, then its median and range
+rounds = sorted({r["round"] for r in rows_all if "round" in r})
+if len(rounds) > 1:
+    import statistics
+    def ratios(peer, ours):
+        out = []
+        for k in rounds:
+            rs = [r for r in rows_all if r.get("round") == k]
+            p = next((peer(r) for r in rs if "fw" in r and r["fw"] == "torch" and peer(r) is not None), None)
+            o = next((ours(r) for r in rs if ours(r) is not None), None)
+            if p is not None and o is not None:
+                out.append(p / o)
+        return out
+    infer_b1 = lambda r: r["per_sample_ms"] if r.get("mode") == "infer" and r.get("batch") == 1 else None
+    train = lambda r: r["median_ms"] if r.get("mode") == "train" else None
+    ours_b1 = lambda r: r.get("ms_per_sample")
+    exact = lambda r: r["sparse_exact"]["ms_per_train_step"] if "sparse_exact" in r else None
+    trunc = lambda r: r["sparse"]["ms_per_train_step"] if "sparse" in r and "sparse_exact" in r else None
+    print(f"\n{len(rounds)} rounds, each the peers then ours, the ratio (plain PyTorch's time over ours) taken within its round:\n")
+    print("| | median | range | per round |")
+    print("| --- | --- | --- | --- |")
+    for what, rs in (("engine, batch 1, one thread: faster by", ratios(infer_b1, ours_b1)),
+                     ("training step, exact gradients: PyTorch's time over ours", ratios(train, exact)),
+                     ("training step, truncated (approximate) gradients: the same", ratios(train, trunc))):
+        if rs:
+            print(f"| {what} | {statistics.median(rs):.2f}x | {min(rs):.2f}-{max(rs):.2f}x | {', '.join(f'{r:.2f}' for r in rs)} |")

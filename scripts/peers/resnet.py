@@ -15,7 +15,8 @@ Prints one JSON line: median and quartiles of the time per sample at the given b
 
 Copied from the shared peer benchmark (../shared/peers/resnet.py) for scripts/peers/resnet.sh;
 `--density` added: the input's share of non-zero cells, as `braille bench --model` draws them
-(a dense network's work does not depend on it).
+(a dense network's work does not depend on it); batch norm folded into the convolutions by
+default (`--no-fold` keeps it), as our folded network runs it.
 """
 import argparse, json, os, platform, statistics, time
 import torch
@@ -70,6 +71,8 @@ def main():
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--input", help="C,H,W instead of the preset's (e.g. 40,64,80)")
     ap.add_argument("--density", type=float, default=1.0, help="share of non-zero input cells (counts 1-4)")
+    ap.add_argument("--no-fold", action="store_true",
+                    help="keep batch norm as its own layers (by default each is folded into the convolution before it, as ours is)")
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
     torch.manual_seed(0)
@@ -77,6 +80,12 @@ def main():
     if a.input:
         p["input"] = tuple(int(v) for v in a.input.split(","))
     net = ResNet(p).eval()
+    if not a.no_fold:
+        # batch norm folded into the convolution before it (torch.fx), as our model files run it:
+        # the same work on both sides
+        from torch.fx.experimental.optimization import fuse
+        net = fuse(net)
+        assert not any(isinstance(m, nn.BatchNorm2d) for m in net.modules()), "a batch norm was not folded"
     xs = [torch.randint(1, 5, (a.batch, *p["input"])).float() * (torch.rand(a.batch, *p["input"]) < a.density) for _ in range(8)]
     ts = []
     with torch.inference_mode():
@@ -87,7 +96,7 @@ def main():
     ts.sort()
     q = lambda f: ts[min(len(ts) - 1, int(f * len(ts)))]
     print(json.dumps(dict(fw="torch", model="resnet-" + a.preset, input=list(p["input"]), batch=a.batch, threads=torch.get_num_threads(),
-                          density=a.density, per_sample_ms=statistics.median(ts) * 1e3 / a.batch, q1_ms=q(0.25) * 1e3 / a.batch,
+                          density=a.density, batch_norm_folded=not a.no_fold, per_sample_ms=statistics.median(ts) * 1e3 / a.batch, q1_ms=q(0.25) * 1e3 / a.batch,
                           q3_ms=q(0.75) * 1e3 / a.batch, runs=a.runs, torch=torch.__version__,
                           python=platform.python_version(), loadavg=os.getloadavg()[0])), flush=True)
 

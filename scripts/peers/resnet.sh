@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Our ResNet presets (the shipped `nominal` model files: tiny, the segmentation network; lite, the
 # Table I classifier; paper, ResNet-34) against the same architecture in plain PyTorch
-# (resnet.py, rebuilt from learn/src/resnet/dense.rs), in one run on one machine, each at batch 1 on one
+# (resnet.py, rebuilt from learn/src/resnet/dense.rs, its batch norm folded into the convolutions as
+# ours is), in one run on one machine, each at batch 1 on one
 # thread and at batch 32 on THREADS threads (torch.set_num_threads for PyTorch, the bench's pool
 # for ours). Ours runs twice per preset: on windows with a character window's share of non-zero
 # cells (DENSITY, 0.02; our stem then scatters the non-zero inputs: less work than PyTorch's dense
