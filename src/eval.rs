@@ -139,12 +139,12 @@ impl ScanArgs {
         self.realism.world(self.sensor_builds).with_mount(self.mount_compliance_um_per_n)
     }
 
-    /// `--recordings`, opened; what the scores of its role's scans print, or an error if none.
+    /// `--recordings`: the scores of its role's scans printed (true), an error if none; false without it.
     fn recordings<T: serde::Serialize + std::fmt::Display>(
         &self,
         score: impl FnOnce(&corpus::recordings::Recordings) -> experiments::Result<Vec<T>>,
-    ) -> Result<Option<()>> {
-        let Some(dir) = &self.recordings else { return Ok(None) };
+    ) -> Result<bool> {
+        let Some(dir) = &self.recordings else { return Ok(false) };
         let scores = score(&corpus::recordings::Recordings::open(dir)?)?;
         if scores.is_empty() {
             anyhow::bail!("{}: no {} scans in the manifest", dir.display(), self.role.name());
@@ -154,7 +154,7 @@ impl ScanArgs {
         } else {
             scores.iter().for_each(|s| print!("{s}"));
         }
-        Ok(Some(()))
+        Ok(true)
     }
 }
 
@@ -182,7 +182,7 @@ pub struct CharsArgs {
 fn chars(args: CharsArgs) -> Result<()> {
     let s = &args.scans;
     let path = args.model.clone().unwrap_or_else(|| pipeline::shipped::chars_in(&s.realism.models_dir(), args.arch));
-    if s.recordings(|rec| experiments::eval::chars::eval_recordings(&path, rec, s.role, &Bar::default()))?.is_some() {
+    if s.recordings(|rec| experiments::eval::chars::eval_recordings(&path, rec, s.role, &Bar::default()))? {
         return Ok(());
     }
     let spec = CharSetSpec {
@@ -278,7 +278,7 @@ fn words(args: WordsArgs) -> Result<()> {
     let recorded = s.recordings(|rec| {
         experiments::eval::words::eval_recordings(rec, s.role, &readers, &files, timing, spell, &bar)
     })?;
-    if recorded.is_some() {
+    if recorded {
         return Ok(());
     }
     let default_board = if args.braille == BrailleCode::Grade1Letters { "EV" } else { "UEB-SENTENCES" };

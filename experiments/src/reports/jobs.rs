@@ -55,6 +55,12 @@ impl ReportPlace {
         format!("{what}, {}", self.realism)
     }
 
+    /// What a job wrote, naming the sealed set it read with `final_read`.
+    fn written(&self, printed: String, md: PathBuf, set: &str) -> Written {
+        let sealed_set = self.final_read.then(|| self.sealed_set(set));
+        Written { printed, md, sealed_set, ledger: self.ledger.clone() }
+    }
+
     fn models(&self) -> Result<&PathBuf> {
         self.models.as_ref().ok_or_else(|| Error::Options("no models folder (`models`)".into()))
     }
@@ -73,13 +79,6 @@ pub struct Written {
     pub sealed_set: Option<String>,
     /// With `sealed_set`: the protocol file whose ledger records the read.
     pub ledger: Option<PathBuf>,
-}
-
-impl ReportPlace {
-    fn written(&self, printed: String, md: PathBuf, set: &str) -> Written {
-        let sealed_set = self.final_read.then(|| self.sealed_set(set));
-        Written { printed, md, sealed_set, ledger: self.ledger.clone() }
-    }
 }
 
 /// The paper's Table I and its depth curve on SIMULATED RAB scans: the ResNet's four input
@@ -186,6 +185,7 @@ pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<Written> {
                 job.braille
             )));
         };
+        let (world, seed) = job.place.test_world(builds, job.seed);
         let spec = UebReportSpec {
             code: job.braille,
             held_out,
@@ -197,17 +197,16 @@ pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<Written> {
             trials: job.trials.unwrap_or(3),
             timing,
             cell_grid: !job.no_cell_grid,
-            seed: 0,
-            world: World::clean(),
+            seed,
+            world,
         };
-        let (world, seed) = job.place.test_world(builds, job.seed);
-        let spec = UebReportSpec { world, seed, ..spec };
         let r = ueb_report(models, &spec, progress)?;
         let out = out.join("ueb");
         crate::reports::figures::write_ueb_report(&r, &out)?;
         let set = "UEB (RCB, UEB-SENTENCES)";
         return Ok(job.place.written(crate::reports::ueb::markdown(&r), out.join("ueb.md"), set));
     }
+    let (world, seed) = job.place.test_world(SensorBuilds::Test, job.seed);
     let spec = WordsReportSpec {
         speeds_mm_s: job.speeds.clone().unwrap_or_else(|| vec![8.0, 16.0, 24.0, 32.0, 48.0, 64.0]),
         hand_speeds_mm_s: job.hand_speeds.clone(),
@@ -218,13 +217,11 @@ pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<Written> {
             .unwrap_or_else(|| vec![TimingMode::Estimated, TimingMode::Paper, TimingMode::Given]),
         depth_mm: job.depth.unwrap_or(1.5),
         trials: job.trials.unwrap_or(30),
-        seed: 0,
-        world: World::clean(),
+        seed,
+        world,
         unseen_rows: job.unseen_rows,
         unseen_trials: job.unseen_trials,
     };
-    let (world, seed) = job.place.test_world(SensorBuilds::Test, job.seed);
-    let spec = WordsReportSpec { world, seed, ..spec };
     let r = words_report(models, &spec, progress)?;
     crate::reports::figures::write_words_report(&r, out)?;
     Ok(job.place.written(String::new(), out.join("words.md"), "words (EV, unseen words)"))
@@ -306,6 +303,7 @@ pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<Writte
             f
         })
         .collect();
+    let (world, seed) = job.place.test_world(builds, job.seed.unwrap_or(seed));
     let spec = LettersReportSpec {
         held_out,
         speeds_mm_s: job.speeds.clone(),
@@ -314,12 +312,10 @@ pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<Writte
         focus_speed_mm_s: job.focus_speed,
         focus_depth_mm: job.focus_depth,
         focus_trials: job.focus_trials,
-        seed: 0,
-        world: World::clean(),
+        seed,
+        world,
         first_rows: job.rows,
     };
-    let (world, seed) = job.place.test_world(builds, job.seed.unwrap_or(seed));
-    let spec = LettersReportSpec { world, seed, ..spec };
     let r = letters_report(&readers, &spec, progress)?;
     let md = crate::reports::figures::write_letters_report(&r, out)?;
     let targets: String = crate::reports::letters::targets(&r).iter().map(|l| format!("{l}\n")).collect();
