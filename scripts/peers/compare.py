@@ -103,3 +103,5 @@ if len(rounds) > 1:
                      ("training step, truncated (approximate) gradients: the same", ratios(train, trunc))):
         if rs:
             print(f"| {what} | {statistics.median(rs):.2f}x | {min(rs):.2f}-{max(rs):.2f}x | {', '.join(f'{r:.2f}' for r in rs)} |")
+    ns = [next(r["ns_per_synop"] for r in rows_all if r.get("round") == k and "ns_per_synop" in r) for k in rounds]
+    print(f"| engine alone, ns per synaptic operation | {statistics.median(ns):.3f} | {min(ns):.3f}-{max(ns):.3f} | {', '.join(f'{v:.3f}' for v in ns)} |")
