@@ -13,16 +13,20 @@
 #    frozen layer) on each folder; every run's checkpoint chosen on the validation scans, and the
 #    folder and setting chosen on them too: the highest validation accuracy, then the lowest loss.
 # 3. The chosen folder and setting fine-tuned again with seeds 2 and 3; the three fine-tuned models,
-#    the `clean` model and the `nominal` model scored on Table I's test scans (RAB, 8 mm/s,
-#    1.5 mm, 30 a row, the test builds), read once for these five.
-# Writes docs/results/nominal/recordings_finetune.{md,json}. About 11 minutes on two cores (2026-11-29,
+#    the `clean` model and the `nominal` model scored on Table I's board (RAB, 8 mm/s, 1.5 mm,
+#    30 a row) in the sealed world (`eval chars --final`: the board printed anew, sensor builds
+#    201-202, the study's own scan seed; each model's read recorded in docs/protocol.md's ledger;
+#    rule 4 there). DEVELOPMENT=1 scores the development test scans (the test builds) instead.
+# Writes docs/results/nominal/sealed/recordings_finetune.{md,json} (DEVELOPMENT=1:
+# docs/results/nominal/). About 11 minutes on two cores (2026-11-29,
 # beside another job).
 # BRAILLE overrides the binary; WORK keeps the folders and models (default: a temporary folder).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ -z "${BRAILLE:-}" ]]; then cargo build --release --quiet; fi
 b="${BRAILLE:-target/release/braille}"
-out=docs/results/nominal
+if [[ -n "${DEVELOPMENT:-}" ]]; then out=docs/results/nominal; final=(); else out=docs/results/nominal/sealed; final=(--final); fi
+mkdir -p "$out"
 if [[ -n "${WORK:-}" ]]; then work="$WORK"; mkdir -p "$work"; else work=$(mktemp -d); trap 'rm -rf "$work"' EXIT; fi
 sim() {
   local rec=$1 builds=$2
@@ -97,16 +101,22 @@ done
 score() { "$b" eval chars --arch snn --model "$1" "${@:2}" --json; }
 score "$clean" --recordings "$work/$cf/scans" --role val > "$work/val_clean.json"
 score "$nominal" --recordings "$work/$cf/scans" --role val > "$work/val_nominal.json"
-test_args=(--board RAB --speed 8 --depth 1.5 --trials 30 --realism nominal)
+test_args=(--board RAB --speed 8 --depth 1.5 --trials 30 --realism nominal "${final[@]}")
 score "$clean" "${test_args[@]}" > "$work/test_clean.json"
 score "$nominal" "${test_args[@]}" > "$work/test_nominal.json"
 score "$work/$cf/models/ft$ck.safetensors" "${test_args[@]}" > "$work/test_seed1.json"
 for seed in 2 3; do
   score "$work/$cf/models/chosen-seed$seed.safetensors" "${test_args[@]}" > "$work/test_seed$seed.json"
 done
-python3 - "$work" "$out" "$b" "$cf" "$ck" <<'PY'
+python3 - "$work" "$out" "$b" "$cf" "$ck" "${#final[@]}" <<'PY'
 import json, statistics, sys
-work, out, binary, cf, ck = sys.argv[1:]
+work, out, binary, cf, ck, sealed = sys.argv[1:]
+sealed = sealed != "0"
+test_set = ("the sealed test set (rule 4 of docs/protocol.md: Table I's RAB printed anew, 8 mm/s, 1.5 mm, 30 scans a row, "
+            "sensor builds 201-202 and the study's own scan seed 3000019), read once by each of the five models below, "
+            "each read in the ledger of docs/protocol.md" if sealed else
+            "the development test scans (Table I's: RAB, 8 mm/s, 1.5 mm, 30 a row, the test builds 101-102), read once "
+            "for the five models below")
 def first(path):
     j = json.load(open(path))
     return j[0] if isinstance(j, list) else j
@@ -134,7 +144,7 @@ sd = statistics.stdev(t_seeds.values())
 gap = t_nominal - t_clean
 recovered = (mean - t_clean) / gap
 per_seed = {s: (a - t_clean) / gap for s, a in t_seeds.items()}
-res = {"data": "SIMULATED (virtual Evetac), nominal", "binary": binary, "grid": grid, "chosen": chosen,
+res = {"data": "SIMULATED (virtual Evetac), nominal", "test_set": "sealed" if sealed else "development", "binary": binary, "grid": grid, "chosen": chosen,
        "validation": {"clean": val_clean, "nominal": val_nominal, "fine_tuned_by_seed": seeds},
        "test": {"clean": t_clean, "nominal": t_nominal, "fine_tuned_by_seed": t_seeds, "fine_tuned_mean": mean,
                 "fine_tuned_sd": sd, "gap_recovered_by_mean": recovered, "gap_recovered_by_seed": per_seed,
@@ -149,8 +159,8 @@ md = ["# Fine-tuning a `clean` SNN on ten `nominal` scans (SIMULATED)", "",
       "--init` on two lab folders of 10 training scans (training sensor builds; A: SAB twice, UN once and its first row "
       "again, builds 1-2; B: SAB row by row, builds 1-4), each with the same 30 validation scans (VAL ten times on the "
       "validation builds 51 and 52, never trained or tested on). Each run's checkpoint, the folder and the setting chosen "
-      "on the validation scans (accuracy, then loss); the chosen run repeated with seeds 2 and 3; the test scans "
-      "(Table I's: RAB, 8 mm/s, 1.5 mm, 30 a row, the test builds) read once, for the five models below.", "",
+      "on the validation scans (accuracy, then loss); the chosen run repeated with seeds 2 and 3; then "
+      + test_set + ".", "",
       "```", checks, "```", "",
       "## The settings, on the validation scans", "",
       f"The `clean` model reads {100*val_clean:.2f}% of the validation characters, the `nominal` model {100*val_nominal:.2f}%.", "",
@@ -162,7 +172,7 @@ for g in grid:
               f"{100*g['val_accuracy']:.2f}% | {g['val_loss']:.3f} |")
 md += ["", f"The chosen run with fine-tuning seeds 1, 2, 3 on the validation scans: "
        + ", ".join(f"{100*v:.2f}%" for v in seeds.values()) + ".", "",
-       "## On the test scans (RAB, 1.5 mm, every printed character)", "",
+       ("## On the sealed test set" if sealed else "## On the development test scans") + " (RAB, 1.5 mm, every printed character)", "",
        "| model | accuracy | share of the gap recovered | loss |", "| --- | --- | --- | --- |",
        f"| `clean` | {100*t_clean:.2f}% | | {loss(f'{work}/test_clean.json'):.3f} |",
        f"| `clean` fine-tuned on folder {cf}'s 10 scans ({chosen['setting']}), mean of seeds 1-3 | **{100*mean:.2f}%** "

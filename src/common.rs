@@ -232,17 +232,23 @@ pub fn results_dir(realism: RealismArg, final_read: bool) -> PathBuf {
     if final_read { dir.join("sealed") } else { dir }
 }
 
+/// A read of sealed set `set` recorded in the ledger (docs/protocol.md unless `ledger`) with the
+/// command that made it; returns how many times the set has been read.
+pub fn record_sealed(set: &str, out: &str, ledger: Option<PathBuf>) -> anyhow::Result<usize> {
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let read = experiments::sealed::SealedRead { set: set.to_string(), command, out: out.to_string() };
+    let ledger = ledger.unwrap_or_else(|| repo_path("docs/protocol.md"));
+    let reads = experiments::sealed::record(&ledger, &read)?;
+    eprintln!("sealed set {set:?}: read {reads} time(s), recorded in {}", ledger.display());
+    Ok(reads)
+}
+
 /// What a report job wrote, printed; a `--final` read recorded in docs/protocol.md's ledger with
 /// the command that made it, and the report's Markdown stamped with the count of reads.
 pub fn finish(w: experiments::reports::jobs::Written) -> anyhow::Result<()> {
     if let Some(set) = &w.sealed_set {
-        let command: Vec<String> = std::env::args().collect();
-        let out = w.md.display().to_string();
-        let read = experiments::sealed::SealedRead { set: set.clone(), command: command.join(" "), out };
-        let ledger = w.ledger.clone().unwrap_or_else(|| repo_path("docs/protocol.md"));
-        let reads = experiments::sealed::record(&ledger, &read)?;
+        let reads = record_sealed(set, &w.md.display().to_string(), w.ledger.clone())?;
         experiments::sealed::stamp(&w.md, set, reads)?;
-        eprintln!("sealed set {set:?}: read {reads} time(s), recorded in {}", ledger.display());
     }
     print!("{}", w.printed);
     eprintln!("wrote {}", w.md.display());

@@ -173,6 +173,13 @@ pub struct CharsArgs {
     /// Scans per board row.
     #[arg(long, default_value_t = 4)]
     trials: u64,
+    /// Score the sealed test set (docs/protocol.md): the test boards printed anew and the sealed
+    /// builds, with scans of a seed of their own that no report reads; each read is recorded in
+    /// the ledger of docs/protocol.md (or `--ledger`'s file).
+    #[arg(long = "final", conflicts_with_all = ["recordings", "seed", "sensor_builds", "mount_compliance_um_per_n"])]
+    final_read: bool,
+    #[arg(long, requires = "final_read")]
+    ledger: Option<PathBuf>,
     #[command(flatten)]
     scans: ScanArgs,
     #[command(flatten)]
@@ -190,10 +197,10 @@ fn chars(args: CharsArgs) -> Result<()> {
         speed_mm_s: args.speed,
         depth_mm: s.depth,
         trials: args.trials,
-        seed: s.seed,
+        seed: if args.final_read { corpus::world::SEALED_STUDY_SEED } else { s.seed },
         task: Task::Chars,
         jitter_ms: 0.0,
-        world: s.world(),
+        world: if args.final_read { corpus::world::World::sealed(s.realism.realism) } else { s.world() },
         blank_cells: false,
         sweep: None,
     };
@@ -203,7 +210,20 @@ fn chars(args: CharsArgs) -> Result<()> {
         args.on_chip.write_trace(trace)?;
         return emit(&r, s.json);
     }
-    emit(&experiments::eval::chars::eval(&path, &spec, &Bar::default())?, s.json)
+    let r = experiments::eval::chars::eval(&path, &spec, &Bar::default())?;
+    if args.final_read {
+        let name = path.file_name().map_or(path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let set = format!(
+            "eval chars {} {} mm/s {} mm x{}, {}, {name}",
+            args.board.name(),
+            args.speed,
+            s.depth,
+            args.trials,
+            s.realism.realism
+        );
+        crate::common::record_sealed(&set, "stdout", args.ledger.clone())?;
+    }
+    emit(&r, s.json)
 }
 
 #[derive(clap::Args)]

@@ -670,6 +670,23 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
     // the sealed set is not a development scan seed or sensor build to choose
     let o = braille(&["report", "chars", "--final", "--seed", "3", "--models", m]);
     assert!(!o.status.success() && text(&o).1.contains("--seed"), "{}", text(&o).1);
+    // a study's own sealed read: its own scans of the sealed world, one ledger row per model
+    let snn = models.join("snn-chars.safetensors");
+    let study = ["eval", "chars", "--arch", "snn", "--model", snn.to_str().unwrap(), "--trials", "1", "--json"];
+    let o = braille(&[&study[..], &["--final", "--ledger", l]].concat());
+    let (out, err) = text(&o);
+    assert!(o.status.success() && err.contains("read 1 time(s)"), "{err}");
+    let sealed: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let ledger = std::fs::read_to_string(l).unwrap();
+    assert!(ledger.contains("| eval chars RAB 8 mm/s 1.5 mm x1, nominal, snn-chars.safetensors | `"), "{ledger}");
+    let development: serde_json::Value = serde_json::from_str(&text(&braille(&study)).0).unwrap();
+    assert_eq!((sealed["scan_seed"].as_u64(), sealed["sensor_builds"][0].as_u64()), (Some(3_000_019), Some(201)));
+    assert_eq!(
+        (development["scan_seed"].as_u64(), development["sensor_builds"][0].as_u64()),
+        (Some(1_000_003), Some(101))
+    );
+    let o = braille(&[&study[..], &["--final", "--sensor-builds", "training"]].concat());
+    assert!(!o.status.success() && text(&o).1.contains("--sensor-builds"), "{}", text(&o).1);
 }
 
 #[test]

@@ -263,6 +263,10 @@ pub const TEST_SEED: u64 = 1_000_003;
 /// read drew from it.
 pub const SEALED_SEED: u64 = 3_000_017;
 
+/// The scan seed of a study's own read of the sealed world (`braille eval chars --final`), apart
+/// from the reports' ([`SEALED_SEED`]): the same sealed boards and builds, scans no report reads.
+pub const SEALED_STUDY_SEED: u64 = 3_000_019;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -211,6 +211,11 @@ pub struct CharEval {
     pub board: String,
     pub speed_mm_s: f64,
     pub depth_mm: f64,
+    /// Simulated scans: their seed and the sensor builds that made them (`corpus::world`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scan_seed: Option<u64>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensor_builds: Vec<u64>,
     pub scans: usize,
     pub skipped_scans: usize,
     /// Characters printed on every scan, and the share read right of them (the characters of
@@ -290,6 +295,8 @@ impl CharEval {
             board: spec.boards.iter().map(corpus::boards::board_name).collect::<Vec<_>>().join(","),
             speed_mm_s: spec.speed_mm_s,
             depth_mm: spec.depth_mm,
+            scan_seed: Some(spec.seed),
+            sensor_builds: spec.world.sensors.clone(),
             scans: w.scans,
             skipped_scans: w.skipped_scans,
             printed: w.printed,
@@ -376,6 +383,8 @@ pub fn eval_recordings(
             board: format!("{} ({} scans)", rec.dir.display(), role.name()),
             speed_mm_s,
             depth_mm,
+            scan_seed: None,
+            sensor_builds: Vec::new(),
             scans: w.scans,
             skipped_scans: w.skipped_scans,
             printed: w.printed,

@@ -274,6 +274,8 @@ mod tests {
             board: "RCB".into(),
             speed_mm_s: 8.0,
             depth_mm: 1.5,
+            scan_seed: Some(1),
+            sensor_builds: vec![101, 102],
             scans: 4,
             skipped_scans: 0,
             printed: 252,
