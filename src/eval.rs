@@ -212,7 +212,7 @@ fn chars(args: CharsArgs) -> Result<()> {
     }
     let r = experiments::eval::chars::eval(&path, &spec, &Bar::default())?;
     if args.final_read {
-        let name = path.file_name().map_or(path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let name = path.display();
         let set = format!(
             "eval chars {} {} mm/s {} mm x{}, {}, {name}",
             args.board.name(),

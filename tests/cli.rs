@@ -678,7 +678,8 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
     assert!(o.status.success() && err.contains("read 1 time(s)"), "{err}");
     let sealed: serde_json::Value = serde_json::from_str(&out).unwrap();
     let ledger = std::fs::read_to_string(l).unwrap();
-    assert!(ledger.contains("| eval chars RAB 8 mm/s 1.5 mm x1, nominal, snn-chars.safetensors | `"), "{ledger}");
+    let set = format!("| eval chars RAB 8 mm/s 1.5 mm x1, nominal, {} | `", snn.display());
+    assert!(ledger.contains(&set), "{ledger}");
     let development: serde_json::Value = serde_json::from_str(&text(&braille(&study)).0).unwrap();
     assert_eq!((sealed["scan_seed"].as_u64(), sealed["sensor_builds"][0].as_u64()), (Some(3_000_019), Some(201)));
     assert_eq!(
