@@ -29,11 +29,16 @@ pub struct Args {
     /// AEDAT4 output: events per packet.
     #[arg(long, default_value_t = 8192)]
     packet_events: usize,
+    /// Pass the events through a background-activity filter first (`encoders::denoise`):
+    /// `dv-lab` (DV's noise filter as the seed's lab records through it) or `dv-processing` (its
+    /// BackgroundActivityNoiseFilter), `:WINDOW_US` for another window.
+    #[arg(long)]
+    denoise: Option<encoders::denoise::NoiseFilterSettings>,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let options = OpenOptions { resolution: args.resolution, stream_id: args.stream };
-    let mut source = formats::open_named(&args.input, &options, &args.live.options())?;
+    let source = formats::open_named(&args.input, &options, &args.live.options())?;
     let resolution = source.info().resolution;
     let format = Format::for_output(&args.output)?;
     let mut sink: Box<dyn EventSink> = match format {
@@ -46,7 +51,9 @@ pub fn run(args: Args) -> Result<()> {
         }
         _ => formats::create(&args.output, resolution, args.force)?,
     };
-    let n = formats::copy(source.as_mut(), sink.as_mut()).with_context(|| {
+    let mut source =
+        encoders::denoise::Denoised::new(source, Resolution::DVXPLORER, args.denoise).map_err(anyhow::Error::msg)?;
+    let n = formats::copy(&mut source, sink.as_mut()).with_context(|| {
         if format == Format::Aedat4 && resolution.is_none() {
             format!("{} declares no resolution; pass --resolution WIDTHxHEIGHT", args.input.display())
         } else {
@@ -54,6 +61,9 @@ pub fn run(args: Args) -> Result<()> {
         }
     })?;
     sink.finish()?;
+    if let Some((settings, stats)) = source.stats() {
+        eprintln!("denoised ({settings}): {stats}");
+    }
     eprintln!("wrote {n} events to {} ({format})", args.output.display());
     Ok(())
 }

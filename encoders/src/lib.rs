@@ -22,6 +22,7 @@
 
 pub mod braille;
 pub mod dataset;
+pub mod denoise;
 pub mod error;
 pub mod event;
 pub mod formats;
