@@ -248,7 +248,7 @@ pub fn record_sealed(set: &str, out: &str, ledger: Option<PathBuf>) -> anyhow::R
 pub fn finish(w: experiments::reports::jobs::Written) -> anyhow::Result<()> {
     if let Some(set) = &w.sealed_set {
         let reads = record_sealed(set, &w.md.display().to_string(), w.ledger.clone())?;
-        experiments::sealed::stamp(&w.md, set, reads)?;
+        experiments::sealed::stamp(&w.md, set, reads, &w.sealed_scans.0, w.sealed_scans.1)?;
     }
     print!("{}", w.printed);
     eprintln!("wrote {}", w.md.display());

@@ -18,7 +18,7 @@ pub enum Job {
     /// Each architecture's character classifier against one simulator nuisance at a time (noise,
     /// misalignment, depth drift, speed, sensor build, mount compliance with stick-slip):
     /// Markdown, JSON, PNG.
-    Robustness(crate::robustness::Args),
+    Robustness(experiments::reports::jobs::RobustnessReportJob),
     /// A tactile dataset of another layout (a grid of event taxels under each Braille character)
     /// as a folder in the iCub layout, for `train --data` and `baselines --data`.
     Dataset(crate::sim_dataset::Args),

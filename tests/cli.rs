@@ -686,6 +686,16 @@ fn train_an_snn_on_simulated_windows_and_report_characters() {
         (development["scan_seed"].as_u64(), development["sensor_builds"][0].as_u64()),
         (Some(1_000_003), Some(101))
     );
+    // the robustness sweep's sealed read: the sealed print and builds, its own scans, in the ledger
+    let swept = dir.path().join("swept");
+    let sweep = ["sim", "robustness", "--realism", "clean", "--nuisances", "misalignment", "--trials", "1"];
+    let sweep =
+        [&sweep[..], &["--board", "text:HELP", "--out", swept.to_str().unwrap(), "--final", "--ledger", l]].concat();
+    let o = braille(&sweep);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let md = std::fs::read_to_string(swept.join("robustness.md")).unwrap();
+    assert!(md.contains("**SEALED test set** (robustness (text:HELP), clean): the test boards printed anew, sensor builds [1], scan seed 3000023"), "{md}");
+    assert!(std::fs::read_to_string(l).unwrap().contains("| robustness (text:HELP), clean | `"));
     let o = braille(&[&study[..], &["--final", "--sensor-builds", "training"]].concat());
     assert!(!o.status.success() && text(&o).1.contains("--sensor-builds"), "{}", text(&o).1);
 }

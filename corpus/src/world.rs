@@ -267,6 +267,10 @@ pub const SEALED_SEED: u64 = 3_000_017;
 /// from the reports' ([`SEALED_SEED`]): the same sealed boards and builds, scans no report reads.
 pub const SEALED_STUDY_SEED: u64 = 3_000_019;
 
+/// The scan seed of the robustness sweep's read of the sealed world (`braille sim robustness
+/// --final`): scans no other read draws.
+pub const SEALED_SWEEP_SEED: u64 = 3_000_023;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -63,17 +63,15 @@ pub fn record(protocol: &Path, read: &SealedRead) -> Result<usize> {
     Ok(reads + 1)
 }
 
-/// Puts a line under the title of a report's Markdown file: the sealed set it read, and how many
-/// times that set has been read.
-pub fn stamp(md: &Path, set: &str, reads: usize) -> Result<()> {
+/// Puts a line under the title of a report's Markdown file: the sealed set it read (its sensor
+/// builds and scan seed), and how many times that set has been read.
+pub fn stamp(md: &Path, set: &str, reads: usize, sensors: &[u64], seed: u64) -> Result<()> {
     let io = |source| Error::Io { path: md.to_path_buf(), source };
     let text = std::fs::read_to_string(md).map_err(io)?;
     let (title, rest) = text.split_once('\n').unwrap_or((&text, ""));
     let times = if reads == 1 { "once".to_string() } else { format!("{reads} times") };
     let line = format!(
-        "**SEALED test set** ({set}): the test boards printed anew, sensor builds {:?}, scan seed {}; read {times}, each read in docs/protocol.md.",
-        corpus::world::SEALED_SENSORS,
-        corpus::world::SEALED_SEED
+        "**SEALED test set** ({set}): the test boards printed anew, sensor builds {sensors:?}, scan seed {seed}; read {times}, each read in docs/protocol.md."
     );
     std::fs::write(md, format!("{title}\n\n{line}\n{rest}")).map_err(io)
 }

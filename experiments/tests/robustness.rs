@@ -17,6 +17,7 @@ fn a_sweep_scores_every_level_and_repeats() {
         depth_mm: 1.5,
         trials: 1,
         seed: 3,
+        world: corpus::world::World::test(Realism::Clean),
         models_dir: "models".into(),
     };
     let models = vec![("resnet".to_string(), &model)];

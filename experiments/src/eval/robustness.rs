@@ -111,6 +111,9 @@ pub struct SweepSpec {
     pub depth_mm: f64,
     pub trials: u64,
     pub seed: u64,
+    /// The world scanned: the test builds (`World::test`) or the sealed set's (`World::sealed`);
+    /// the sensor-build sweep replaces its builds level by level.
+    pub world: World,
     /// Where the swept classifiers were loaded from (named in the report).
     pub models_dir: String,
 }
@@ -145,7 +148,7 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
     if inputs.is_empty() {
         return Err(Error::Setting { name: "models", value: "none".into(), expected: "at least one model to sweep" });
     }
-    let board = World::test(spec.base).board(&spec.base.setup(), &spec.board)?;
+    let board = spec.world.board(&spec.base.setup(), &spec.board)?;
     let characters_per_scan: Vec<usize> =
         board.rows.iter().map(|r| r.chars().filter(|c| c.is_ascii_uppercase()).count()).collect();
     let mut curves = Vec::new();
@@ -170,7 +173,7 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
                 seed: spec.seed,
                 task: Task::Chars,
                 jitter_ms: 0.0,
-                world: World::test(spec.base),
+                world: spec.world.clone(),
                 blank_cells: false,
                 sweep: None,
             };
@@ -213,7 +216,7 @@ pub fn markdown(r: &Report) -> String {
     let s = &r.spec;
     let _ = writeln!(
         m,
-        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's character classifier (from `{}`) as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), test sensor builds unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). Regenerate: `braille robustness --realism {} --models {}` (see docs/simulator.md).\n",
+        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's character classifier (from `{}`) as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), sensor builds {:?} unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). Regenerate: `braille robustness --realism {} --models {}` (see docs/simulator.md).\n",
         s.models_dir,
         s.base,
         s.board.name(),
@@ -221,6 +224,7 @@ pub fn markdown(r: &Report) -> String {
         s.depth_mm,
         s.trials,
         s.seed,
+        s.world.sensors,
         s.base,
         s.models_dir
     );

@@ -3,6 +3,7 @@
 //! board, the development or the sealed test set (`--final`), the report computed, and its files
 //! written.
 
+use crate::eval::chars::CharModel;
 use crate::reports::letters::{LettersReportSpec, letters_report};
 use crate::reports::ueb::{UebReportSpec, ueb_report};
 use crate::reports::words::{WordsReportSpec, words_report};
@@ -58,7 +59,8 @@ impl ReportPlace {
     /// What a job wrote, naming the sealed set it read with `final_read`.
     fn written(&self, printed: String, md: PathBuf, set: &str) -> Written {
         let sealed_set = self.final_read.then(|| self.sealed_set(set));
-        Written { printed, md, sealed_set, ledger: self.ledger.clone() }
+        let sealed_scans = (World::sealed(self.realism).sensors, corpus::world::SEALED_SEED);
+        Written { printed, md, sealed_set, sealed_scans, ledger: self.ledger.clone() }
     }
 
     fn models(&self) -> Result<&PathBuf> {
@@ -77,6 +79,8 @@ pub struct Written {
     pub printed: String,
     pub md: PathBuf,
     pub sealed_set: Option<String>,
+    /// With `sealed_set`: the sensor builds and the scan seed it read.
+    pub sealed_scans: (Vec<u64>, u64),
     /// With `sealed_set`: the protocol file whose ledger records the read.
     pub ledger: Option<PathBuf>,
 }
@@ -320,4 +324,59 @@ pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<Writte
     let md = crate::reports::figures::write_letters_report(&r, out)?;
     let targets: String = crate::reports::letters::targets(&r).iter().map(|l| format!("{l}\n")).collect();
     Ok(job.place.written(targets, md, "letters (ALL-LETTERS)"))
+}
+
+/// Each architecture's shipped character classifier against one nuisance of the virtual Evetac
+/// at a time (`crate::eval::robustness`), on the test builds or, with `--final`, the sealed set.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct RobustnessReportJob {
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub place: ReportPlace,
+    /// Nuisances to sweep [default: all].
+    #[cfg_attr(feature = "clap", arg(long, value_enum, value_delimiter = ','))]
+    pub nuisances: Vec<crate::eval::robustness::Nuisance>,
+    /// Board scanned (the paper's test board).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "RAB"))]
+    pub board: sim::BoardKind,
+    /// Scans per board row and level.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 4))]
+    pub trials: u64,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 8.0))]
+    pub speed: f64,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.5))]
+    pub depth: f64,
+    /// Scan seed of the development read (training used others).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = corpus::world::VALIDATION_SEED))]
+    pub seed: u64,
+}
+
+/// Sweeps every nuisance of `job` and writes `robustness.md`, `.json` and a PNG per nuisance.
+pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
+    use crate::eval::robustness::{Nuisance, SweepSpec, sweep};
+    let (models_dir, out) = (job.place.models()?, job.place.out()?);
+    let mut models = Vec::new();
+    for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
+        models.push((name.to_string(), CharModel::load(&pipeline::shipped::chars_in(models_dir, arch))?));
+    }
+    let (world, seed) = match job.place.final_read {
+        true => (World::sealed(job.place.realism), corpus::world::SEALED_SWEEP_SEED),
+        false => (World::test(job.place.realism), job.seed),
+    };
+    let spec = SweepSpec {
+        base: job.place.realism,
+        nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
+        board: job.board.clone(),
+        speed_mm_s: job.speed,
+        depth_mm: job.depth,
+        trials: job.trials,
+        seed,
+        world,
+        models_dir: models_dir.display().to_string(),
+    };
+    let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
+    let report = sweep(&spec, &refs, progress)?;
+    let printed = crate::reports::figures::write_robustness_report(&report, out)?;
+    let written = job.place.written(printed, out.join("robustness.md"), &format!("robustness ({})", job.board.name()));
+    Ok(Written { sealed_scans: (spec.world.sensors, seed), ..written })
 }
