@@ -218,6 +218,11 @@ fn simulate_runs_trials_into_a_folder_and_names_bad_boards() {
     assert_eq!(names.len(), 8, "{names:?}"); // 2 rows x 2 trials x (events + truth)
     let o = braille(&["simulate", "--board", "XYZ", "--out", "x.aedat4"]);
     assert!(!o.status.success() && text(&o).1.contains("SAB, UN, RAB, VAL, EV"), "{}", text(&o).1);
+    // a press no sensor can take: named, and nothing written
+    let deep = dir.path().join("deep.aedat4");
+    let o = braille(&["simulate", "--board", "text:A", "--depth", "9", "--out", deep.to_str().unwrap()]);
+    let err = text(&o).1;
+    assert!(!o.status.success() && err.contains("a press of 9 mm into a gel") && !deep.exists(), "{err}");
 }
 
 #[test]

@@ -322,6 +322,9 @@ struct Span {
 /// Number of photoreceptor speed levels the pixels are grouped into.
 const LEVELS: usize = 4;
 
+/// The deepest press the simulator takes, as a share of the gel's thickness.
+pub const MAX_PRESS_OF_GEL: f64 = 0.5;
+
 fn validate(scan: &ScanConfig, board: &Board) -> Result<f64> {
     let slide = scan.slide_mm.unwrap_or(board.geometry.row_length_mm);
     check("speed_mm_s", scan.speed_mm_s, 1e-3..1e4, "a positive speed")?;
@@ -407,6 +410,19 @@ type StampKey = (i64, i64, i64);
 /// Simulates one scan of `board` by `sensor`.
 pub fn simulate(board: &Board, sensor: &Sensor, scan: &ScanConfig) -> Result<Scan> {
     let slide = validate(scan, board)?;
+    // The gel's model (small-strain modulus, Hertz-like conformity) holds for presses well inside
+    // its thickness; a press of half the gel or more bottoms it out against the window.
+    let thickness_mm = sensor.gel.dynamics.thickness_mm;
+    if scan.depth_mm >= MAX_PRESS_OF_GEL * thickness_mm {
+        return Err(Error::Inconsistent {
+            names: "depth_mm, gel thickness",
+            why: format!(
+                "a press of {} mm into a gel {thickness_mm:.2} mm thick: the gel holds presses under {:.2} mm (half its thickness; the paper's are 0.2-1.5 mm)",
+                scan.depth_mm,
+                MAX_PRESS_OF_GEL * thickness_mm
+            ),
+        });
+    }
     let cam = &sensor.camera;
     let (w, h) = (cam.resolution.width as usize, cam.resolution.height as usize);
     let pitch = cam.pitch_mm();
