@@ -175,6 +175,11 @@ impl BackgroundActivityFilter {
         self.stats
     }
 
+    /// Bytes the filter holds: a timestamp and a polarity per pixel.
+    pub fn memory_bytes(&self) -> usize {
+        self.last_us.capacity() * 8 + self.last_on.capacity()
+    }
+
     /// Whether `e` passes; its pixel's timestamp is written either way.
     pub fn retain(&mut self, e: &Event) -> bool {
         let (x, y) = (usize::from(e.x), usize::from(e.y));

@@ -531,6 +531,9 @@ pub struct ReaderModels {
     /// The cell grid a cell reader places cells of one dot column with (`None`: the classifier's
     /// column stands; [`crate::grid`]). Loading sets the standard's.
     pub cell_grid: Option<crate::grid::CellGrid>,
+    /// A background-activity filter the events pass before anything else (`None` on loading:
+    /// the shipped readers were trained on the events as they come).
+    pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
 }
 
 impl ReaderModels {
@@ -539,7 +542,7 @@ impl ReaderModels {
         Ok(ReaderModels {
             segmenter: self.segmenter.on_chip(chip, quantisation)?,
             classifier: self.classifier.on_chip(chip, quantisation)?,
-            cell_grid: self.cell_grid,
+            ..self
         })
     }
 
@@ -560,7 +563,12 @@ impl ReaderModels {
         if seg.input().labeler != cls.input().labeler {
             return Err(bad(classifier, format!("windows its input unlike {}", segmenter.display())));
         }
-        Ok(ReaderModels { segmenter: seg, classifier: cls, cell_grid: Some(crate::grid::CellGrid::default()) })
+        Ok(ReaderModels {
+            segmenter: seg,
+            classifier: cls,
+            cell_grid: Some(crate::grid::CellGrid::default()),
+            denoise: None,
+        })
     }
 
     /// The reader's configuration with this timing, the models' windowing and the segmentation
@@ -569,6 +577,7 @@ impl ReaderModels {
         crate::reader::ReaderConfig {
             labeler: self.classifier.input().labeler.clone(),
             cell_grid: self.cell_grid.clone(),
+            denoise: self.denoise,
             ..crate::reader::ReaderConfig::new(timing)
         }
         .with_operating_point(self.operating_point())

@@ -424,6 +424,10 @@ pub struct ReaderConfig {
     /// either side. Letter readers do not use it.
     #[serde(default = "default_cell_grid")]
     pub cell_grid: Option<CellGrid>,
+    /// A background-activity filter every event passes first (`encoders::denoise`; `None`: the
+    /// events as they come, as the shipped readers were trained).
+    #[serde(default)]
+    pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
 }
 
 fn default_cell_grid() -> Option<CellGrid> {
@@ -458,6 +462,7 @@ impl ReaderConfig {
             present_threshold: OperatingPoint::PAPER.present_threshold,
             max_word_chars: default_max_word_chars(),
             cell_grid: default_cell_grid(),
+            denoise: None,
         }
     }
 
@@ -517,6 +522,8 @@ impl ReaderConfig {
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct ReaderStats {
     pub events: u64,
+    /// Events the background-activity filter removed (with `ReaderConfig::denoise`).
+    pub events_denoised: u64,
     /// Events outside the sensor or the active columns (dropped, as in training).
     pub events_masked: u64,
     pub frames: u64,
@@ -548,6 +555,8 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
     wanted_mm_s: Option<f64>,
     /// Events held before the first estimate.
     held: Vec<Event>,
+    /// With `ReaderConfig::denoise`: the background-activity filter every event passes first.
+    denoiser: Option<encoders::denoise::BackgroundActivityFilter>,
     frames: usize,
     map: PoolMap,
     cells: usize,
@@ -632,6 +641,14 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         };
         let speed_mm_s = cfg.initial_speed_mm_s();
         let reference = cfg.labeler.reference_speed_mm_s;
+        let denoiser = match cfg.denoise {
+            Some(settings) => {
+                Some(encoders::denoise::BackgroundActivityFilter::new(resolution, settings).map_err(|why| {
+                    Error::Setting { name: "denoise", value: why, expected: "a background-activity filter's settings" }
+                })?)
+            }
+            None => None,
+        };
         Ok(StreamReader {
             bin_us: cfg.labeler.bin_us(speed_mm_s.unwrap_or(reference)),
             filter: TemporalFilter::new(&cfg.scaled_filter(speed_mm_s.unwrap_or(reference))),
@@ -641,6 +658,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             recent_head: 0,
             wanted_mm_s: None,
             held: Vec::new(),
+            denoiser,
             frames,
             cells,
             map,
@@ -682,6 +700,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             + (self.word_marks.capacity() + self.grid_history.capacity()) * std::mem::size_of::<GridMark>()
             + self.estimator.as_ref().map_or(0, SpeedEstimator::memory_bytes)
             + self.held.capacity() * std::mem::size_of::<Event>()
+            + self.denoiser.as_ref().map_or(0, encoders::denoise::BackgroundActivityFilter::memory_bytes)
     }
 
     /// The frame (bin) length at the speed being read at.
@@ -717,6 +736,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         }
         self.last_t = e.t_us;
         self.stats.events += 1;
+        if self.denoiser.as_mut().is_some_and(|d| !d.retain(e)) {
+            self.stats.events_denoised += 1;
+            return Ok(());
+        }
         if let Some(est) = self.estimator.as_mut() {
             est.push(e);
             if est.due(e.t_us)
@@ -798,6 +821,10 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
     /// the events inside one bin (and before the estimator's next update) accumulated in a tight
     /// loop.
     pub fn push_all(&mut self, events: &[Event], out: &mut Vec<ReadOutput>) -> Result<()> {
+        if self.denoiser.is_some() {
+            // every event through the filter: no run of a bin binned at once
+            return events.iter().try_for_each(|e| self.push(e, out));
+        }
         let mut k = 0;
         while k < events.len() {
             self.push(&events[k], out)?;
@@ -1131,6 +1158,34 @@ mod tests {
         let u = &words[0].chars[0];
         assert_eq!(u.t_registered_us, u.t_end_us + 70_000, "{u:?}");
         assert!(u.t_registered_us < 400_000, "{u:?}");
+    }
+
+    #[test]
+    fn the_denoiser_drops_lone_events_before_the_reader_sees_them() {
+        // lone events 1.5 s apart: each a letter to this segmenter without the filter
+        let lone: Vec<Event> = (0..5)
+            .map(|k| Event { t_us: k * 1_500_000 + 1_000, x: 4 * (20 + k as u16), y: 200, polarity: Polarity::On })
+            .collect();
+        assert!(!read(lone.clone(), ReaderConfig::at_speed(8.0)).0.is_empty());
+        let cfg = ReaderConfig {
+            denoise: Some(encoders::denoise::NoiseFilterSettings::DV_LAB),
+            ..ReaderConfig::at_speed(8.0)
+        };
+        let (words, stats) = read(lone, cfg.clone());
+        assert!(words.is_empty() && (stats.events, stats.events_denoised) == (5, 5), "{stats:?}");
+        // a contact's events come in neighbouring pixels: pairs 10 us apart every 5 ms pass where
+        // the second of a pair follows the first; the first follows the last pair's second 5 ms
+        // later, outside the 2 ms window, and is dropped
+        let pairs: Vec<Event> = [burst(20, 0, 100), burst(22, 2_000, 2_100)]
+            .concat()
+            .into_iter()
+            .flat_map(|e| [e, Event { t_us: e.t_us + 10, x: e.x + 1, ..e }])
+            .collect();
+        let (words, stats) = read(pairs.clone(), cfg);
+        let text = |words: &[ReadWord]| words.iter().map(|w| w.raw.clone()).collect::<Vec<_>>();
+        assert_eq!(text(&words), ["U", "W"], "{stats:?}");
+        assert_eq!((stats.events, stats.events_denoised), (80, 40));
+        assert_eq!(text(&read(pairs, ReaderConfig::at_speed(8.0)).0), ["U", "W"]);
     }
 
     /// A cell classifier: pooled column 20 reads ⠉ (dots 1 and 4), any other ⠁ (dot 1, a cell of

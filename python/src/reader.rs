@@ -163,7 +163,7 @@ impl Reader {
                     models = ReaderModels {
                         segmenter: on_chip(models.segmenter, &segmenter)?,
                         classifier: on_chip(models.classifier, &classifier)?,
-                        cell_grid: models.cell_grid,
+                        ..models
                     };
                 }
                 Ok::<_, pipeline::Error>((models, Speller::in_code(spell, braille)?))
