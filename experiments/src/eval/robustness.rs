@@ -214,9 +214,10 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
 pub fn markdown(r: &Report) -> String {
     let mut m = String::new();
     let s = &r.spec;
+    let sealed = s.world.print_seed.is_some();
     let _ = writeln!(
         m,
-        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's character classifier (from `{}`) as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), sensor builds {:?} unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). Regenerate: `braille robustness --realism {} --models {}` (see docs/simulator.md).\n",
+        "# Robustness sweeps (SIMULATED)\n\nCharacter accuracy of each architecture's character classifier (from `{}`) as one nuisance grows, the rest at the `{}` preset; board {}, {} mm/s, {} mm, {} scans per row and level (seed {}), sensor builds {:?} unless swept. Each cell: accuracy over the windows the labeler found / over every character printed (a scan whose window count was off scores all its characters wrong; the headline, and what the figures plot). {}: `braille sim robustness --realism {} --models {}{}` (see docs/simulator.md).\n",
         s.models_dir,
         s.base,
         s.board.name(),
@@ -225,8 +226,10 @@ pub fn markdown(r: &Report) -> String {
         s.trials,
         s.seed,
         s.world.sensors,
+        if sealed { "Made by (run again, it reads the sealed set again: docs/protocol.md)" } else { "Regenerate" },
         s.base,
-        s.models_dir
+        s.models_dir,
+        if sealed { " --final" } else { "" }
     );
     for c in &r.curves {
         let _ = writeln!(m, "## {}\n", c.label);
