@@ -31,13 +31,20 @@ text = sys.stdin.read()
 for l in [text] if text.lstrip().startswith('{\n') else text.splitlines():
     if l.strip().startswith('{'):
         d = json.loads(l); d['preset'] = '$1'; d['round'] = $2; print(json.dumps(d))"; }
+pairs=(tiny:resnet-tiny-segment lite:resnet-lite-normaug paper:resnet-paper-normaug)
+# each model file's input shape (C,H,W), read once
+declare -A inputs
+for pair in "${pairs[@]}"; do
+  inputs[${pair%%:*}]=$("$b" bench --model "../../models/nominal/${pair#*:}.safetensors" --batch 1 --samples 1 --repeats 1 --json |
+    python3 -c "import json,sys; print(','.join(map(str, json.load(sys.stdin)['input'])))")
+done
 for round in $(seq 1 "$PAIRS"); do
-  for pair in tiny:resnet-tiny-segment lite:resnet-lite-normaug paper:resnet-paper-normaug; do
+  for pair in "${pairs[@]}"; do
     preset=${pair%%:*}
     model=../../models/nominal/${pair#*:}.safetensors
     samples=64; repeats=7; runs=200
     if [[ $preset == paper ]]; then samples=32; repeats=3; runs=30; fi
-    input=$("$b" bench --model "$model" --batch 1 --samples 1 --repeats 1 --json | python3 -c "import json,sys; print(','.join(map(str, json.load(sys.stdin)['input'])))")
+    input=${inputs[$preset]}
     "$PY" resnet.py --preset "$preset" --input "$input" --density "$DENSITY" --batch 1 --threads 1 --runs "$runs" | tag "$preset" "$round" >> "$OUT"
     "$PY" resnet.py --preset "$preset" --input "$input" --density "$DENSITY" --batch 32 --threads "$THREADS" --runs $((runs / 10 + 3)) --warmup 2 | tag "$preset" "$round" >> "$OUT"
     for density in "$DENSITY" 1; do

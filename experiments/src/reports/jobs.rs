@@ -42,11 +42,16 @@ pub struct ReportPlace {
 }
 
 impl ReportPlace {
-    /// The world and scan seed of the test scans: the sealed set's with `final_read`, else
-    /// `builds` at the preset with `seed`.
+    /// The world and scan seed of the test scans: the sealed set's with `final_read` (its scans
+    /// drawn from `SEALED_SEED`), else `builds` at the preset with `seed`.
     fn test_world(&self, builds: SensorBuilds, seed: u64) -> (World, u64) {
+        self.test_world_sealed_at(builds, seed, corpus::world::SEALED_SEED)
+    }
+
+    /// [`Self::test_world`] with the sealed scans drawn from `sealed_seed`.
+    fn test_world_sealed_at(&self, builds: SensorBuilds, seed: u64, sealed_seed: u64) -> (World, u64) {
         match self.final_read {
-            true => (World::sealed(self.realism), corpus::world::SEALED_SEED),
+            true => (World::sealed(self.realism), sealed_seed),
             false => (World::of(self.realism, builds), seed),
         }
     }
@@ -56,10 +61,11 @@ impl ReportPlace {
         format!("{what}, {}", self.realism)
     }
 
-    /// What a job wrote, naming the sealed set it read with `final_read`.
-    fn written(&self, printed: String, md: PathBuf, set: &str) -> Written {
+    /// What a job wrote, naming the sealed set it read with `final_read`, scanned in `world`
+    /// with `seed`.
+    fn written(&self, printed: String, md: PathBuf, set: &str, (world, seed): (&World, u64)) -> Written {
         let sealed_set = self.final_read.then(|| self.sealed_set(set));
-        let sealed_scans = (World::sealed(self.realism).sensors, corpus::world::SEALED_SEED);
+        let sealed_scans = (world.sensors.clone(), seed);
         Written { printed, md, sealed_set, sealed_scans, ledger: self.ledger.clone() }
     }
 
@@ -117,7 +123,7 @@ pub fn chars(job: &CharsReportJob, progress: &dyn Progress) -> Result<Written> {
     let (world, seed) = job.place.test_world(job.sensor_builds, job.seed);
     let report = crate::reports::chars::chars_report(models, &job.depths, job.trials, seed, &world, progress)?;
     let md = crate::reports::figures::write_chars_report(&report, out)?;
-    Ok(job.place.written(md, out.join("chars.md"), "Table I (RAB)"))
+    Ok(job.place.written(md, out.join("chars.md"), "Table I (RAB)", (&world, seed)))
 }
 
 /// The paper's speed table on SIMULATED EV scans for both architectures, with and without
@@ -208,7 +214,8 @@ pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<Written> {
         let out = out.join("ueb");
         crate::reports::figures::write_ueb_report(&r, &out)?;
         let set = "UEB (RCB, UEB-SENTENCES)";
-        return Ok(job.place.written(crate::reports::ueb::markdown(&r), out.join("ueb.md"), set));
+        let md = crate::reports::ueb::markdown(&r);
+        return Ok(job.place.written(md, out.join("ueb.md"), set, (&spec.world, spec.seed)));
     }
     let (world, seed) = job.place.test_world(SensorBuilds::Test, job.seed);
     let spec = WordsReportSpec {
@@ -228,7 +235,8 @@ pub fn words(job: &WordsReportJob, progress: &dyn Progress) -> Result<Written> {
     };
     let r = words_report(models, &spec, progress)?;
     crate::reports::figures::write_words_report(&r, out)?;
-    Ok(job.place.written(String::new(), out.join("words.md"), "words (EV, unseen words)"))
+    let set = "words (EV, unseen words)";
+    Ok(job.place.written(String::new(), out.join("words.md"), set, (&spec.world, spec.seed)))
 }
 
 /// Every letter at every place in a row, read by both architectures from SIMULATED scans of the
@@ -323,7 +331,7 @@ pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<Writte
     let r = letters_report(&readers, &spec, progress)?;
     let md = crate::reports::figures::write_letters_report(&r, out)?;
     let targets: String = crate::reports::letters::targets(&r).iter().map(|l| format!("{l}\n")).collect();
-    Ok(job.place.written(targets, md, "letters (ALL-LETTERS)"))
+    Ok(job.place.written(targets, md, "letters (ALL-LETTERS)", (&spec.world, spec.seed)))
 }
 
 /// Each architecture's shipped character classifier against one nuisance of the virtual Evetac
@@ -359,10 +367,7 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
     for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
         models.push((name.to_string(), CharModel::load(&pipeline::shipped::chars_in(models_dir, arch))?));
     }
-    let (world, seed) = match job.place.final_read {
-        true => (World::sealed(job.place.realism), corpus::world::SEALED_SWEEP_SEED),
-        false => (World::test(job.place.realism), job.seed),
-    };
+    let (world, seed) = job.place.test_world_sealed_at(SensorBuilds::Test, job.seed, corpus::world::SEALED_SWEEP_SEED);
     let spec = SweepSpec {
         base: job.place.realism,
         nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
@@ -377,6 +382,6 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
     let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
     let report = sweep(&spec, &refs, progress)?;
     let printed = crate::reports::figures::write_robustness_report(&report, out)?;
-    let written = job.place.written(printed, out.join("robustness.md"), &format!("robustness ({})", job.board.name()));
-    Ok(Written { sealed_scans: (spec.world.sensors, seed), ..written })
+    let set = format!("robustness ({})", job.board.name());
+    Ok(job.place.written(printed, out.join("robustness.md"), &set, (&spec.world, spec.seed)))
 }
