@@ -271,10 +271,10 @@ pub struct WordsArgs {
     spell: Spell,
     #[arg(long, value_enum, default_value = "sliding")]
     snn_runner: SnnRunner,
-    /// Pass the events through a background-activity filter first (`dv-lab`,
-    /// `dv-processing[:WINDOW_US]`; `braille read --denoise`).
+    /// The background-activity filter the events pass first (`braille read --denoise`)
+    /// [default: the models'].
     #[arg(long)]
-    denoise: Option<encoders::denoise::NoiseFilterSettings>,
+    denoise: Option<encoders::denoise::DenoiseChoice>,
     /// Run both SNNs (segmentation network and classifier) in a chip's arithmetic (docs/chips.md),
     /// every window from rest as the chip computes it (in place of `--snn-runner`).
     #[arg(long, value_enum)]
@@ -292,7 +292,7 @@ fn words(args: WordsArgs) -> Result<()> {
     files.segmenter = args.segmenter.clone().unwrap_or(files.segmenter);
     files.classifier = args.classifier.clone().unwrap_or(files.classifier);
     let mut readers = ReaderModels::load(&files.segmenter, &files.classifier, args.snn_runner)?;
-    readers.denoise = args.denoise;
+    readers.denoise = encoders::denoise::DenoiseChoice::over(args.denoise, readers.denoise);
     if let Some(chip) = args.chip {
         readers = readers.on_chip(chip, args.quantisation).with_context(|| {
             format!("{} and {}: in {chip}'s arithmetic", files.segmenter.display(), files.classifier.display())

@@ -50,10 +50,10 @@ pub struct Args {
     /// The sensor's resolution, WIDTHxHEIGHT [default: what the file declares, else 640x480].
     #[arg(long)]
     resolution: Option<Resolution>,
-    /// Pass the events through a background-activity filter first (`encoders::denoise`:
-    /// `dv-lab`, `dv-processing[:WINDOW_US]`); the shipped readers were trained without one.
+    /// The background-activity filter the events pass first (`encoders::denoise`: `dv-lab`,
+    /// `dv-processing[:WINDOW_US]`, `off`) [default: the one the models were trained behind].
     #[arg(long)]
-    denoise: Option<encoders::denoise::NoiseFilterSettings>,
+    denoise: Option<encoders::denoise::DenoiseChoice>,
     /// JSON Lines: one object per word as it completes, then a summary object.
     #[arg(long)]
     json: bool,
@@ -63,14 +63,12 @@ pub fn run(args: Args) -> Result<()> {
     let timing = Timing::from_mode(args.timing, args.speed)?;
     let pipeline::shipped::ReaderFiles { segmenter: ds, classifier: dc } =
         pipeline::shipped::reader_for(&crate::common::default_models_dir(), args.arch, args.braille);
-    let readers = ReaderModels {
-        denoise: args.denoise,
-        ..ReaderModels::load(
-            args.segmenter.as_deref().unwrap_or(&ds),
-            args.model.as_deref().unwrap_or(&dc),
-            args.snn_runner,
-        )?
-    };
+    let mut readers = ReaderModels::load(
+        args.segmenter.as_deref().unwrap_or(&ds),
+        args.model.as_deref().unwrap_or(&dc),
+        args.snn_runner,
+    )?;
+    readers.denoise = encoders::denoise::DenoiseChoice::over(args.denoise, readers.denoise);
     let speller = pipeline::reader::Speller::in_code(args.spell, args.braille)?;
     let options = OpenOptions { resolution: args.resolution, stream_id: None };
     let mut source = formats::open_named(&args.file, &options, &args.live.options())?;

@@ -10,12 +10,14 @@ use crate::boards::{EV_WORDS, random_word_rows};
 use crate::error::{Error, Result};
 use crate::world::World;
 use encoders::braille::{Cell, cell_on_board};
+use encoders::denoise::NoiseFilterSettings;
 use encoders::heatmap::Heatmap;
 use learn::data::SpikeSet;
 use learn::resnet::ImageSet;
 use pipeline::grid::GridMark;
 use pipeline::input::CharInput;
 use pipeline::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
+
 use pipeline::speed::SpeedEstimatorConfig;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -139,6 +141,11 @@ pub struct CharSetSpec {
 pub struct Sweep {
     pub speeds_mm_s: Vec<f64>,
     pub depths_mm: Vec<f64>,
+    /// The simulator's nuisances, trial `k` at `levels[(k mod S + k / S) mod L]` of the way from
+    /// `nominal` (0) to `harsh` (1) ([`sim::Setup::between`]), so that a level meets every
+    /// speed. Empty: the world's preset.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub levels: Vec<f64>,
 }
 
 impl Sweep {
@@ -148,6 +155,12 @@ impl Sweep {
         let speed = self.speeds_mm_s.get((trial % s) as usize).copied().unwrap_or(8.0);
         let depth = self.depths_mm.get(((trial + trial / s) % d) as usize).copied().unwrap_or(1.5);
         (speed, depth)
+    }
+
+    /// Which of `levels` trial `trial` is at (`None` without levels).
+    pub fn level_index(&self, trial: u64) -> Option<usize> {
+        let s = self.speeds_mm_s.len().max(1) as u64;
+        (!self.levels.is_empty()).then(|| ((trial % s + trial / s) % self.levels.len() as u64) as usize)
     }
 }
 
@@ -181,12 +194,13 @@ pub fn scan_windows(
     jitter_ms: f64,
 ) -> Result<Option<Vec<CharSample>>> {
     let scan = ScanConfig { speed_mm_s, depth_mm, row, seed: scan_seed, ..ScanConfig::default() };
-    scan_windows_with(board, sensor, &scan, trial, cfg, task, jitter_ms, false)
+    scan_windows_with(board, sensor, &scan, trial, cfg, task, jitter_ms, false, None)
 }
 
 /// [`scan_windows`] of a scan configured in full (a realism preset's kinematics). With
 /// `blank_cells`, a segmentation set also takes every blank cell (a word space, and a cell's
-/// pitch past either end of the row) as background ([`blank_cell_starts`]).
+/// pitch past either end of the row) as background ([`blank_cell_starts`]); with `denoise`,
+/// the scan's events pass that background-activity filter first, as a reader's do.
 #[allow(clippy::too_many_arguments)]
 pub fn scan_windows_with(
     board: &Board,
@@ -197,13 +211,33 @@ pub fn scan_windows_with(
     task: Task,
     jitter_ms: f64,
     blank_cells: bool,
+    denoise: Option<NoiseFilterSettings>,
 ) -> Result<Option<Vec<CharSample>>> {
-    let s = sim::simulate(board, sensor, scan)?;
+    let mut s = sim::simulate(board, sensor, scan)?;
+    denoised(&mut s.events, sensor.camera.resolution, denoise)?;
     let chars: Vec<char> = s.truth.characters.iter().filter(|c| !c.columns.is_empty()).map(|c| c.letter).collect();
     let id = ScanId { board: board.kind.name(), row: scan.row, trial };
     let blank = |windows: &[CharWindow]| blank_cell_starts(&s.truth.characters, windows);
     let blank: Option<&BlankStarts> = if blank_cells { Some(&blank) } else { None };
     label_scan(&s.events, sensor.camera.resolution, scan.speed_mm_s, &chars, cfg, task, jitter_ms, blank, id)
+}
+
+/// `events` passed through a background-activity filter with `settings` (none: as they are).
+fn denoised(
+    events: &mut Vec<encoders::Event>,
+    resolution: encoders::Resolution,
+    settings: Option<NoiseFilterSettings>,
+) -> Result<()> {
+    if let Some(settings) = settings {
+        encoders::denoise::BackgroundActivityFilter::new(resolution, settings)
+            .map_err(|value| Error::Setting {
+                name: "denoise",
+                value,
+                expected: "a background-activity filter's settings",
+            })?
+            .filter(events);
+    }
+    Ok(())
 }
 
 /// Where a character's window would start over each blank cell of a scan, given the labeler's
@@ -433,13 +467,13 @@ pub fn build_many(spec: &CharSetSpec, inputs: &[&CharInput], progress: &dyn Prog
     build_many_in(spec, &spec.world.setup(), inputs, progress)
 }
 
-/// The first of the models' inputs, which must all label with the same labeler (one set of
-/// windows serves them all).
+/// The first of the models' inputs, which must all label with the same labeler and filter the
+/// same way (one set of windows serves them all).
 fn first_of_one_labeler<'a>(inputs: &[&'a CharInput]) -> Result<&'a CharInput> {
     let Some(&first) = inputs.first() else {
         return Err(Error::NoInputs);
     };
-    if inputs.iter().any(|i| i.labeler != first.labeler) {
+    if inputs.iter().any(|i| i.labeler != first.labeler || i.denoise != first.denoise) {
         return Err(Error::LabelersDiffer);
     }
     Ok(first)
@@ -454,21 +488,30 @@ pub fn build_many_in(
     progress: &dyn Progress,
 ) -> Result<Windows> {
     let first = first_of_one_labeler(inputs)?;
-    let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
-    let list = scans(spec, setup)?;
+    // One setup (its builds and boards) per nuisance level of the sweep, else `setup` alone.
+    let levels = spec.sweep.as_ref().map_or(&[][..], |s| &s.levels[..]);
+    let setups: Vec<Setup> =
+        if levels.is_empty() { vec![setup.clone()] } else { levels.iter().map(|&l| Setup::between(l)).collect() };
+    let sensors =
+        setups.iter().map(|s| spec.world.sensors_at(s, encoders::Resolution::DVXPLORER)).collect::<Result<Vec<_>>>()?;
+    let boards = setups.iter().map(|s| scans(spec, s)).collect::<Result<Vec<_>>>()?;
+    let at = |trial: u64| spec.sweep.as_ref().and_then(|s| s.level_index(trial)).unwrap_or(0);
+    let list: Vec<(usize, &(Board, usize, u64))> =
+        boards[0].iter().enumerate().map(|(k, &(_, _, trial))| (at(trial), &boards[at(trial)][k])).collect();
     let printed = list
         .iter()
-        .map(|(board, row, _)| board.rows[*row].chars().filter(|&c| spec.task.class_of(c).is_some()).count())
+        .map(|(_, (board, row, _))| board.rows[*row].chars().filter(|&c| spec.task.class_of(c).is_some()).count())
         .sum();
     progress.start("simulating scans", list.len() as u64);
     let per_scan: Vec<Option<Vec<Kept>>> = list
         .par_iter()
-        .map(|(board, row, trial)| -> Result<_> {
+        .map(|&(level, (board, row, trial))| -> Result<_> {
             let w = &spec.world;
             let (speed_mm_s, depth_mm) = spec.condition(*trial);
             let seed = w.scan_seed(spec.seed, &board.kind, *row, *trial, speed_mm_s, depth_mm);
+            let sensors = &sensors[level];
             let sensor = &sensors[(*trial % sensors.len() as u64) as usize];
-            let scan = setup.scan(speed_mm_s, depth_mm, *row, seed);
+            let scan = setups[level].scan(speed_mm_s, depth_mm, *row, seed);
             let r = scan_windows_with(
                 board,
                 sensor,
@@ -478,6 +521,7 @@ pub fn build_many_in(
                 spec.task,
                 spec.jitter_ms,
                 spec.blank_cells,
+                first.denoise,
             )?;
             progress.inc();
             r.map(|samples| crop_all(samples, inputs)).transpose()
@@ -547,8 +591,9 @@ pub fn recorded_windows(
         .par_iter()
         .map(|r| -> Result<_> {
             let path = rec.path(r);
-            let (info, events) = encoders::formats::read_all(&path, &encoders::OpenOptions::default())?;
+            let (info, mut events) = encoders::formats::read_all(&path, &encoders::OpenOptions::default())?;
             let resolution = info.resolution.unwrap_or(encoders::Resolution::DVXPLORER);
+            denoised(&mut events, resolution, first.denoise)?;
             let text = r.text.to_uppercase();
             let blank = |windows: &[CharWindow]| blank_cell_starts_from_text(&text, windows);
             let blank: Option<&BlankStarts> = if blank_cells { Some(&blank) } else { None };
@@ -807,7 +852,7 @@ mod tests {
 
     #[test]
     fn a_sweep_walks_every_pairing_of_speed_and_depth() {
-        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0], depths_mm: vec![1.5, 1.0, 0.6] };
+        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0], depths_mm: vec![1.5, 1.0, 0.6], levels: vec![] };
         let at: Vec<(f64, f64)> = (0..10).map(|k| s.at(k)).collect();
         assert_eq!(
             at,
@@ -825,12 +870,68 @@ mod tests {
             ]
         );
         // four speeds and three depths: twelve trials hold all twelve pairings, five hold five
-        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0], depths_mm: vec![1.5, 1.0, 0.6] };
+        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0], depths_mm: vec![1.5, 1.0, 0.6], levels: vec![] };
         let mut all: Vec<(u64, u64)> = (0..12).map(|k| s.at(k)).map(|(v, d)| (v as u64, (d * 10.0) as u64)).collect();
         all.sort();
         all.dedup();
         assert_eq!(all.len(), 12);
         assert_eq!(s.at(4), (8.0, 0.6));
+        assert_eq!(s.level_index(3), None);
+    }
+
+    #[test]
+    fn nuisance_levels_meet_every_speed() {
+        // two levels over four speeds: trial k's level is not fixed by its speed
+        let s = Sweep { speeds_mm_s: vec![8.0, 16.0, 32.0, 48.0], depths_mm: vec![1.5], levels: vec![0.0, 1.0] };
+        let mut pairs: Vec<(u64, usize)> = (0..8).map(|k| (s.at(k).0 as u64, s.level_index(k).unwrap())).collect();
+        pairs.sort();
+        pairs.dedup();
+        assert_eq!(pairs.len(), 8, "{pairs:?}");
+    }
+
+    #[test]
+    fn windows_over_levels_come_from_both_presets_and_behind_the_filter() {
+        use pipeline::preprocess::{AugmentConfig, Preprocess};
+        let input = CharInput {
+            labeler: LabelerConfig::default(),
+            rows: pipeline::input::LITE_ROWS,
+            cols: pipeline::input::LITE_COLS,
+            pool: 4,
+            preprocess: Preprocess::Norm,
+            augment: AugmentConfig::default(),
+            band: None,
+            denoise: None,
+        };
+        let spec = |levels: Vec<f64>| CharSetSpec {
+            boards: vec![BoardKind::Text("AB".into())],
+            speed_mm_s: 32.0,
+            depth_mm: 1.5,
+            trials: 2,
+            seed: 5,
+            task: Task::Chars,
+            jitter_ms: 0.0,
+            world: World::train(sim::Realism::Nominal),
+            blank_cells: false,
+            sweep: Some(Sweep { speeds_mm_s: vec![32.0], depths_mm: vec![1.5], levels }),
+        };
+        let counts = |spec: &CharSetSpec, input: &CharInput| -> Vec<f32> {
+            let w = build_many(spec, &[input], &()).unwrap();
+            w.sets[0].data.iter().map(|d| d.iter().sum()).collect()
+        };
+        // trial 0 at nominal, trial 1 at harsh: trial 0's windows are nominal's own, trial 1's not
+        let nominal = counts(&spec(vec![0.0]), &input);
+        let both = counts(&spec(vec![0.0, 1.0]), &input);
+        assert_eq!(nominal.len(), 4, "{nominal:?}");
+        assert_eq!(both.len(), 4, "{both:?}");
+        assert_eq!(nominal[..2], both[..2]);
+        assert_ne!(nominal[2..], both[2..]);
+        // behind the filter the same windows hold fewer events
+        let filtered = CharInput { denoise: Some(NoiseFilterSettings::DV_LAB), ..input.clone() };
+        let quiet = counts(&spec(vec![0.0]), &filtered);
+        assert_eq!(quiet.len(), 4);
+        assert!(quiet.iter().zip(&nominal).all(|(q, n)| q < n), "{quiet:?} against {nominal:?}");
+        // models that filter differently cannot share one set of windows
+        assert!(matches!(build_many(&spec(vec![0.0]), &[&input, &filtered], &()), Err(Error::LabelersDiffer)));
     }
 
     #[test]

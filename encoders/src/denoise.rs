@@ -37,8 +37,10 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-/// The filter's settings, named as libcaer and DV name them.
+/// The filter's settings, named as libcaer and DV name them. Written in full; read in full or
+/// by name (`"dv-lab"`, `"dv-processing:2000"`, as [`FromStr`] reads them: a recipe key's value).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "SettingsForm")]
 pub struct NoiseFilterSettings {
     /// `backgroundActivityTime`: a neighbour's event supports one that follows it within this.
     pub window_us: i64,
@@ -93,6 +95,28 @@ impl NoiseFilterSettings {
 
 /// The named settings a command takes: `dv-lab` or `dv-processing`, optionally with another
 /// window, `dv-processing:5000`.
+/// The forms settings are read in: by name or field by field.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum SettingsForm {
+    Named(String),
+    Fields { window_us: i64, support_min: u8, support_max: u8, check_polarity: bool, refractory_us: Option<i64> },
+}
+
+impl TryFrom<SettingsForm> for NoiseFilterSettings {
+    type Error = String;
+    fn try_from(form: SettingsForm) -> Result<Self, String> {
+        match form {
+            SettingsForm::Named(name) => name.parse(),
+            SettingsForm::Fields { window_us, support_min, support_max, check_polarity, refractory_us } => {
+                let s = NoiseFilterSettings { window_us, support_min, support_max, check_polarity, refractory_us };
+                s.check()?;
+                Ok(s)
+            }
+        }
+    }
+}
+
 impl FromStr for NoiseFilterSettings {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -107,6 +131,35 @@ impl FromStr for NoiseFilterSettings {
         }
         settings.check()?;
         Ok(settings)
+    }
+}
+
+/// A reader's choice of filter over its models' own: `off`, or settings by name
+/// (`dv-lab`, `dv-processing[:US]`), as `braille read --denoise` takes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DenoiseChoice {
+    Off,
+    On(NoiseFilterSettings),
+}
+
+impl DenoiseChoice {
+    /// The filter a reader runs: the choice when one is made, else the models' own.
+    pub fn over(choice: Option<DenoiseChoice>, models: Option<NoiseFilterSettings>) -> Option<NoiseFilterSettings> {
+        match choice {
+            None => models,
+            Some(DenoiseChoice::Off) => None,
+            Some(DenoiseChoice::On(s)) => Some(s),
+        }
+    }
+}
+
+impl FromStr for DenoiseChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "off" | "none" => Ok(DenoiseChoice::Off),
+            _ => s.parse().map(DenoiseChoice::On).map_err(|e| format!("{e}, or off")),
+        }
     }
 }
 
@@ -310,6 +363,18 @@ mod tests {
     /// Which of `events` (time, x, y; ON) pass, in order.
     fn passes(f: &mut BackgroundActivityFilter, events: &[(i64, u16, u16)]) -> Vec<bool> {
         events.iter().map(|&(t, x, y)| f.retain(&ev(t, x, y))).collect()
+    }
+
+    #[test]
+    fn a_readers_choice_overrides_its_models_filter_or_turns_it_off() {
+        let lab = Some(NoiseFilterSettings::DV_LAB);
+        assert_eq!(DenoiseChoice::over(None, lab), lab);
+        assert_eq!(DenoiseChoice::over(None, None), None);
+        assert_eq!(DenoiseChoice::over(Some("off".parse().unwrap()), lab), None);
+        let dv = "dv-processing:3000".parse::<DenoiseChoice>().unwrap();
+        assert_eq!(DenoiseChoice::over(Some(dv), lab).map(|s| (s.window_us, s.refractory_us)), Some((3000, None)));
+        let e = "median".parse::<DenoiseChoice>().unwrap_err();
+        assert!(e.contains("dv-lab") && e.contains("off"), "{e}");
     }
 
     #[test]

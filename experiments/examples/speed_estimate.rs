@@ -2,7 +2,7 @@
 //! of EV rows at the arm's speeds and hand-held, against the speed under the sensor, with the test
 //! sensor builds; and what estimating costs.
 //!
-//! `cargo run --release -p experiments --example speed_estimate [clean|nominal|harsh] [trials] [default|exhaustive|builds] [EV|VAL] [window_mm] [min_window_ms]`
+//! `cargo run --release -p experiments --example speed_estimate [clean|nominal|harsh] [trials] [default|exhaustive|builds] [EV|VAL] [window_mm] [min_window_ms] [max_mm_s]`
 //! (`exhaustive`: the reference configuration, the whole range at every update; `VAL`: the
 //! validation board with the training sensor builds and the validation seed, where the
 //! estimator's settings are chosen; EV with the test builds is the reported test; `builds`: the
@@ -143,6 +143,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(w) = arg(5) {
         cfg.min_window_ms = w.parse()?;
     }
+    // the top of the searched range, to try on the validation board
+    if let Some(v) = arg(6) {
+        cfg.max_mm_s = v.parse()?;
+    }
     println!("# The online speed estimator on SIMULATED scans\n");
     let method = if exhaustive {
         format!(
@@ -151,8 +155,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         )
     } else {
         format!(
-            "the default configuration: a window of {} mm of motion at the last estimate ({}-{} ms, up to {} events), a search over the whole range of speeds at the start and at least every {} ms, and a local search around the last estimate in between",
-            cfg.window_mm, cfg.min_window_ms, cfg.window_ms, cfg.max_events, cfg.global_every_ms
+            "the default configuration: a window of {} mm of motion at the last estimate ({}-{} ms, up to {} events), a search over the whole range of speeds ({}-{} mm/s) at the start and at least every {} ms, and a local search around the last estimate in between",
+            cfg.window_mm,
+            cfg.min_window_ms,
+            cfg.window_ms,
+            cfg.max_events,
+            cfg.min_mm_s,
+            cfg.max_mm_s,
+            cfg.global_every_ms
         )
     };
     println!(
@@ -169,7 +179,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| speed | estimates | median error | mean absolute error | 90th percentile | largest error | direction right | whole-range searches | cost |"
     );
     println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- |");
-    let conditions: Vec<(f64, f64)> = [8.0, 16.0, 24.0, 32.0, 48.0, 64.0]
+    let conditions: Vec<(f64, f64)> = [4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 160.0, 200.0]
         .into_iter()
         .map(|s| (s, 0.0))
         .chain([(16.0, HAND_VARIATION), (32.0, HAND_VARIATION)])

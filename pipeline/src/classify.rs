@@ -531,8 +531,9 @@ pub struct ReaderModels {
     /// The cell grid a cell reader places cells of one dot column with (`None`: the classifier's
     /// column stands; [`crate::grid`]). Loading sets the standard's.
     pub cell_grid: Option<crate::grid::CellGrid>,
-    /// A background-activity filter the events pass before anything else (`None` on loading:
-    /// the shipped readers were trained on the events as they come).
+    /// A background-activity filter the events pass before anything else. Loading takes the
+    /// one the models were trained behind (their input's `denoise`; `None` for models trained on
+    /// the events as they come).
     pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
 }
 
@@ -563,12 +564,19 @@ impl ReaderModels {
         if seg.input().labeler != cls.input().labeler {
             return Err(bad(classifier, format!("windows its input unlike {}", segmenter.display())));
         }
-        Ok(ReaderModels {
-            segmenter: seg,
-            classifier: cls,
-            cell_grid: Some(crate::grid::CellGrid::default()),
-            denoise: None,
-        })
+        if seg.input().denoise != cls.input().denoise {
+            return Err(bad(
+                classifier,
+                format!(
+                    "trained behind noise filter {:?}, {} behind {:?}",
+                    cls.input().denoise,
+                    segmenter.display(),
+                    seg.input().denoise
+                ),
+            ));
+        }
+        let denoise = cls.input().denoise;
+        Ok(ReaderModels { segmenter: seg, classifier: cls, cell_grid: Some(crate::grid::CellGrid::default()), denoise })
     }
 
     /// The reader's configuration with this timing, the models' windowing and the segmentation

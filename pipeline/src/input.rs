@@ -30,6 +30,11 @@ pub struct CharInput {
     /// Only with a centring preprocess (`norm`, `normaug`); the crop is centred once, there.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub band: Option<Range<usize>>,
+    /// A background-activity filter every event passes before windowing, in training as in
+    /// reading (`encoders::denoise`; `None`: the events as they come, as every model before the
+    /// filter). A reader of this model filters the same way unless told otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
 }
 
 /// The `lite` crop (pooled rows and columns): the dots of one Braille row fill the middle of
@@ -236,6 +241,7 @@ mod tests {
             preprocess: Preprocess::Norm,
             augment: AugmentConfig::default(),
             band,
+            denoise: None,
         }
     }
 

@@ -53,21 +53,44 @@ impl Realism {
     pub const ALL: [Realism; 3] = [Realism::Clean, Realism::Nominal, Realism::Harsh];
 
     pub fn setup(self) -> Setup {
-        let clean = Setup {
-            realism: self,
-            camera: CameraConfig::default(),
-            gel: GelConfig::default(),
-            geometry: BoardGeometry::default(),
-            scan: ScanConfig::default(),
-            variation: SensorVariation::default(),
+        match self {
+            Realism::Clean => Setup {
+                realism: self,
+                camera: CameraConfig::default(),
+                gel: GelConfig::default(),
+                geometry: BoardGeometry::default(),
+                scan: ScanConfig::default(),
+                variation: SensorVariation::default(),
+            },
+            Realism::Nominal => Setup::between(0.0),
+            Realism::Harsh => Setup::between(1.0),
+        }
+    }
+}
+
+impl Setup {
+    /// Every nuisance `level` of the way from its `nominal` value (0) to its `harsh` one (1),
+    /// linearly (the mount's stiffness geometrically). The two presets
+    /// differ in amounts only, so the levels between them are setups a real sensor can show: a
+    /// training set drawn over them covers the envelope (`corpus::windows::Sweep::levels`). Not
+    /// a preset: a level is never a source's value, and reports name `nominal` or `harsh` only.
+    ///
+    /// # Panics
+    /// Never: `level` is clamped to `0..=1`.
+    pub fn between(level: f64) -> Setup {
+        let level = if level.is_finite() { level.clamp(0.0, 1.0) } else { 0.0 };
+        let realism = if level >= 1.0 { Realism::Harsh } else { Realism::Nominal };
+        // The presets' own values at the ends, bit for bit (their scans must not change).
+        let pick = |nominal: f64, harsh: f64| match level {
+            0.0 => nominal,
+            1.0 => harsh,
+            _ => nominal + level * (harsh - nominal),
         };
-        // The two presets differ in amounts only; `edge` picks the harsh end.
-        let edge = match self {
-            Realism::Clean => return clean,
-            Realism::Nominal => false,
-            Realism::Harsh => true,
+        let log_pick = |nominal: f64, harsh: f64| match level {
+            0.0 => nominal,
+            1.0 => harsh,
+            _ => nominal * (harsh / nominal).powf(level),
         };
-        let pick = |nominal: f64, harsh: f64| if edge { harsh } else { nominal };
         let camera = CameraConfig {
             // Background activity: assumed 0.05-0.5 Hz per pixel under bright LEDs, shared
             // between leak and shot events.
@@ -121,15 +144,21 @@ impl Realism {
             // logarithmic middle of the assumed 10^4-10^6 N/m (10 um/N: at 1.5 mm slips recur at
             // 8 mm/s, not from 16), `harsh` the light end (30 kN/m); both lightly damped (0.1,
             // assumed; docs/simulator.md). `braille robustness` sweeps the compliance.
-            stick_slip: Some(if edge { StickSlip::LIGHT_MOUNT } else { StickSlip::MID_MOUNT }),
+            stick_slip: Some(StickSlip {
+                mount_stiffness_n_per_m: log_pick(
+                    StickSlip::MID_MOUNT.mount_stiffness_n_per_m,
+                    StickSlip::LIGHT_MOUNT.mount_stiffness_n_per_m,
+                ),
+                ..StickSlip::MID_MOUNT
+            }),
             ..ScanConfig::default()
         };
         let variation = SensorVariation {
             gel_thickness_sigma_mm: pick(0.075, 0.1),
             modulus_rel_sigma: pick(0.05, 0.1),
             led_gain_rel_sigma: pick(0.075, 0.1),
-            falloff_range: if edge { (0.2, 0.5) } else { (0.2, 0.4) },
-            threshold_rel_sigma_range: if edge { (0.15, 0.25) } else { (0.1, 0.2) },
+            falloff_range: (0.2, pick(0.4, 0.5)),
+            threshold_rel_sigma_range: (pick(0.1, 0.15), pick(0.2, 0.25)),
             noise_rate_sigma_decades: pick(0.1, 0.2),
             hot_pixel_fraction: pick(0.0003, 0.001),
             hot_pixel_hz_range: (10.0, 100.0),
@@ -138,11 +167,9 @@ impl Realism {
             // 25 mm (assumed): +-5% taken as 2 sigma at `nominal`, as 1 sigma at `harsh`.
             fov_rel_sigma: pick(0.025, 0.05),
         };
-        Setup { realism: self, camera, gel, geometry, scan, variation }
+        Setup { realism, camera, gel, geometry, scan, variation }
     }
-}
 
-impl Setup {
     /// One build of the sensor at `resolution`, drawn from `seed`.
     pub fn sensor(&self, resolution: Resolution, seed: u64) -> Result<Sensor> {
         let camera = CameraConfig { resolution, ..self.camera.clone() };
@@ -179,6 +206,27 @@ mod tests {
         assert!(h.scan.misalignment_sigma_mm >= n.scan.misalignment_sigma_mm);
         assert!(h.gel.dynamics.relaxing_fraction() >= n.gel.dynamics.relaxing_fraction());
         assert!(h.variation.hot_pixel_fraction >= n.variation.hot_pixel_fraction);
+    }
+
+    #[test]
+    fn levels_between_the_presets_end_at_them_and_move_every_nuisance_one_way() {
+        assert_eq!(Setup::between(0.0), Realism::Nominal.setup());
+        assert_eq!(Setup::between(1.0), Realism::Harsh.setup());
+        // The presets as sourced (docs/simulator.md): a refactor must not move them.
+        let (n, h) = (Realism::Nominal.setup(), Realism::Harsh.setup());
+        assert_eq!((n.camera.leak_hz_per_pixel, h.camera.leak_hz_per_pixel), (0.05, 0.25));
+        assert_eq!(n.scan.stick_slip, Some(StickSlip::MID_MOUNT));
+        assert_eq!(h.scan.stick_slip, Some(StickSlip::LIGHT_MOUNT));
+        assert_eq!((n.variation.falloff_range, h.variation.falloff_range), ((0.2, 0.4), (0.2, 0.5)));
+        let m = Setup::between(0.5);
+        m.variation.validate().unwrap();
+        m.geometry.validate().unwrap();
+        assert!(n.camera.leak_hz_per_pixel < m.camera.leak_hz_per_pixel && m.camera.leak_hz_per_pixel < 0.25);
+        assert!(m.scan.yaw_sigma_deg > n.scan.yaw_sigma_deg && m.scan.yaw_sigma_deg < h.scan.yaw_sigma_deg);
+        let k = |s: &Setup| s.scan.stick_slip.unwrap().mount_stiffness_n_per_m;
+        assert!((k(&m) - (1e5f64 * 3e4).sqrt()).abs() < 1e-6);
+        assert_eq!(Setup::between(7.0), h);
+        assert_eq!(Setup::between(f64::NAN), n);
     }
 
     #[test]

@@ -502,6 +502,7 @@ pub fn train_windows(
         },
         augment: pipeline::preprocess::AugmentConfig::default(),
         band: r.band_rows.map(|[first, end]| first..end),
+        denoise: r.denoise,
     };
     input.check_band()?;
     let world = r.training_world()?;
@@ -842,7 +843,13 @@ impl std::fmt::Display for TrainedSnn {
 pub fn conditions(scans: &corpus::windows::TrainingScans) -> String {
     match &scans.sweep {
         None => "8 mm/s, 1.5 mm".to_string(),
-        Some(s) => format!("{:?} mm/s x {:?} mm, one pairing per trial", s.speeds_mm_s, s.depths_mm),
+        Some(s) if s.levels.is_empty() => {
+            format!("{:?} mm/s x {:?} mm, one pairing per trial", s.speeds_mm_s, s.depths_mm)
+        }
+        Some(s) => format!(
+            "{:?} mm/s x {:?} mm x nuisance levels {:?} (nominal 0 to harsh 1), one per trial",
+            s.speeds_mm_s, s.depths_mm, s.levels
+        ),
     }
 }
 

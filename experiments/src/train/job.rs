@@ -170,7 +170,8 @@ pub fn train(job: &TrainJob, p: &Prepared, epochs: &mut dyn Observer, progress: 
                 word_rows: r.word_rows,
                 letter_rows: r.letter_rows,
                 pair_rows: r.pair_rows,
-                sweep: sweep(&r.train_speeds_mm_s, &r.train_depths_mm),
+                sweep: sweep(&r.train_speeds_mm_s, &r.train_depths_mm, &r.train_levels),
+                denoise: r.denoise,
                 cells: r.cells,
                 realism: r.realism,
                 train: r.train_config(),
@@ -190,6 +191,11 @@ pub fn train(job: &TrainJob, p: &Prepared, epochs: &mut dyn Observer, progress: 
             if s.given("crop_rows") || s.given("band_rows") {
                 return refuse(
                     "crop_rows and band_rows crop simulated windows; a dataset folder's taxels are the input as they are",
+                );
+            }
+            if s.given("train_levels") || s.given("denoise") {
+                return refuse(
+                    "train_levels and denoise shape simulated scans' events; a dataset folder's taxels are the input as they are",
                 );
             }
             if s.given("train_builds") {

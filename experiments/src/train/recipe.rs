@@ -139,6 +139,17 @@ pub struct SnnRecipe {
     /// (`corpus::windows::Sweep`; empty: the paper's 8 mm/s and 1.5 mm).
     pub train_speeds_mm_s: Vec<f64>,
     pub train_depths_mm: Vec<f64>,
+    /// Training scans spread over the simulator's nuisances too: each trial at one of these
+    /// levels of the way from `nominal` (0) to `harsh` (1) (`sim::Setup::between`,
+    /// `corpus::windows::Sweep::levels`; empty: `realism` alone). Beyond `clean` only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub train_levels: Vec<f64>,
+    /// A background-activity filter every training scan's events pass before windowing,
+    /// recorded in the model's input so that its reader filters the same way
+    /// (`encoders::denoise`; `"dv-lab"`, `"dv-processing[:US]"` or the settings in full; `null`:
+    /// none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
     /// The simulator's nuisances for the simulated windows (training sensor builds beyond
     /// `clean`).
     pub realism: sim::Realism,
@@ -274,6 +285,8 @@ impl Default for SnnRecipe {
             cells: None,
             train_speeds_mm_s: Vec::new(),
             train_depths_mm: Vec::new(),
+            train_levels: Vec::new(),
+            denoise: None,
             pool: 2,
             crop_rows: None,
             band_rows: None,
@@ -561,6 +574,12 @@ impl SnnRecipe {
                 crate::train::resnet::crop_rows(Some(r)).map_err(|e| key(name, format!("{r:?}"), &e))?;
             }
         }
+        if let Some(l) = self.train_levels.iter().find(|l| !(0.0..=1.0).contains(*l)) {
+            return Err(key("train_levels", l.to_string(), &"levels in [0, 1], from nominal (0) to harsh (1)"));
+        }
+        if !self.train_levels.is_empty() && self.realism == sim::Realism::Clean {
+            return Err(key("train_levels", format!("{:?}", self.train_levels), &"a realism beyond clean"));
+        }
         if let Some(builds) = &self.train_builds {
             corpus::World::train_on(self.realism, builds)
                 .map_err(|e| key("train_builds", format!("{builds:?}"), &e))?;
@@ -593,7 +612,7 @@ impl SnnRecipe {
             word_rows: self.word_rows,
             letter_rows: self.letter_rows,
             pair_rows: self.pair_rows,
-            sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm),
+            sweep: sweep(&self.train_speeds_mm_s, &self.train_depths_mm, &self.train_levels),
             cells: self.cells,
         }
     }
@@ -641,12 +660,16 @@ impl SnnRecipe {
     }
 }
 
-/// Training scans over `speeds` and `depths` (`None` when both are empty or the paper's one
-/// condition, 8 mm/s and 1.5 mm).
-pub fn sweep(speeds: &[f64], depths: &[f64]) -> Option<corpus::windows::Sweep> {
+/// Training scans over `speeds`, `depths` and nuisance `levels` (`None` when all are empty or
+/// the paper's one condition, 8 mm/s and 1.5 mm at the preset).
+pub fn sweep(speeds: &[f64], depths: &[f64], levels: &[f64]) -> Option<corpus::windows::Sweep> {
     let speeds = if speeds.is_empty() { vec![8.0] } else { speeds.to_vec() };
     let depths = if depths.is_empty() { vec![1.5] } else { depths.to_vec() };
-    (speeds != [8.0] || depths != [1.5]).then_some(corpus::windows::Sweep { speeds_mm_s: speeds, depths_mm: depths })
+    (speeds != [8.0] || depths != [1.5] || !levels.is_empty()).then(|| corpus::windows::Sweep {
+        speeds_mm_s: speeds,
+        depths_mm: depths,
+        levels: levels.to_vec(),
+    })
 }
 
 fn is_zero(x: &f64) -> bool {

@@ -76,8 +76,12 @@ pub struct ResnetTraining {
     /// Passes of letter strings holding every ordered pair of letters (0: none).
     #[serde(skip_serializing_if = "crate::train::recipe::is_zero_count")]
     pub pair_rows: usize,
-    /// Training scans over speeds and depths (`None`: 8 mm/s, 1.5 mm).
+    /// Training scans over speeds, depths and nuisance levels (`None`: 8 mm/s, 1.5 mm).
     pub sweep: Option<corpus::windows::Sweep>,
+    /// A background-activity filter before windowing, recorded in the model's input
+    /// (`SnnRecipe::denoise`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
     /// A cell reader's boards in this code in place of the letters' (`TrainingScans::cells`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cells: Option<pipeline::code::BrailleCode>,
@@ -148,7 +152,7 @@ pub fn train_resnet(
         _ => AugmentConfig::default(),
     };
     let band = t.band_rows.map(|[first, end]| first..end);
-    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment, band };
+    let input = CharInput { labeler, rows, cols, pool, preprocess: t.preprocess, augment, band, denoise: t.denoise };
     input.check_band()?;
     let world = corpus::world::World::train(t.realism);
     let tw = match recordings {

@@ -289,6 +289,30 @@ mod tests {
     }
 
     #[test]
+    fn the_envelopes_keys_take_levels_and_a_filter_by_name_or_in_full() {
+        let s = settings(&["train_levels=0,0.5,1", "denoise=dv-lab"]).unwrap();
+        assert_eq!(s.recipe.train_levels, [0.0, 0.5, 1.0]);
+        assert_eq!(s.recipe.denoise, Some(encoders::denoise::NoiseFilterSettings::DV_LAB));
+        let sweep = s.recipe.training_scans().sweep.unwrap();
+        assert_eq!((&sweep.speeds_mm_s[..], &sweep.levels[..]), (&[8.0][..], &[0.0, 0.5, 1.0][..]));
+        // written in full (a model's provenance), read back as written
+        let json = serde_json::to_string(&s.recipe).unwrap();
+        assert!(json.contains("\"window_us\":2000"), "{json}");
+        assert_eq!(serde_json::from_str::<SnnRecipe>(&json).unwrap(), s.recipe);
+        let s = settings(&["denoise=dv-processing:5000"]).unwrap();
+        assert_eq!(s.recipe.denoise.unwrap().window_us, 5000);
+        // without the keys a recipe's form is as before them
+        let plain = serde_json::to_string(&SnnRecipe::default()).unwrap();
+        assert!(!plain.contains("train_levels") && !plain.contains("denoise"), "{plain}");
+        let e = settings(&["train_levels=0,2"]).unwrap_err().to_string();
+        assert!(e.contains("train_levels") && e.contains("[0, 1]"), "{e}");
+        let e = settings(&["train_levels=0.5", "realism=clean"]).unwrap_err().to_string();
+        assert!(e.contains("train_levels") && e.contains("beyond clean"), "{e}");
+        let e = settings(&["denoise=median"]).unwrap_err().to_string();
+        assert!(e.contains("denoise") && e.contains("dv-lab"), "{e}");
+    }
+
+    #[test]
     fn a_key_or_value_that_does_not_fit_names_the_key_and_what_it_takes() {
         let e = settings(&["lr=fast"]).unwrap_err().to_string();
         assert!(e.contains("`lr`") && e.contains("fast") && e.contains("f64"), "{e}");
