@@ -20,22 +20,28 @@ for arch in snn resnet; do
     for realism in nominal harsh; do
       for speed in 8 16 32 64 128 200; do
         for depth in 0.6 1.0 1.5; do
-          for spell in none lexicon; do
-            echo "$arch $pair $realism $speed $depth $spell" >> "$runs"
-          done
+          echo "$arch $pair $realism $speed $depth" >> "$runs"
         done
       done
     done
   done
 done
+# one read of a condition scores every spelling: a row per spelling
 one() {
-  read -r arch pair realism speed depth spell <<< "$1"
+  read -r arch pair realism speed depth <<< "$1"
   if [[ $arch == snn ]]; then seg=snn-segment; cls=snn-words; else seg=resnet-tiny-segment; cls=resnet-lite-normaug-words; fi
   if [[ $pair == shipped ]]; then dir=models/nominal; else dir=models/envelope; fi
   "$b" eval words --arch "$arch" --board VAL-WORDS --sensor-builds validation --seed 2000003 --realism "$realism" \
     --segmenter "$dir/$seg.safetensors" --classifier "$dir/$cls.safetensors" \
-    --speed "$speed" --depth "$depth" --trials "$TRIALS" --spell "$spell" --json 2> /dev/null |
-    python3 -c "import json,sys; d=json.load(sys.stdin); print(json.dumps({'arch': '$arch', 'pair': '$pair', 'realism': '$realism', 'speed_mm_s': $speed, 'depth_mm': $depth, 'spell': '$spell', 'trials': $TRIALS, 'word_accuracy': d['word_accuracy'], 'wer': d['wer'], 'cer': d['cer']}))"
+    --speed "$speed" --depth "$depth" --trials "$TRIALS" --json 2> /dev/null |
+    python3 -c "
+import json, sys
+d = json.load(sys.stdin)
+for b in d['by_spell']:
+    if b['spell'] in ('none', 'lexicon'):
+        print(json.dumps({'arch': '$arch', 'pair': '$pair', 'realism': '$realism', 'speed_mm_s': $speed, 'depth_mm': $depth,
+                          'spell': b['spell'], 'trials': $TRIALS, 'word_accuracy': b['word_accuracy'],
+                          'wer': b['word_error_rate'], 'cer': b['char_error_rate']}))"
 }
 export -f one; export b TRIALS
 xargs -P "${JOBS:-2}" -I{} bash -c 'one "$@"' _ {} < "$runs" > "$out.jsonl"
