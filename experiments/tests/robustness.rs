@@ -43,3 +43,48 @@ fn a_sweep_scores_every_level_and_repeats() {
     assert!(md.contains("SIMULATED") && md.contains("| 0.6 |"), "{md}");
     assert_eq!(sweep(&spec, &models, &()).unwrap().curves[0].accuracy, c.accuracy);
 }
+
+#[test]
+fn a_words_sweep_reads_every_level_with_every_reader_and_names_each_cliff() {
+    use experiments::eval::robustness_words::{CLIFF, WordsSweepSpec, markdown_words, sweep_words};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let files = pipeline::shipped::reader_for(
+        &root.join("models/nominal"),
+        snn::model_file::Arch::Snn,
+        pipeline::code::BrailleCode::Grade1Letters,
+    );
+    let reader = pipeline::classify::ReaderModels::load(
+        &files.segmenter,
+        &files.classifier,
+        pipeline::classify::SnnRunner::Sliding,
+    )
+    .unwrap();
+    let spec = WordsSweepSpec {
+        base: Realism::Nominal,
+        nuisances: vec![Nuisance::NoiseRate],
+        board: BoardKind::Text("CAT".into()),
+        speed_mm_s: 64.0,
+        depth_mm: 1.5,
+        trials: 1,
+        seed: 3,
+        world: corpus::world::World::validation(Realism::Nominal),
+        models_dir: "models/nominal".into(),
+    };
+    let readers = vec![("snn".to_string(), &reader)];
+    let r = sweep_words(&spec, &readers, &()).unwrap();
+    let c = &r.curves[0];
+    assert_eq!(c.levels, Nuisance::NoiseRate.word_levels());
+    assert_eq!((c.words_none[0].len(), c.words_lexicon[0].len()), (c.levels.len(), c.levels.len()));
+    // one word a scan: 1 - WER is 1 (read), 0 (missed or misread) or below zero (inserted words)
+    for a in c.words_none[0].iter().chain(&c.words_lexicon[0]) {
+        assert!(*a <= 1.0 && a.fract() == 0.0, "{a}");
+    }
+    // the cliff is the first level under the bar, and every level under it is named
+    let first_under = c.levels.iter().zip(&c.words_lexicon[0]).find(|(_, a)| **a < CLIFF).map(|(l, _)| *l);
+    assert_eq!(c.cliff[0], first_under);
+    assert_eq!(c.under[0].first().copied(), first_under);
+    let md = markdown_words(&r, "the test");
+    assert!(md.contains("SIMULATED") && md.contains("## Cliffs") && md.contains("| 2 |"), "{md}");
+    // the sweep repeats from its seed
+    assert_eq!(sweep_words(&spec, &readers, &()).unwrap().curves[0].words_lexicon, c.words_lexicon);
+}

@@ -11,6 +11,7 @@ pub mod chars;
 pub mod chip;
 pub mod labeling;
 pub mod robustness;
+pub mod robustness_words;
 pub mod scoring;
 pub mod tactile;
 pub mod ueb;

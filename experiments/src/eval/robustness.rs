@@ -76,8 +76,24 @@ impl Nuisance {
         }
     }
 
-    /// The base setup and test spec with this nuisance at `level`.
-    fn apply(self, setup: &mut Setup, spec: &mut CharSetSpec, level: f64) {
+    /// The levels a words sweep reads: the same, but for the speed over the reader's 4-200 mm/s
+    /// and the background activity to 3 Hz per pixel through 2 (issue #113's targets).
+    pub fn word_levels(self) -> Vec<f64> {
+        match self {
+            Nuisance::NoiseRate => vec![0.011, 0.1, 0.3, 0.5, 1.0, 2.0, 3.0],
+            Nuisance::Speed => vec![4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 200.0],
+            other => other.levels(),
+        }
+    }
+
+    /// Whether the levels run from gentle to harsh, so that the first level a reader falls at
+    /// is its cliff (not the sensor builds, nor the field of view on either side of the design's).
+    pub fn monotone(self) -> bool {
+        !matches!(self, Nuisance::SensorBuild | Nuisance::FieldOfView)
+    }
+
+    /// The base setup, scan speed and world with this nuisance at `level`.
+    pub(crate) fn apply(self, setup: &mut Setup, speed_mm_s: &mut f64, world: &mut World, level: f64) {
         match self {
             Nuisance::NoiseRate => {
                 setup.camera.leak_hz_per_pixel = level / 2.0;
@@ -88,8 +104,8 @@ impl Nuisance {
                 setup.scan.depth_wander_sigma_mm = level;
                 setup.scan.depth_tilt_sigma_mm_per_100mm = level;
             }
-            Nuisance::Speed => spec.speed_mm_s = level,
-            Nuisance::SensorBuild => spec.world.sensors = vec![level as u64],
+            Nuisance::Speed => *speed_mm_s = level,
+            Nuisance::SensorBuild => world.sensors = vec![level as u64],
             Nuisance::MountCompliance => {
                 setup.scan.stick_slip = (level > 0.0).then(|| sim::StickSlip::light_mount_with_compliance(level))
             }
@@ -177,7 +193,7 @@ pub fn sweep(spec: &SweepSpec, models: &[(String, &CharModel)], progress: &dyn P
                 blank_cells: false,
                 sweep: None,
             };
-            nuisance.apply(&mut setup, &mut set_spec, level);
+            nuisance.apply(&mut setup, &mut set_spec.speed_mm_s, &mut set_spec.world, level);
             let windows = build_many_in(&set_spec, &setup, &inputs, progress)?;
             let printed = characters_per_scan.iter().sum::<usize>() * spec.trials as usize;
             for (k, ((_, m), set)) in models.iter().zip(&windows.sets).enumerate() {

@@ -212,10 +212,21 @@ pub fn read_scans(
     timings: &[TimingMode],
     progress: &dyn Progress,
 ) -> Result<Vec<Vec<LineRead>>> {
+    read_scans_in(spec, &spec.world.setup(), readers, timings, progress)
+}
+
+/// [`read_scans`] with the world's preset replaced by `setup` (a robustness sweep's nuisance
+/// levels); the world still picks the sensor builds and the scan seeds.
+pub fn read_scans_in(
+    spec: &WordsSpec,
+    setup: &sim::Setup,
+    readers: &[&ReaderModels],
+    timings: &[TimingMode],
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<LineRead>>> {
     let (board, speed_mm_s, depth_mm) = (&spec.board, spec.speed_mm_s, spec.depth_mm);
-    let setup = spec.world.setup();
-    let b = spec.world.board(&setup, board)?;
-    let sensors = spec.world.sensors_at(&setup, encoders::Resolution::DVXPLORER)?;
+    let b = spec.world.board(setup, board)?;
+    let sensors = spec.world.sensors_at(setup, encoders::Resolution::DVXPLORER)?;
     let jobs: Vec<(usize, u64)> = (0..b.rows.len()).flat_map(|r| (0..spec.trials).map(move |t| (r, t))).collect();
     progress.start("reading simulated scans", jobs.len() as u64);
     let lines: Vec<Vec<LineRead>> = jobs

@@ -10,6 +10,7 @@ use crate::reports::words::{WordsReportSpec, words_report};
 use crate::{Error, Progress, Result};
 use corpus::boards::HeldOut;
 use corpus::world::{SensorBuilds, World};
+use pipeline::classify::ReaderModels;
 use pipeline::code::BrailleCode;
 use pipeline::reader::TimingMode;
 use pipeline::shipped::ReaderFiles;
@@ -335,7 +336,9 @@ pub fn letters(job: &LettersReportJob, progress: &dyn Progress) -> Result<Writte
 }
 
 /// Each architecture's shipped character classifier against one nuisance of the virtual Evetac
-/// at a time (`crate::eval::robustness`), on the test builds or, with `--final`, the sealed set.
+/// at a time (`crate::eval::robustness`), on the test builds or, with `--final`, the sealed set;
+/// with `words`, each architecture's whole reader on a board's words
+/// (`crate::eval::robustness_words`).
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct RobustnessReportJob {
@@ -344,9 +347,18 @@ pub struct RobustnessReportJob {
     /// Nuisances to sweep [default: all].
     #[cfg_attr(feature = "clap", arg(long, value_enum, value_delimiter = ','))]
     pub nuisances: Vec<crate::eval::robustness::Nuisance>,
-    /// Board scanned (the paper's test board).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "RAB"))]
-    pub board: sim::BoardKind,
+    /// Carry the sweep to words: each architecture's reader pair (from the models folder) reads
+    /// the board's words, speed estimated, 1 - WER without spelling and with the lexicon, and
+    /// each one's cliff (writes `robustness_words.md` and `.json`).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub words: bool,
+    /// The sensor builds that scan (`validation`, with a validation board, for choices); not
+    /// with `--final`, which scans with the sealed set's.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value = "test", conflicts_with = "final_read"))]
+    pub sensor_builds: SensorBuilds,
+    /// Board scanned [default: the paper's test board RAB; EV with `--words`].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub board: Option<sim::BoardKind>,
     /// Scans per board row and level.
     #[cfg_attr(feature = "clap", arg(long, default_value_t = 4))]
     pub trials: u64,
@@ -362,16 +374,20 @@ pub struct RobustnessReportJob {
 /// Sweeps every nuisance of `job` and writes `robustness.md`, `.json` and a PNG per nuisance.
 pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
     use crate::eval::robustness::{Nuisance, SweepSpec, sweep};
+    if job.words {
+        return robustness_words(job, progress);
+    }
     let (models_dir, out) = (job.place.models()?, job.place.out()?);
     let mut models = Vec::new();
     for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
         models.push((name.to_string(), CharModel::load(&pipeline::shipped::chars_in(models_dir, arch))?));
     }
-    let (world, seed) = job.place.test_world_sealed_at(SensorBuilds::Test, job.seed, corpus::world::SEALED_SWEEP_SEED);
+    let (world, seed) = job.place.test_world_sealed_at(job.sensor_builds, job.seed, corpus::world::SEALED_SWEEP_SEED);
+    let board = job.board.clone().unwrap_or(sim::BoardKind::Rab);
     let spec = SweepSpec {
         base: job.place.realism,
         nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
-        board: job.board.clone(),
+        board: board.clone(),
         speed_mm_s: job.speed,
         depth_mm: job.depth,
         trials: job.trials,
@@ -382,6 +398,64 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
     let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
     let report = sweep(&spec, &refs, progress)?;
     let printed = crate::reports::figures::write_robustness_report(&report, out)?;
-    let set = format!("robustness ({})", job.board.name());
+    let set = format!("robustness ({})", board.name());
     Ok(job.place.written(printed, out.join("robustness.md"), &set, (&spec.world, spec.seed)))
+}
+
+/// [`robustness`] carried to words: each architecture's reader pair from the models folder.
+fn robustness_words(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
+    use crate::eval::robustness::Nuisance;
+    use crate::eval::robustness_words::{WordsSweepSpec, markdown_words, sweep_words};
+    let (models_dir, out) = (job.place.models()?, job.place.out()?);
+    let mut readers = Vec::new();
+    for (name, arch) in [("ResNet", Arch::Resnet), ("SNN", Arch::Snn)] {
+        let files = pipeline::shipped::reader_for(models_dir, arch, pipeline::code::BrailleCode::Grade1Letters);
+        let r = ReaderModels::load(&files.segmenter, &files.classifier, pipeline::classify::SnnRunner::Sliding)?;
+        readers.push((name.to_string(), r));
+    }
+    let (world, seed) = job.place.test_world_sealed_at(job.sensor_builds, job.seed, corpus::world::SEALED_SWEEP_SEED);
+    let board = job.board.clone().unwrap_or(sim::BoardKind::Ev);
+    let spec = WordsSweepSpec {
+        base: job.place.realism,
+        nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
+        board: board.clone(),
+        speed_mm_s: job.speed,
+        depth_mm: job.depth,
+        trials: job.trials,
+        seed,
+        world,
+        models_dir: models_dir.display().to_string(),
+    };
+    let refs: Vec<(String, &ReaderModels)> = readers.iter().map(|(n, r)| (n.clone(), r)).collect();
+    let report = sweep_words(&spec, &refs, progress)?;
+    std::fs::create_dir_all(out).map_err(|source| Error::Io { path: out.clone(), source })?;
+    let command = format!(
+        "braille sim robustness --words --realism {} --models {} --board '{}' --sensor-builds {} --trials {} --speed {} --depth {}{}{}",
+        job.place.realism,
+        models_dir.display(),
+        board.name(),
+        format!("{:?}", job.sensor_builds).to_lowercase(),
+        job.trials,
+        job.speed,
+        job.depth,
+        if job.nuisances.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " --nuisances {}",
+                job.nuisances
+                    .iter()
+                    .map(|n| serde_json::to_string(n).unwrap_or_default().trim_matches('"').to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        },
+        if job.place.final_read { " --final" } else { "" }
+    );
+    let md_text = markdown_words(&report, &command);
+    let md = out.join("robustness_words.md");
+    std::fs::write(&md, &md_text).map_err(|source| Error::Io { path: md.clone(), source })?;
+    crate::write_json(&out.join("robustness_words.json"), &report, true)?;
+    let set = format!("robustness of words ({})", board.name());
+    Ok(job.place.written(md_text, md, &set, (&spec.world, spec.seed)))
 }
