@@ -5,21 +5,26 @@ use experiments::eval::chars::CharModel;
 use experiments::eval::robustness::{Nuisance, SweepSpec, markdown, sweep};
 use sim::{BoardKind, Realism};
 
+/// One nuisance on a text board at 1.5 mm, one scan a row and level, seed 3.
+fn spec(base: Realism, nuisance: Nuisance, text: &str, speed_mm_s: f64, world: corpus::world::World) -> SweepSpec {
+    SweepSpec {
+        base,
+        nuisances: vec![nuisance],
+        board: BoardKind::Text(text.into()),
+        speed_mm_s,
+        depth_mm: 1.5,
+        trials: 1,
+        seed: 3,
+        world,
+        models_dir: "models".into(),
+    }
+}
+
 #[test]
 fn a_sweep_scores_every_level_and_repeats() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let model = CharModel::load(&root.join("models/clean/resnet-lite-normaug.safetensors")).unwrap();
-    let spec = SweepSpec {
-        base: Realism::Clean,
-        nuisances: vec![Nuisance::Misalignment],
-        board: BoardKind::Text("HELP".into()),
-        speed_mm_s: 16.0,
-        depth_mm: 1.5,
-        trials: 1,
-        seed: 3,
-        world: corpus::world::World::test(Realism::Clean),
-        models_dir: "models".into(),
-    };
+    let spec = spec(Realism::Clean, Nuisance::Misalignment, "HELP", 16.0, corpus::world::World::test(Realism::Clean));
     let models = vec![("resnet".to_string(), &model)];
     let r = sweep(&spec, &models, &()).unwrap();
     let c = &r.curves[0];
@@ -46,7 +51,7 @@ fn a_sweep_scores_every_level_and_repeats() {
 
 #[test]
 fn a_words_sweep_reads_every_level_with_every_reader_and_names_each_cliff() {
-    use experiments::eval::robustness_words::{CLIFF, WordsSweepSpec, markdown_words, sweep_words};
+    use experiments::eval::robustness_words::{CLIFF, markdown_words, sweep_words};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let files = pipeline::shipped::reader_for(
         &root.join("models/nominal"),
@@ -59,17 +64,8 @@ fn a_words_sweep_reads_every_level_with_every_reader_and_names_each_cliff() {
         pipeline::classify::SnnRunner::Sliding,
     )
     .unwrap();
-    let spec = WordsSweepSpec {
-        base: Realism::Nominal,
-        nuisances: vec![Nuisance::NoiseRate],
-        board: BoardKind::Text("CAT".into()),
-        speed_mm_s: 64.0,
-        depth_mm: 1.5,
-        trials: 1,
-        seed: 3,
-        world: corpus::world::World::validation(Realism::Nominal),
-        models_dir: "models/nominal".into(),
-    };
+    let spec =
+        spec(Realism::Nominal, Nuisance::NoiseRate, "CAT", 64.0, corpus::world::World::validation(Realism::Nominal));
     let readers = vec![("snn".to_string(), &reader)];
     let r = sweep_words(&spec, &readers, &()).unwrap();
     let c = &r.curves[0];

@@ -117,7 +117,8 @@ impl Nuisance {
     }
 }
 
-/// What a sweep scans: a board at the training depth, `trials` scans per row and level.
+/// What a sweep scans: a board at a speed and depth, `trials` scans per row and level (the
+/// character classifiers' sweep and the readers' words sweep alike).
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepSpec {
     pub base: Realism,
@@ -130,7 +131,7 @@ pub struct SweepSpec {
     /// The world scanned: the test builds (`World::test`) or the sealed set's (`World::sealed`);
     /// the sensor-build sweep replaces its builds level by level.
     pub world: World,
-    /// Where the swept classifiers were loaded from (named in the report).
+    /// Where the swept models were loaded from (named in the report).
     pub models_dir: String,
 }
 
@@ -150,12 +151,14 @@ pub struct Curve {
     pub accuracy_all_windows: Vec<Vec<f64>>,
 }
 
+/// A sweep's curves, of characters ([`Curve`]) or of words
+/// (`crate::eval::robustness_words::WordsCurve`), with the names of the models or readers swept.
 #[derive(Debug, Clone, Serialize)]
-pub struct Report {
+pub struct Report<C = Curve> {
     pub data: &'static str,
     pub spec: SweepSpec,
     pub models: Vec<String>,
-    pub curves: Vec<Curve>,
+    pub curves: Vec<C>,
 }
 
 /// Sweeps each nuisance of `spec` for the named models.

@@ -7,34 +7,15 @@
 
 use crate::Progress;
 use crate::error::{Error, Result};
-use crate::eval::robustness::Nuisance;
+use crate::eval::robustness::{Nuisance, Report, SweepSpec};
 use crate::eval::words::{WordsSpec, read_scans_in, score};
-use corpus::world::World;
 use pipeline::classify::ReaderModels;
 use pipeline::reader::{Spell, TimingMode};
 use serde::Serialize;
-use sim::{BoardKind, Realism};
 use std::fmt::Write as _;
 
 /// Word accuracy (1 - WER, with the lexicon) a reader must hold: under it, it has fallen.
 pub const CLIFF: f64 = 0.9;
-
-/// What a words sweep reads: a board, `trials` scans per row and level.
-#[derive(Debug, Clone, Serialize)]
-pub struct WordsSweepSpec {
-    pub base: Realism,
-    pub nuisances: Vec<Nuisance>,
-    pub board: BoardKind,
-    pub speed_mm_s: f64,
-    pub depth_mm: f64,
-    pub trials: u64,
-    pub seed: u64,
-    /// The world scanned (its builds: test, validation or the sealed set's); the sensor-build
-    /// sweep replaces its builds level by level.
-    pub world: World,
-    /// Where the readers' pairs were loaded from (named in the report).
-    pub models_dir: String,
-}
 
 /// One nuisance's words: 1 - WER per reader per level, without spelling and with the lexicon.
 #[derive(Debug, Clone, Serialize)]
@@ -54,13 +35,8 @@ pub struct WordsCurve {
     pub cliff: Vec<Option<f64>>,
 }
 
-#[derive(Debug, Clone, Serialize)]
-pub struct WordsReport {
-    pub data: &'static str,
-    pub spec: WordsSweepSpec,
-    pub readers: Vec<String>,
-    pub curves: Vec<WordsCurve>,
-}
+/// The readers' words over every nuisance swept (`models` names the readers).
+pub type WordsReport = Report<WordsCurve>;
 
 /// The levels of `levels` where `accuracy` falls under [`CLIFF`], and the first of them when the
 /// levels run from gentle to harsh.
@@ -72,7 +48,7 @@ pub fn cliff(levels: &[f64], accuracy: &[f64], monotone: bool) -> (Vec<f64>, Opt
 
 /// Sweeps each nuisance of `spec` with the named readers, speed estimated from the events.
 pub fn sweep_words(
-    spec: &WordsSweepSpec,
+    spec: &SweepSpec,
     readers: &[(String, &ReaderModels)],
     progress: &dyn Progress,
 ) -> Result<WordsReport> {
@@ -135,7 +111,7 @@ pub fn sweep_words(
     Ok(WordsReport {
         data: "SIMULATED (virtual Evetac)",
         spec: spec.clone(),
-        readers: readers.iter().map(|(n, _)| n.clone()).collect(),
+        models: readers.iter().map(|(n, _)| n.clone()).collect(),
         curves,
     })
 }
@@ -159,13 +135,13 @@ pub fn markdown_words(r: &WordsReport, command: &str) -> String {
     );
     let _ = writeln!(m, "## Cliffs\n");
     let _ = write!(m, "| nuisance |");
-    for name in &r.readers {
+    for name in &r.models {
         let _ = write!(m, " {name} |");
     }
-    let _ = writeln!(m, "\n|{}", " --- |".repeat(1 + r.readers.len()));
+    let _ = writeln!(m, "\n|{}", " --- |".repeat(1 + r.models.len()));
     for c in &r.curves {
         let _ = write!(m, "| {} |", c.label);
-        for k in 0..r.readers.len() {
+        for k in 0..r.models.len() {
             let cell = match (c.cliff[k], c.under[k].is_empty()) {
                 (_, true) => format!("holds to {}", c.levels.last().copied().unwrap_or(f64::NAN)),
                 (Some(level), false) => format!("falls at {level}"),
@@ -179,13 +155,13 @@ pub fn markdown_words(r: &WordsReport, command: &str) -> String {
     for c in &r.curves {
         let _ = writeln!(m, "## {}\n", c.label);
         let _ = write!(m, "| level |");
-        for name in &r.readers {
+        for name in &r.models {
             let _ = write!(m, " {name}: none / lexicon | speed error |");
         }
-        let _ = writeln!(m, "\n|{}", " --- |".repeat(1 + 2 * r.readers.len()));
+        let _ = writeln!(m, "\n|{}", " --- |".repeat(1 + 2 * r.models.len()));
         for (i, level) in c.levels.iter().enumerate() {
             let _ = write!(m, "| {level} |");
-            for k in 0..r.readers.len() {
+            for k in 0..r.models.len() {
                 let _ = write!(
                     m,
                     " {:.3} / {:.3} | {:+.1}% |",

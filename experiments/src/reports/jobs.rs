@@ -371,9 +371,29 @@ pub struct RobustnessReportJob {
     pub seed: u64,
 }
 
+impl RobustnessReportJob {
+    /// What the job sweeps, on `board` unless it names one: the sealed world with `--final`.
+    fn spec(&self, models_dir: &std::path::Path, board: sim::BoardKind) -> crate::eval::robustness::SweepSpec {
+        use crate::eval::robustness::Nuisance;
+        let (world, seed) =
+            self.place.test_world_sealed_at(self.sensor_builds, self.seed, corpus::world::SEALED_SWEEP_SEED);
+        crate::eval::robustness::SweepSpec {
+            base: self.place.realism,
+            nuisances: if self.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { self.nuisances.clone() },
+            board: self.board.clone().unwrap_or(board),
+            speed_mm_s: self.speed,
+            depth_mm: self.depth,
+            trials: self.trials,
+            seed,
+            world,
+            models_dir: models_dir.display().to_string(),
+        }
+    }
+}
+
 /// Sweeps every nuisance of `job` and writes `robustness.md`, `.json` and a PNG per nuisance.
 pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
-    use crate::eval::robustness::{Nuisance, SweepSpec, sweep};
+    use crate::eval::robustness::sweep;
     if job.words {
         return robustness_words(job, progress);
     }
@@ -382,19 +402,8 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
     for (name, arch) in [("ResNet lite NormAug", Arch::Resnet), ("SNN", Arch::Snn)] {
         models.push((name.to_string(), CharModel::load(&pipeline::shipped::chars_in(models_dir, arch))?));
     }
-    let (world, seed) = job.place.test_world_sealed_at(job.sensor_builds, job.seed, corpus::world::SEALED_SWEEP_SEED);
-    let board = job.board.clone().unwrap_or(sim::BoardKind::Rab);
-    let spec = SweepSpec {
-        base: job.place.realism,
-        nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
-        board: board.clone(),
-        speed_mm_s: job.speed,
-        depth_mm: job.depth,
-        trials: job.trials,
-        seed,
-        world,
-        models_dir: models_dir.display().to_string(),
-    };
+    let spec = job.spec(models_dir, sim::BoardKind::Rab);
+    let board = spec.board.clone();
     let refs: Vec<(String, &CharModel)> = models.iter().map(|(n, m)| (n.clone(), m)).collect();
     let report = sweep(&spec, &refs, progress)?;
     let printed = crate::reports::figures::write_robustness_report(&report, out)?;
@@ -404,8 +413,7 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
 
 /// [`robustness`] carried to words: each architecture's reader pair from the models folder.
 fn robustness_words(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
-    use crate::eval::robustness::Nuisance;
-    use crate::eval::robustness_words::{WordsSweepSpec, markdown_words, sweep_words};
+    use crate::eval::robustness_words::{markdown_words, sweep_words};
     let (models_dir, out) = (job.place.models()?, job.place.out()?);
     let mut readers = Vec::new();
     for (name, arch) in [("ResNet", Arch::Resnet), ("SNN", Arch::Snn)] {
@@ -413,19 +421,8 @@ fn robustness_words(job: &RobustnessReportJob, progress: &dyn Progress) -> Resul
         let r = ReaderModels::load(&files.segmenter, &files.classifier, pipeline::classify::SnnRunner::Sliding)?;
         readers.push((name.to_string(), r));
     }
-    let (world, seed) = job.place.test_world_sealed_at(job.sensor_builds, job.seed, corpus::world::SEALED_SWEEP_SEED);
-    let board = job.board.clone().unwrap_or(sim::BoardKind::Ev);
-    let spec = WordsSweepSpec {
-        base: job.place.realism,
-        nuisances: if job.nuisances.is_empty() { Nuisance::ALL.to_vec() } else { job.nuisances.clone() },
-        board: board.clone(),
-        speed_mm_s: job.speed,
-        depth_mm: job.depth,
-        trials: job.trials,
-        seed,
-        world,
-        models_dir: models_dir.display().to_string(),
-    };
+    let spec = job.spec(models_dir, sim::BoardKind::Ev);
+    let board = spec.board.clone();
     let refs: Vec<(String, &ReaderModels)> = readers.iter().map(|(n, r)| (n.clone(), r)).collect();
     let report = sweep_words(&spec, &refs, progress)?;
     std::fs::create_dir_all(out).map_err(|source| Error::Io { path: out.clone(), source })?;
