@@ -36,6 +36,9 @@ pub enum Kind {
     /// Every letter at every place in a row: both architectures on SIMULATED scans of the
     /// all-letters board over speed and depth (Markdown, JSON).
     Letters(experiments::reports::jobs::LettersReportJob),
+    /// Words across the envelope: both architectures' readers at each preset x speed (8-200
+    /// mm/s) x depth, speed estimated, seed means over model folders (Markdown, JSON).
+    Envelope(experiments::reports::envelope::EnvelopeReportJob),
     /// The shipped SNNs on the real iCub recordings beside the baselines (Markdown, JSON, PNG).
     Icub(crate::icub_report::Args),
     /// Per tactile dataset, the SNN search's models beside the GRU, LSTM, temporal CNN and linear
@@ -51,6 +54,12 @@ pub fn run(args: Args) -> Result<()> {
         Some(Kind::Chars(a)) => return crate::chars_report::run(a),
         Some(Kind::Words(a)) => return crate::words_report::run(a),
         Some(Kind::Letters(a)) => return crate::letters_report::run(a),
+        Some(Kind::Envelope(mut a)) => {
+            a.place.out.get_or_insert_with(|| repo_path("docs/results/envelope"));
+            crate::common::place_defaults(&mut a.place);
+            let command = std::env::args().collect::<Vec<_>>().join(" ");
+            return crate::common::finish(experiments::reports::envelope::envelope(&a, &command, &Bar::default())?);
+        }
         Some(Kind::Icub(a)) => return crate::icub_report::run(a),
         Some(Kind::Tactile(a)) => return crate::tactile_report::run(a),
         Some(Kind::Chip(a)) => return crate::chip_report::run(a),

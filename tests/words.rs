@@ -374,6 +374,31 @@ fn words_report_writes_the_speed_table() {
 }
 
 #[test]
+fn the_envelope_table_reads_each_condition_with_both_readers_and_has_no_sealed_set_yet() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("envelope");
+    let args = ["report", "envelope", "--validation", "--presets", "nominal", "--speeds", "200", "--depths", "1.0"];
+    let o = braille(&[&args[..], &["--trials", "1", "--out", out.to_str().unwrap()]].concat());
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let md = std::fs::read_to_string(out.join("validation_envelope.md")).unwrap();
+    assert!(md.contains("SIMULATED") && md.contains("VAL-WORDS") && md.contains("[51, 52]"), "{md}");
+    for reader in ["SNN", "ResNet"] {
+        let row = md.lines().find(|l| l.starts_with(&format!("| nominal | 1 mm | {reader} |"))).expect(reader);
+        assert!(row.contains(" (0.00) / "), "{row}");
+        assert!(md.contains(&format!("- {reader}, `nominal` [200.0] mm/s")), "{md}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("validation_envelope.json")).unwrap()).unwrap();
+    assert_eq!(json["cells"].as_array().unwrap().len(), 2);
+    // no sealed set is fixed for it: --final is refused, and nothing is written or recorded
+    let o = braille(&["report", "envelope", "--final", "--out", dir.path().join("sealed").to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("no sealed set"), "{err}");
+    assert!(!dir.path().join("sealed").exists());
+}
+
+#[test]
 fn letters_report_reads_the_all_letters_board() {
     let dir = tempfile::tempdir().unwrap();
     let common = ["letters-report", "--archs", "snn", "--speeds", "64", "--depths", "1.5", "--trials", "1"];

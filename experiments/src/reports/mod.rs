@@ -4,6 +4,7 @@
 pub mod all;
 pub mod chars;
 pub mod chips;
+pub mod envelope;
 pub mod figures;
 pub mod icub;
 pub mod jobs;
