@@ -36,10 +36,14 @@ pub enum Nuisance {
     /// Width of the field of view on the gel, mm: the optics' scale (18.6 the design's), every
     /// build at this width.
     FieldOfView,
+    /// Share of the sensor's pixels that are hot (each firing at 10-100 Hz), drawn per build.
+    HotPixels,
+    /// Standard deviation of the board row's yaw under the slide, degrees.
+    Yaw,
 }
 
 impl Nuisance {
-    pub const ALL: [Nuisance; 7] = [
+    pub const ALL: [Nuisance; 9] = [
         Nuisance::NoiseRate,
         Nuisance::Misalignment,
         Nuisance::DepthDrift,
@@ -47,6 +51,8 @@ impl Nuisance {
         Nuisance::SensorBuild,
         Nuisance::MountCompliance,
         Nuisance::FieldOfView,
+        Nuisance::HotPixels,
+        Nuisance::Yaw,
     ];
 
     pub fn label(self) -> &'static str {
@@ -58,6 +64,8 @@ impl Nuisance {
             Nuisance::SensorBuild => "sensor build (seed)",
             Nuisance::MountCompliance => "mount compliance with stick-slip (um/N)",
             Nuisance::FieldOfView => "field of view on the gel (mm)",
+            Nuisance::HotPixels => "hot pixels (share of the pixels)",
+            Nuisance::Yaw => "row yaw sigma (degrees)",
         }
     }
 
@@ -73,6 +81,10 @@ impl Nuisance {
             Nuisance::MountCompliance => vec![0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 33.0, 50.0],
             // The design's 18.6 mm +-5% and +-10% (`nominal`'s builds: 2.5% sigma).
             Nuisance::FieldOfView => vec![16.74, 17.67, 18.6, 19.53, 20.46],
+            // None, `nominal`'s 0.03%, `harsh`'s 0.1%, and past it.
+            Nuisance::HotPixels => vec![0.0, 0.0003, 0.001, 0.003, 0.01],
+            // None, `nominal`'s 0.5 degrees, `harsh`'s 1.5, and past it.
+            Nuisance::Yaw => vec![0.0, 0.5, 1.0, 1.5, 3.0],
         }
     }
 
@@ -113,6 +125,8 @@ impl Nuisance {
                 setup.camera.fov_width_mm = level;
                 setup.variation.fov_rel_sigma = 0.0;
             }
+            Nuisance::HotPixels => setup.variation.hot_pixel_fraction = level,
+            Nuisance::Yaw => setup.scan.yaw_sigma_deg = level,
         }
     }
 }
