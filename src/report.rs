@@ -57,7 +57,8 @@ pub fn run(args: Args) -> Result<()> {
         Some(Kind::Envelope(mut a)) => {
             a.place.out.get_or_insert_with(|| repo_path("docs/results/envelope"));
             crate::common::place_defaults(&mut a.place);
-            let command = std::env::args().collect::<Vec<_>>().join(" ");
+            let command =
+                std::iter::once("braille".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
             return crate::common::finish(experiments::reports::envelope::envelope(&a, &command, &Bar::default())?);
         }
         Some(Kind::Icub(a)) => return crate::icub_report::run(a),

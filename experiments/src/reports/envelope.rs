@@ -200,7 +200,7 @@ pub fn markdown(r: &EnvelopeReport) -> String {
     let mut m = String::new();
     let _ = writeln!(
         m,
-        "# Words across the envelope (SIMULATED)\n\nEach architecture's whole reader (segmentation, classifier, temporal filter, the speed estimated from the events, the noise filter its models were trained behind) reads board {} by sensor builds {:?}, {} scans a row at each condition (seed {}), at each preset, speed and depth. Each cell: 1 - WER over every printed word (inserted words count; below zero, more inserted than printed) with the lexicon, mean over the {} model folder(s) {:?} (their standard deviation in brackets) / without spelling. Made by `{}`.\n",
+        "# Words across the envelope (SIMULATED)\n\nEach architecture's whole reader (segmentation, classifier, temporal filter, the speed estimated from the events, the noise filter its models were trained behind) reads board {} by sensor builds {:?}, {} scans a row at each condition (seed {}), at each preset, speed and depth. Each cell: 1 - WER over every printed word (inserted words count; below zero, more inserted than printed) with the lexicon, mean over the {} model folder(s) {:?} (with several, their standard deviation in brackets) / without spelling. Made by `{}`.\n",
         r.board,
         r.sensor_builds,
         r.trials,
@@ -225,7 +225,10 @@ pub fn markdown(r: &EnvelopeReport) -> String {
                     let cell = c.map_or("-".to_string(), |c| {
                         let (lex, sd) = EnvelopeCell::mean_sd(&c.words_lexicon);
                         let (none, _) = EnvelopeCell::mean_sd(&c.words_none);
-                        format!("{lex:.2} ({sd:.2}) / {none:.2}")
+                        match r.model_dirs.len() {
+                            1 => format!("{lex:.2} / {none:.2}"),
+                            _ => format!("{lex:.2} ({sd:.2}) / {none:.2}"),
+                        }
                     });
                     let _ = write!(m, " {cell} |");
                 }
@@ -290,7 +293,9 @@ mod tests {
         let (mean, lowest) = summary(&r, Realism::Harsh, Arch::Snn, &[8.0, 128.0], Spell::Lexicon);
         assert!((mean - 0.85).abs() < 1e-12 && lowest == 0.7);
         let md = markdown(&r);
-        assert!(md.contains("| harsh | 1 mm | SNN | 0.70 (0.00) / 0.60 | 1.00 (0.00) / 0.90 |"), "{md}");
+        assert!(md.contains("| harsh | 1 mm | SNN | 0.70 / 0.60 | 1.00 / 0.90 |"), "{md}");
+        let two = EnvelopeReport { model_dirs: vec!["a".into(), "b".into()], ..r.clone() };
+        assert!(markdown(&two).contains("| harsh | 1 mm | SNN | 0.70 (0.00) / 0.60 |"));
         assert!(md.contains("lowest cell 0.700; target 0.9"), "{md}");
         // the ResNet has no cell: a dash, not a figure
         assert!(md.contains("| harsh | 1 mm | ResNet | - | - |"), "{md}");
