@@ -125,7 +125,7 @@ pub fn markdown_words(r: &WordsReport, command: &str) -> String {
         m,
         "# Robustness of word reading (SIMULATED)\n\nEach architecture's reader (from `{}`: segmentation, classifier, temporal filter, the speed estimated from the events, each with the noise filter its models were trained behind) reads board {} as one nuisance grows, the rest at the `{}` preset; {} mm/s and {} mm unless swept, {} scans per row and level (seed {}), sensor builds {:?} unless swept. Each cell: 1 - WER over every printed word (inserted words count; below zero, more inserted than printed) without spelling / with the lexicon. A reader's cliff is the first level, from gentle to harsh, where its words with the lexicon fall under {CLIFF}. Made by `{command}`.\n",
         s.models_dir,
-        s.board.name(),
+        corpus::boards::board_name(&s.board),
         s.base,
         s.speed_mm_s,
         s.depth_mm,

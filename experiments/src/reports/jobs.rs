@@ -356,8 +356,9 @@ pub struct RobustnessReportJob {
     /// with `--final`, which scans with the sealed set's.
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value = "test", conflicts_with = "final_read"))]
     pub sensor_builds: SensorBuilds,
-    /// Board scanned [default: the paper's test board RAB; EV with `--words`].
-    #[cfg_attr(feature = "clap", arg(long))]
+    /// Board scanned, as `eval` names boards (`VAL-WORDS` too) [default: the paper's test board
+    /// RAB; EV with `--words`].
+    #[cfg_attr(feature = "clap", arg(long, value_parser = corpus::boards::parse_board))]
     pub board: Option<sim::BoardKind>,
     /// Scans per board row and level.
     #[cfg_attr(feature = "clap", arg(long, default_value_t = 4))]
@@ -427,11 +428,12 @@ fn robustness_words(job: &RobustnessReportJob, progress: &dyn Progress) -> Resul
     let report = sweep_words(&spec, &refs, progress)?;
     std::fs::create_dir_all(out).map_err(|source| Error::Io { path: out.clone(), source })?;
     let command = format!(
-        "braille sim robustness --words --realism {} --models {} --board '{}' --sensor-builds {} --trials {} --speed {} --depth {}{}{}",
+        "braille sim robustness --words --realism {} --models {} --board '{}' --sensor-builds {}{} --trials {} --speed {} --depth {}{}{}",
         job.place.realism,
         models_dir.display(),
-        board.name(),
+        corpus::boards::board_name(&board),
         format!("{:?}", job.sensor_builds).to_lowercase(),
+        if job.place.final_read { String::new() } else { format!(" --seed {}", job.seed) },
         job.trials,
         job.speed,
         job.depth,
