@@ -17,7 +17,6 @@ use learn::resnet::ImageSet;
 use pipeline::grid::GridMark;
 use pipeline::input::CharInput;
 use pipeline::labeling::{CharWindow, LabelerConfig, label, window_heatmap};
-
 use pipeline::speed::SpeedEstimatorConfig;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -480,7 +479,9 @@ fn first_of_one_labeler<'a>(inputs: &[&'a CharInput]) -> Result<&'a CharInput> {
 }
 
 /// [`build_many`] with the world's preset replaced by `setup` (a robustness sweep's nuisance
-/// levels); the world still picks the sensor builds and the scan seeds.
+/// levels), or, when the spec's sweep has nuisance levels, by each trial's level between
+/// `nominal` and `harsh` ([`Sweep::levels`]); the world still picks the sensor builds and the
+/// scan seeds.
 pub fn build_many_in(
     spec: &CharSetSpec,
     setup: &Setup,

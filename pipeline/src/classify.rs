@@ -686,6 +686,21 @@ mod tests {
     }
 
     #[test]
+    fn a_pair_reads_behind_its_models_filter_and_a_pair_trained_behind_two_is_refused() {
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+        let seg = models.join("nominal/snn-segment.safetensors");
+        let plain =
+            ReaderModels::load(&seg, &models.join("nominal/snn-words.safetensors"), SnnRunner::Sliding).unwrap();
+        assert_eq!(plain.denoise, None);
+        // the envelope's classifier was trained behind DV's filter; the shipped segmenter was not
+        let filtered = models.join("envelope/snn-words.safetensors");
+        let m = WindowModel::load(&filtered, SnnRunner::Sliding).unwrap();
+        assert_eq!(m.input().denoise, Some(encoders::denoise::NoiseFilterSettings::DV_LAB));
+        let e = ReaderModels::load(&seg, &filtered, SnnRunner::Sliding).err().expect("refused").to_string();
+        assert!(e.contains("snn-words.safetensors") && e.contains("noise filter"), "{e}");
+    }
+
+    #[test]
     fn the_cached_crops_are_crop_windows_while_the_speed_changes() {
         // the ResNet segmentation network's input on a stream whose speed jumps between 8 and 40
         // mm/s (the reader retunes its bins within a window)
