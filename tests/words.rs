@@ -396,6 +396,11 @@ fn the_envelope_table_reads_each_condition_with_both_readers_and_has_no_sealed_s
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("no sealed set"), "{err}");
     assert!(!dir.path().join("sealed").exists());
+    // nor for the words sweep
+    let o = braille(&["sim", "robustness", "--words", "--final", "--out", dir.path().join("sealed").to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("no sealed set"), "{err}");
+    assert!(!dir.path().join("sealed").exists());
 }
 
 #[test]

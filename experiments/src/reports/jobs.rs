@@ -415,6 +415,12 @@ pub fn robustness(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<
 /// [`robustness`] carried to words: each architecture's reader pair from the models folder.
 fn robustness_words(job: &RobustnessReportJob, progress: &dyn Progress) -> Result<Written> {
     use crate::eval::robustness_words::{markdown_words, sweep_words};
+    if job.place.final_read {
+        return Err(Error::Options(
+            "the words sweep has no sealed set yet: one is fixed, with its rule, in docs/protocol.md before it is read"
+                .into(),
+        ));
+    }
     let (models_dir, out) = (job.place.models()?, job.place.out()?);
     let mut readers = Vec::new();
     for (name, arch) in [("ResNet", Arch::Resnet), ("SNN", Arch::Snn)] {
