@@ -74,9 +74,7 @@ impl Setup {
     /// differ in amounts only, so the levels between them are setups a real sensor can show: a
     /// training set drawn over them covers the envelope (`corpus::windows::Sweep::levels`). Not
     /// a preset: a level is never a source's value, and reports name `nominal` or `harsh` only.
-    ///
-    /// # Panics
-    /// Never: `level` is clamped to `0..=1`.
+    /// `level` is clamped to `0..=1` (not a number: 0).
     pub fn between(level: f64) -> Setup {
         let level = if level.is_finite() { level.clamp(0.0, 1.0) } else { 0.0 };
         let realism = if level >= 1.0 { Realism::Harsh } else { Realism::Nominal };

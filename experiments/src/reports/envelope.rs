@@ -60,12 +60,9 @@ pub struct EnvelopeCell {
 }
 
 impl EnvelopeCell {
-    /// Mean and sample standard deviation (0 with one folder).
+    /// Mean and sample standard deviation (`crate::eval::scoring::mean_sd`; 0 with one folder).
     pub fn mean_sd(v: &[f64]) -> (f64, f64) {
-        let n = v.len().max(1) as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let sd = if v.len() > 1 { (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
-        (mean, sd)
+        crate::eval::scoring::mean_sd(v).map_or((f64::NAN, f64::NAN), |(m, sd)| (m, if v.len() > 1 { sd } else { 0.0 }))
     }
 }
 
@@ -92,11 +89,10 @@ pub fn envelope(job: &EnvelopeReportJob, command: &str, progress: &dyn Progress)
                 .into(),
         ));
     }
-    let out = job.place.out.as_ref().ok_or_else(|| Error::Options("no folder for the report (`out`)".into()))?;
-    let dirs = match (&job.model_dirs[..], &job.place.models) {
-        ([], Some(m)) => vec![m.clone()],
-        ([], None) => return Err(Error::Options("no models folder (`models` or `model_dirs`)".into())),
-        (dirs, _) => dirs.to_vec(),
+    let out = job.place.out()?;
+    let dirs = match &job.model_dirs[..] {
+        [] => vec![job.place.models()?.clone()],
+        dirs => dirs.to_vec(),
     };
     let archs = [Arch::Resnet, Arch::Snn];
     let mut readers = Vec::new();

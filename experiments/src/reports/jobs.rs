@@ -70,11 +70,11 @@ impl ReportPlace {
         Written { printed, md, sealed_set, sealed_scans, ledger: self.ledger.clone() }
     }
 
-    fn models(&self) -> Result<&PathBuf> {
+    pub(crate) fn models(&self) -> Result<&PathBuf> {
         self.models.as_ref().ok_or_else(|| Error::Options("no models folder (`models`)".into()))
     }
 
-    fn out(&self) -> Result<&PathBuf> {
+    pub(crate) fn out(&self) -> Result<&PathBuf> {
         self.out.as_ref().ok_or_else(|| Error::Options("no folder for the report (`out`)".into()))
     }
 }
