@@ -75,6 +75,29 @@ pub fn validation_words_board() -> BoardKind {
     BoardKind::Text(validation_word_rows(VALIDATION_SEED, 4, 25))
 }
 
+/// The validation sentences ([`VALIDATION_SENTENCES`]) in the paper's letters, `VAL-SENTENCES` on
+/// the command line: each word's letters in capitals (digits and punctuation left out), rows of
+/// at most 25 letters. Short words ("A", "AT", "THE") that the validation words lack.
+pub fn validation_sentences_letters_board() -> BoardKind {
+    let mut rows: Vec<String> = vec![String::new()];
+    let words = VALIDATION_SENTENCES
+        .split_whitespace()
+        .map(|w| w.chars().filter(char::is_ascii_alphabetic).collect::<String>().to_ascii_uppercase())
+        .filter(|w| !w.is_empty());
+    for w in words {
+        let row = rows.last_mut().expect("one row at least");
+        if row.is_empty() {
+            row.push_str(&w);
+        } else if row.len() + 1 + w.len() > 25 {
+            rows.push(w);
+        } else {
+            row.push(' ');
+            row.push_str(&w);
+        }
+    }
+    BoardKind::Text(rows.join("/"))
+}
+
 /// Where a letter stands in its row: the first of the row, the first of a later word, inside a
 /// word, or the last of a word (a one-letter word's letter counts as a start). The all-letters
 /// boards hold every letter at each place, and the word scores count letters by it.
@@ -284,6 +307,9 @@ pub fn board_name(kind: &BoardKind) -> String {
         if *kind == validation_words_board() {
             return "VAL-WORDS".into();
         }
+        if *kind == validation_sentences_letters_board() {
+            return "VAL-SENTENCES".into();
+        }
         if let Some((_, name)) = sentence_boards().iter().find(|(b, _)| b == kind) {
             return name.clone();
         }
@@ -297,11 +323,15 @@ pub fn board_name(kind: &BoardKind) -> String {
 }
 
 /// A board named as the command line names it: the simulator's boards
-/// ([`BoardKind`]'s `FromStr`), `VAL-WORDS` ([`validation_words_board`]), and the all-letters
+/// ([`BoardKind`]'s `FromStr`), `VAL-WORDS` ([`validation_words_board`]), `VAL-SENTENCES`
+/// ([`validation_sentences_letters_board`]), and the all-letters
 /// boards `ALL-LETTERS` (test) and `VAL-LETTERS` (validation; [`all_letters_board`]).
 pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
     if s.eq_ignore_ascii_case("VAL-WORDS") {
         return Ok(validation_words_board());
+    }
+    if s.eq_ignore_ascii_case("VAL-SENTENCES") {
+        return Ok(validation_sentences_letters_board());
     }
     if s.eq_ignore_ascii_case("ALL-LETTERS") {
         return Ok(all_letters_board(HeldOut::Test));
@@ -309,7 +339,7 @@ pub fn parse_board(s: &str) -> std::result::Result<BoardKind, String> {
     if s.eq_ignore_ascii_case("VAL-LETTERS") {
         return Ok(all_letters_board(HeldOut::Validation));
     }
-    s.parse::<BoardKind>().map_err(|e| format!("{e}, VAL-WORDS, ALL-LETTERS or VAL-LETTERS"))
+    s.parse::<BoardKind>().map_err(|e| format!("{e}, VAL-WORDS, VAL-SENTENCES, ALL-LETTERS or VAL-LETTERS"))
 }
 
 /// A board named as [`parse_board`] names it, with a `text:` board's print written in `code`:
@@ -797,6 +827,10 @@ mod tests {
         assert_eq!(board_name(&parse_board("all-letters").unwrap()), "ALL-LETTERS");
         assert_eq!(board_name(&parse_board("VAL-LETTERS").unwrap()), "VAL-LETTERS");
         assert_eq!(board_name(&parse_board("val-words").unwrap()), "VAL-WORDS");
+        assert_eq!(board_name(&parse_board("val-sentences").unwrap()), "VAL-SENTENCES");
+        let BoardKind::Text(sentences) = validation_sentences_letters_board() else { panic!("a text board") };
+        assert!(sentences.starts_with("THE MUSEUM IS CLOSED ON/SUNDAYS TURN"), "{sentences}");
+        assert!(sentences.split('/').all(|r| r.len() <= 25 && r.chars().all(|c| c == ' ' || c.is_ascii_uppercase())));
         assert_eq!(board_name(&BoardKind::Ev), "EV");
         assert_eq!(parse_board("val-letters"), Ok(BoardKind::Text(val.text())));
         assert_eq!(all_letters_rows(&held_out_pool(HeldOut::Test), ALL_LETTERS_TIMES, 25), *test, "a fixed rule");

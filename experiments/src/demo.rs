@@ -230,7 +230,7 @@ fn read_words(spec: &DemoSpec, w: &mut dyn Write) -> Result<()> {
             let got = r.read(&s.events, sensor.camera.resolution, Timing::ESTIMATED, &speller)?;
             let (words, stats) = (got.words, got.stats);
             let took = t.elapsed().as_secs_f64();
-            let read: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
+            let read: Vec<&str> = words.iter().filter(|w| !w.unreadable).map(|w| w.text.as_str()).collect();
             let raw: Vec<&str> = words.iter().map(|w| w.raw.as_str()).collect();
             // words right, the read line aligned to the printed one (a word split in two is wrong)
             let hits = EditCounts::align(&truth, &read).hits;
@@ -298,7 +298,7 @@ fn read_ueb(spec: &DemoSpec, w: &mut dyn Write) -> Result<()> {
         let truth: Vec<&str> = row_print.split_whitespace().collect();
         for ((arch, r), ok) in readers.iter().zip(right.iter_mut()) {
             let got = r.read(&s.events, sensor.camera.resolution, Timing::ESTIMATED, &speller)?;
-            let read: Vec<&str> = got.words.iter().map(|w| w.text.as_str()).collect();
+            let read: Vec<&str> = got.words.iter().filter(|w| !w.unreadable).map(|w| w.text.as_str()).collect();
             let raw: Vec<&str> = got.words.iter().map(|w| w.raw.as_str()).collect();
             // words right exactly (case, digits and punctuation count), aligned to the print
             let hits = EditCounts::align(&truth, &read).hits;

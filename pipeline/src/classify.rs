@@ -277,8 +277,14 @@ impl WindowModel {
     }
 
     /// The same model read at `point` (`None`: the paper's point).
-    pub fn with_operating_point(self, point: Option<crate::reader::OperatingPoint>) -> WindowModel {
-        WindowModel { operating_point: point, ..self }
+    pub fn with_operating_point(mut self, point: Option<crate::reader::OperatingPoint>) -> WindowModel {
+        self.set_operating_point(point);
+        self
+    }
+
+    /// Reads the model at `point` from now on (`None`: the paper's point).
+    pub fn set_operating_point(&mut self, point: Option<crate::reader::OperatingPoint>) {
+        self.operating_point = point;
     }
 
     /// The operating point its model file records for a reader (a calibrated segmentation

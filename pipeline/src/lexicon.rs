@@ -153,6 +153,11 @@ impl LexiconDecoder {
         (emit, (raw, score))
     }
 
+    /// The log prior of `word` (upper case) if it is one of the lexicon's words.
+    pub fn log_prior(&self, word: &str) -> Option<f64> {
+        self.by_len.get(&word.len())?.iter().find(|(w, _, _)| w == word.as_bytes()).map(|w| w.1)
+    }
+
     /// The most probable word for the observations, upper case, and its score.
     pub fn decode(&self, obs: &[LetterProbs]) -> (String, f64) {
         let (emit, mut best) = self.start(obs);

@@ -13,6 +13,7 @@
 //! Reading needs no training code and no simulator: this crate builds on `encoders`, `snn` and
 //! `learn` without its `train` feature (burn's inference only).
 
+pub mod abstain;
 pub mod cell_spell;
 pub mod classify;
 pub mod code;

@@ -143,7 +143,7 @@ pub fn read_source(
                     completion_latency.saturating_record((now.duration_since(arrived).as_micros() as u64).max(1));
                 }
                 on_word(&w)?;
-                text.push_back(w.text);
+                text.push_back(if w.unreadable { "[unreadable]".to_string() } else { w.text });
                 if text.len() > 1000 {
                     text.pop_front();
                 }

@@ -152,6 +152,7 @@ class Word:
     t_start_us: int
     t_end_us: int
     confidences: list[float]
+    unreadable: bool
     details: dict[str, Any]
 
 class WordStream:

@@ -48,6 +48,8 @@ pub struct Word {
     t_end_us: i64,
     /// Each letter's mean confidence over its segment.
     confidences: Vec<f32>,
+    /// The reader could not read it (its letters fit no word): a marked stretch, not a word.
+    unreadable: bool,
     details: ReadWordJson,
 }
 
@@ -70,6 +72,7 @@ impl Word {
             t_start_us: w.chars.first().map_or(0, |c| c.t_start_us),
             t_end_us: w.chars.last().map_or(0, |c| c.t_end_us),
             confidences: w.chars.iter().map(|c| c.confidence).collect(),
+            unreadable: w.unreadable,
             details: ReadWordJson(serde_json::to_string(w).map_err(|e| PyValueError::new_err(e.to_string()))?),
         })
     }

@@ -44,6 +44,8 @@ def test_reader_reads_a_simulated_row_whole_and_in_chunks(scan, arch):
     chunked += stream.finish()
     assert [(w.text, w.t_start_us, w.t_end_us) for w in chunked] == [(w.text, w.t_start_us, w.t_end_us) for w in whole]
     assert all(len(w.confidences) == len(w.raw) for w in whole)
+    # both words are read as words, neither marked unreadable
+    assert not any(w.unreadable for w in whole)
     assert whole[0].details["text"] == "LEFT"
     with pytest.raises(neurobraille.BrailleError, match="finished"):
         stream.push(scan.events[:10])

@@ -151,7 +151,9 @@ pub fn live(spec: &LiveSpec, models: &Path, archs: &[Arch]) -> Result<LiveBench>
             resolution,
             &pipeline::reader::Speller::new(Spell::Lexicon),
             &mut |w| {
-                read.push(w.text.clone());
+                if !w.unreadable {
+                    read.push(w.text.clone());
+                }
                 Ok(())
             },
         )?;

@@ -298,11 +298,15 @@ pub fn score(arch: Arch, timing: TimingMode, k: usize, lines: &[Vec<LineRead>], 
     for scan in lines {
         let l = &scan[k];
         for (m, sp) in metrics.iter_mut().zip(&spellers) {
-            let read: Vec<String> = l.words.iter().map(|w| sp.correct(&w.chars)).collect();
+            // a word the reader marked unreadable is not a word of its text: the printed word
+            // under it counts as missed
+            let read: Vec<String> = l.words.iter().filter(|w| !w.unreadable).map(|w| sp.correct(&w.chars)).collect();
             m.add_line(&l.truth, &read);
         }
-        let raw: Vec<String> = l.words.iter().map(|w| w.raw.clone()).collect();
-        let lex: Vec<String> = l.words.iter().map(|w| spellers[2].correct(&w.chars)).collect();
+        let raw: Vec<String> =
+            l.words.iter().map(|w| if w.unreadable { format!("[{}?]", w.raw) } else { w.raw.clone() }).collect();
+        let lex: Vec<String> =
+            l.words.iter().filter(|w| !w.unreadable).map(|w| spellers[2].correct(&w.chars)).collect();
         examples.push((l.truth.join(" "), raw.join(" "), lex.join(" ")));
         delays
             .extend(l.words.iter().flat_map(|w| w.chars.iter().map(|c| (c.t_registered_us - c.t_end_us) as f64 / 1e3)));

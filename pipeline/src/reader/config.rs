@@ -114,6 +114,10 @@ pub struct ReaderConfig {
     /// events as they come, as the shipped readers were trained).
     #[serde(default)]
     pub denoise: Option<encoders::denoise::NoiseFilterSettings>,
+    /// A word whose lexicon score per letter is under this is given out unreadable
+    /// ([`crate::abstain`]; `None`: every word is given as read).
+    #[serde(default)]
+    pub abstain_below_score_per_char: Option<f64>,
 }
 
 fn default_cell_grid() -> Option<CellGrid> {
@@ -149,6 +153,7 @@ impl ReaderConfig {
             max_word_chars: default_max_word_chars(),
             cell_grid: default_cell_grid(),
             denoise: None,
+            abstain_below_score_per_char: None,
         }
     }
 
@@ -161,6 +166,7 @@ impl ReaderConfig {
     pub fn with_operating_point(mut self, point: &OperatingPoint) -> ReaderConfig {
         self.present_threshold = point.present_threshold;
         self.filter.min_frames = point.min_frames;
+        self.abstain_below_score_per_char = point.abstain.as_ref().map(|a| a.min_score_per_char);
         self
     }
 

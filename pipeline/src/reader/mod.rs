@@ -23,7 +23,7 @@ mod stream;
 mod window;
 
 pub use config::{ReaderConfig, Timing, TimingMode};
-pub use operating_point::{CalibrationGrid, OperatingPoint, PointCalibration, f32_as_printed};
+pub use operating_point::{Abstention, CalibrationGrid, OperatingPoint, PointCalibration, f32_as_printed};
 pub use output::{ReadOutput, ReadWord, ReaderStats};
 pub use speller::{Spell, Speller};
 pub use stream::{ReadAll, StreamReader, read_all};

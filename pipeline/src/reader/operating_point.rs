@@ -17,6 +17,20 @@ pub struct OperatingPoint {
     /// How the point was chosen (none: the paper's point, or set by hand).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<PointCalibration>,
+    /// Where the reader abstains: a word whose lexicon score per letter ([`crate::abstain`]) is
+    /// under the threshold is given out unreadable instead of as a word
+    /// (`None`: every word is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub abstain: Option<Abstention>,
+}
+
+/// The threshold of a reader's abstention, and how it was chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Abstention {
+    /// The least lexicon score per letter of a word given out (natural log).
+    pub min_score_per_char: f64,
+    /// How it was chosen: the command, the validation data and the rule.
+    pub chosen_by: String,
 }
 
 /// How an operating point was chosen (`braille calibrate-reader`): on what data, by which rule,
@@ -46,7 +60,8 @@ pub struct CalibrationGrid {
 
 impl OperatingPoint {
     /// The paper's: a detection above 0.5, a character from 4 detections.
-    pub const PAPER: OperatingPoint = OperatingPoint { present_threshold: 0.5, min_frames: 4, calibration: None };
+    pub const PAPER: OperatingPoint =
+        OperatingPoint { present_threshold: 0.5, min_frames: 4, calibration: None, abstain: None };
 
     /// Checks the values: a threshold in [0, 1) and at least one frame.
     pub fn validate(&self) -> Result<()> {

@@ -11,12 +11,29 @@ pub struct ReadWord {
     /// The letters as registered.
     pub raw: String,
     pub chars: Vec<ReadChar>,
+    /// Its lexicon score per letter ([`crate::abstain::score_per_char`]; with a
+    /// reader that abstains).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lexicon_score_per_char: Option<f64>,
+    /// The reader could not read it: its letters make no likely word. It is given out so
+    /// that the stretch is marked, not as a word of the text.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub unreadable: bool,
 }
 
 /// A word as `braille read` prints it: its start in the stream, the word, and what was registered.
 impl std::fmt::Display for ReadWord {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let start_s = self.chars.first().map_or(0, |c| c.t_start_us) as f64 / 1e6;
+        if self.unreadable {
+            return write!(
+                f,
+                "{start_s:>9.3} s  {:<12} (read {}, {} characters)",
+                "[unreadable]",
+                self.raw,
+                self.chars.len()
+            );
+        }
         write!(f, "{start_s:>9.3} s  {:<12} (read {}, {} characters)", self.text, self.raw, self.chars.len())
     }
 }
@@ -45,6 +62,8 @@ pub struct ReaderStats {
     pub classifier_calls: u64,
     pub characters: u64,
     pub words: u64,
+    /// Of them, words given out unreadable (with a reader that abstains).
+    pub words_unreadable: u64,
     /// Speed estimates given by the estimator, and changes of the reader's speed they caused.
     pub speed_estimates: u64,
     pub speed_changes: u64,

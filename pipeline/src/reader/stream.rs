@@ -519,8 +519,16 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         let chars = std::mem::take(&mut self.word);
         let raw: String = chars.iter().map(|c| c.letter).collect();
         let text = self.speller.correct(&chars);
+        let (lexicon_score_per_char, unreadable) = match self.cfg.abstain_below_score_per_char {
+            Some(least) => {
+                let score = crate::abstain::score_per_char(&chars);
+                (score, score.is_some_and(|s| s < least))
+            }
+            None => (None, false),
+        };
         self.stats.words += 1;
-        out.push(ReadOutput::Word(ReadWord { text, raw, chars }));
+        self.stats.words_unreadable += u64::from(unreadable);
+        out.push(ReadOutput::Word(ReadWord { text, raw, chars, lexicon_score_per_char, unreadable }));
     }
 }
 

@@ -157,6 +157,35 @@ fn a_cell_of_one_column_is_placed_on_the_grid_its_neighbours_draw() {
 }
 
 #[test]
+fn a_reader_that_abstains_marks_letters_that_make_no_word() {
+    // pooled column c reads letter c % 26: 26 + 0 = A, 26 + 19 = T ("AT"), then after a word gap
+    // 26 + 16 = Q, 26 + 23 = X, 26 + 25 = Z ("QXZ"), all read with certainty
+    let mut ev = burst(26, 0, 100);
+    ev.extend(burst(45, 400, 500));
+    ev.extend(burst(42, 2_000, 2_100));
+    ev.extend(burst(49, 2_400, 2_500));
+    ev.extend(burst(51, 2_800, 2_900));
+    let (words, stats) = read(ev.clone(), ReaderConfig::at_speed(8.0));
+    assert_eq!(
+        words.iter().map(|w| (w.raw.as_str(), w.unreadable)).collect::<Vec<_>>(),
+        [("AT", false), ("QXZ", false)]
+    );
+    assert!(words.iter().all(|w| w.lexicon_score_per_char.is_none()) && stats.words_unreadable == 0);
+    let cfg = ReaderConfig { abstain_below_score_per_char: Some(-2.5), ..ReaderConfig::at_speed(8.0) };
+    let (words, stats) = read(ev, cfg);
+    assert_eq!(
+        words.iter().map(|w| (w.raw.as_str(), w.unreadable)).collect::<Vec<_>>(),
+        [("AT", false), ("QXZ", true)]
+    );
+    assert!(
+        words[0].lexicon_score_per_char.unwrap() > -2.0 && words[1].lexicon_score_per_char.unwrap() < -3.0,
+        "{words:?}"
+    );
+    assert_eq!(stats.words_unreadable, 1);
+    assert!(words[1].to_string().contains("[unreadable]") && words[1].to_string().contains("QXZ"));
+}
+
+#[test]
 fn durations_scale_with_speed() {
     // at 32 mm/s frames are 2.5 ms, windows 50 ms and the word gap 250 ms: 340 ms of silence
     // between bursts splits words; at 8 mm/s it does not

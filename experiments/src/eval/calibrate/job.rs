@@ -3,11 +3,12 @@
 //! validation scans or a lab's recordings, the grid written as Markdown and JSON, and the chosen
 //! point recorded in the segmentation network's model file when asked.
 
+use super::abstain::{self, AbstainSpec, calibrate_abstention};
 use super::{Calibration, CalibrationSpec, calibrate, calibrate_recordings, calibrate_shared, markdown};
 use crate::{Error, Progress, Result};
 use pipeline::classify::{ReaderModels, SnnRunner};
 use pipeline::code::BrailleCode;
-use pipeline::reader::OperatingPoint;
+use pipeline::reader::{Abstention, OperatingPoint};
 use pipeline::shipped::{ReaderFiles, Shipped};
 use sim::Realism;
 use snn::model_file::Arch;
@@ -69,6 +70,24 @@ pub struct CalibrateJob {
     /// Record the chosen point in the segmentation network's model file (its weights unchanged).
     #[cfg_attr(feature = "clap", arg(long))]
     pub write: bool,
+    /// Keep the point the model file records and choose only where its reader abstains: the
+    /// least lexicon score per letter of a word it gives out (`pipeline::abstain`), on the validation words
+    /// and sentences at `nominal` and `harsh`, 8-200 mm/s, 0.6-1.5 mm, by the rule in
+    /// docs/protocol.md; written as `abstention_ARCH.md` and `.json`. The paper's letters only.
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with_all = ["recordings", "thresholds", "min_frames"]))]
+    pub abstain: bool,
+    /// With `--abstain`: the least lexicon scores per letter tried (natural log; no abstention is always
+    /// tried).
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            default_value = "-1.5,-2,-2.25,-2.5,-2.75,-3,-3.5,-4,-5"
+        )
+    )]
+    pub abstain_scores: Vec<f64>,
 }
 
 impl CalibrateJob {
@@ -132,8 +151,11 @@ pub fn run(job: &CalibrateJob, shipped: &Shipped, progress: &dyn Progress) -> Re
     let ReaderFiles { segmenter: s, classifier: c } = pipeline::shipped::reader_in(&models, job.arch);
     let s_path = job.segmenter.clone().unwrap_or(s);
     let c_path = job.classifier.clone().unwrap_or(c);
-    let models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
+    let mut models = ReaderModels::load(&s_path, &c_path, SnnRunner::Sliding)?;
     let (s_name, c_name) = (name(&s_path), name(&c_path));
+    if job.abstain {
+        return run_abstain(job, &mut models, s_path, (&s_name, &c_name), progress);
+    }
     let r = match &job.recordings {
         Some(dir) => {
             let rec = corpus::recordings::Recordings::open(dir)?;
@@ -144,6 +166,38 @@ pub fn run(job: &CalibrateJob, shipped: &Shipped, progress: &dyn Progress) -> Re
     };
     let stem = job.out_dir()?.join(format!("operating_point_{}", job.arch));
     conclude(job, s_path, r.chosen.clone(), "", stem, &markdown(&r), &Written { joint: &r, each: &[] })
+}
+
+/// The abstention of the pair's recorded point: every threshold read on the same validation
+/// scans, the table written, and with `write` the chosen threshold recorded with the point.
+fn run_abstain(
+    job: &CalibrateJob,
+    models: &mut ReaderModels,
+    s_path: PathBuf,
+    names: (&str, &str),
+    progress: &dyn Progress,
+) -> Result<Calibrated> {
+    let mut point = models.operating_point().clone();
+    // read with the abstention off, whatever the file recorded
+    point.abstain = None;
+    models.segmenter.set_operating_point(Some(point.clone()));
+    let spec = AbstainSpec::validation(job.abstain_scores.clone());
+    let c = calibrate_abstention(models, job.arch, names, &spec, progress)?;
+    point.abstain = c.chosen_threshold().map(|t| Abstention {
+        min_score_per_char: t,
+        chosen_by: format!("braille calibrate-reader --abstain: {} (SIMULATED validation data)", abstain::RULE),
+    });
+    let stem = job.out_dir()?.join(format!("abstention_{}", job.arch));
+    let io = |path: PathBuf| move |source| Error::Io { path, source };
+    if let Some(out) = stem.parent() {
+        std::fs::create_dir_all(out).map_err(io(out.to_path_buf()))?;
+    }
+    std::fs::write(stem.with_extension("md"), abstain::markdown(&c)).map_err(io(stem.with_extension("md")))?;
+    crate::write_json(&stem.with_extension("json"), &c, true)?;
+    if job.write {
+        super::record(&s_path, &point)?;
+    }
+    Ok(Calibrated { segmenter: s_path, chosen: point, whose: "", stem, written: job.write })
 }
 
 /// The cell readers' shared segmentation network, calibrated on the validation sentences with
@@ -219,6 +273,9 @@ impl std::fmt::Display for Calibrated {
             c.map_or(f64::NAN, |c| c.mean_word_accuracy_lexicon),
             self.stem.display()
         )?;
+        if let Some(a) = &p.abstain {
+            writeln!(f, "abstains under a lexicon score of {} a letter", a.min_score_per_char)?;
+        }
         if self.written {
             let (t, m) = (p.present_threshold, p.min_frames);
             writeln!(f, "recorded in {}: threshold {t}, {m} frames", self.segmenter.display())?;

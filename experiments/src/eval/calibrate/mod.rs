@@ -18,6 +18,7 @@
 //! the point nearer the paper's. Before 2026-11-26 the rule measured percent correct (blind to
 //! inserted words); a model file's recorded `rule` says which.
 
+pub mod abstain;
 pub mod job;
 
 use crate::Progress;
@@ -364,7 +365,12 @@ fn grid_of(thresholds: &[f32], min_frames: &[usize]) -> Result<Vec<OperatingPoin
     let grid: Vec<OperatingPoint> = thresholds
         .iter()
         .flat_map(|&t| {
-            min_frames.iter().map(move |&m| OperatingPoint { present_threshold: t, min_frames: m, calibration: None })
+            min_frames.iter().map(move |&m| OperatingPoint {
+                present_threshold: t,
+                min_frames: m,
+                calibration: None,
+                abstain: None,
+            })
         })
         .collect();
     for p in &grid {
@@ -528,6 +534,8 @@ fn finish(
                 min_frames: min_frames.to_vec(),
             },
         }),
+        // a new point is chosen without abstention; its threshold is chosen for it afterwards
+        abstain: None,
     };
     Calibration {
         data: "simulated (virtual Evetac)",
@@ -759,7 +767,7 @@ mod tests {
         let (seg, cls) = (Memo::new(&models.segmenter), Memo::new(&models.classifier));
         let mut distinct = std::collections::HashSet::new();
         for (t, m) in [(0.3, 2), (0.5, 4), (0.9, 8), (0.5, 12)] {
-            let p = OperatingPoint { present_threshold: t, min_frames: m, calibration: None };
+            let p = OperatingPoint { present_threshold: t, min_frames: m, calibration: None, abstain: None };
             let cfg = || models.config(Timing::ESTIMATED).with_operating_point(&p);
             let memo = read_all(&scan.events, cfg(), sensor.camera.resolution, &seg, &cls, &speller).unwrap();
             let plain = read_all(
