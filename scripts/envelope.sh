@@ -13,7 +13,8 @@
 # operating point is then calibrated on the validation words (VAL-WORDS, validation seed) at
 # `harsh` (`braille calibrate-reader`). Then scripts/envelope_validation.sh compares them with
 # the shipped pairs on the validation words, by the rule in docs/protocol.md ("Readers for the
-# envelope"). No test board or build is read. About 60-90 minutes on two cores.
+# envelope"). No test board or build is read. About three hours on two cores (each classifier about
+# 40 minutes, each segmentation network 20-40, each calibration 15-30).
 # Models go to models/envelope/, histories to docs/results/envelope/. BRAILLE overrides the binary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
