@@ -228,6 +228,26 @@ impl BackgroundActivityFilter {
         self.stats
     }
 
+    /// The stream's uncorrelated activity per pixel, estimated from what the filter dropped as
+    /// background over `span_us` of stream: the dropped events per pixel per second, over the
+    /// chance that an event of such activity finds no neighbour within the window (`exp(-8 r w)`,
+    /// solved for `r` by a few fixed-point steps). Background activity and hot pixels alike;
+    /// events of the print that find no neighbour add to it, so the estimate is an upper bound
+    /// near zero. `None` before any time has passed.
+    pub fn background_rate_hz_per_pixel(&self, span_us: i64) -> Option<f64> {
+        if span_us <= 0 {
+            return None;
+        }
+        let pixels = (self.width * self.height) as f64;
+        let dropped = self.stats.background as f64 / pixels / (span_us as f64 / 1e6);
+        let (w_s, neighbours) = (self.settings.window_us as f64 / 1e6, 8.0);
+        let mut r = dropped;
+        for _ in 0..8 {
+            r = dropped * (neighbours * r * w_s).exp();
+        }
+        Some(r)
+    }
+
     /// Bytes the filter holds: a timestamp and a polarity per pixel.
     pub fn memory_bytes(&self) -> usize {
         self.last_us.capacity() * 8 + self.last_on.capacity()
@@ -375,6 +395,34 @@ mod tests {
         assert_eq!(DenoiseChoice::over(Some(dv), lab).map(|s| (s.window_us, s.refractory_us)), Some((3000, None)));
         let e = "median".parse::<DenoiseChoice>().unwrap_err();
         assert!(e.contains("dv-lab") && e.contains("off"), "{e}");
+    }
+
+    #[test]
+    fn uniform_background_activity_is_estimated_from_what_the_filter_drops() {
+        // Poisson activity at `rate` on every pixel of 64 x 64 for 20 s (a seeded generator)
+        for rate in [0.5, 2.0, 5.0] {
+            let (w, h, span_us) = (64u16, 64u16, 20_000_000i64);
+            let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+            let mut uniform = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let n = (rate * f64::from(w) * f64::from(h) * span_us as f64 / 1e6) as usize;
+            let mut events: Vec<(i64, u16, u16)> = (0..n)
+                .map(|_| {
+                    let t = (uniform() * span_us as f64) as i64;
+                    (t, (uniform() * f64::from(w)) as u16, (uniform() * f64::from(h)) as u16)
+                })
+                .collect();
+            events.sort();
+            let mut f = filter(w, h, NoiseFilterSettings::DV_LAB);
+            passes(&mut f, &events);
+            let est = f.background_rate_hz_per_pixel(span_us).unwrap();
+            assert!((est / rate - 1.0).abs() < 0.05, "{rate} Hz estimated as {est}");
+        }
+        assert_eq!(filter(4, 4, NoiseFilterSettings::DV_LAB).background_rate_hz_per_pixel(0), None);
     }
 
     #[test]

@@ -87,6 +87,13 @@ impl std::fmt::Display for ReadSummary {
                 self.words_timed
             )?;
         }
+        if let Some(hz) = self.stats.background_hz_per_pixel {
+            writeln!(
+                f,
+                "background activity about {hz:.2} Hz per pixel (estimated from the {} events the noise filter removed)",
+                self.stats.events_denoised
+            )?;
+        }
         Ok(())
     }
 }

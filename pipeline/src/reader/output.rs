@@ -53,6 +53,10 @@ pub struct ReaderStats {
     pub events: u64,
     /// Events the background-activity filter removed (with `ReaderConfig::denoise`).
     pub events_denoised: u64,
+    /// With the filter: the stream's uncorrelated activity per pixel, estimated from what it
+    /// removed (`encoders::denoise::BackgroundActivityFilter::background_rate_hz_per_pixel`;
+    /// set when the stream ends).
+    pub background_hz_per_pixel: Option<f64>,
     /// Events outside the sensor or the active columns (dropped, as in training).
     pub events_masked: u64,
     pub frames: u64,

@@ -49,6 +49,8 @@ pub struct StreamReader<'m, S: WindowClassifier = WindowModel, C: WindowClassifi
     /// Bins in the ring that hold an event.
     nonempty: usize,
     last_t: i64,
+    /// The first event's time (the start of the span the background rate is estimated over).
+    first_t: Option<i64>,
     segmenter: &'m S,
     classifier: &'m C,
     segmenter_state: S::State,
@@ -143,6 +145,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             bin_start: None,
             nonempty: 0,
             last_t: i64::MIN,
+            first_t: None,
             cfg,
             segmenter_state: segmenter.new_state(),
             classifier_state: classifier.new_state(),
@@ -207,6 +210,7 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             return Err(Error::OutOfOrder { index: self.stats.events, t_us: e.t_us, previous_t_us: self.last_t });
         }
         self.last_t = e.t_us;
+        self.first_t.get_or_insert(e.t_us);
         self.stats.events += 1;
         if self.denoiser.as_mut().is_some_and(|d| !d.retain(e)) {
             self.stats.events_denoised += 1;
@@ -359,9 +363,17 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
         Ok(())
     }
 
+    /// The stream's uncorrelated activity per pixel so far, estimated by the background-activity
+    /// filter from the events it dropped (`None` without a filter or before time has passed).
+    pub fn background_rate_hz_per_pixel(&self) -> Option<f64> {
+        let span_us = self.last_t - self.first_t?;
+        self.denoiser.as_ref()?.background_rate_hz_per_pixel(span_us)
+    }
+
     /// The stream has ended: events still held are read, the bin being filled closes and the
     /// open character and word are given out.
     pub fn finish(&mut self, out: &mut Vec<ReadOutput>) -> Result<()> {
+        self.stats.background_hz_per_pixel = self.background_rate_hz_per_pixel();
         if self.speed_mm_s.is_none() && !self.held.is_empty() {
             self.release_held(out)?;
         }

@@ -186,6 +186,28 @@ fn a_reader_that_abstains_marks_letters_that_make_no_word() {
 }
 
 #[test]
+fn a_reader_that_filters_estimates_the_background_from_what_it_drops() {
+    // isolated events, one every 10 ms at pixels far apart over 2 s: all background to the filter
+    let ev: Vec<Event> = (0..200i64)
+        .map(|k| Event {
+            t_us: k * 10_000,
+            x: (k as u16 * 37) % 600 + 10,
+            y: (k as u16 * 53) % 400 + 10,
+            polarity: Polarity::On,
+        })
+        .collect();
+    let (_, stats) = read(ev.clone(), ReaderConfig::at_speed(8.0));
+    assert_eq!(stats.background_hz_per_pixel, None);
+    let lab = Some(encoders::denoise::NoiseFilterSettings::DV_LAB);
+    let (_, stats) = read(ev, ReaderConfig { denoise: lab, ..ReaderConfig::at_speed(8.0) });
+    let pixels = f64::from(Resolution::DVXPLORER.width) * f64::from(Resolution::DVXPLORER.height);
+    let want = 200.0 / pixels / 1.99;
+    let got = stats.background_hz_per_pixel.unwrap();
+    assert_eq!(stats.events_denoised, 200);
+    assert!((got / want - 1.0).abs() < 1e-3, "{got} {want}");
+}
+
+#[test]
 fn durations_scale_with_speed() {
     // at 32 mm/s frames are 2.5 ms, windows 50 ms and the word gap 250 ms: 340 ms of silence
     // between bursts splits words; at 8 mm/s it does not
