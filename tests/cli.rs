@@ -1140,6 +1140,10 @@ fn the_ueb_report_and_calibration_refuse_what_does_not_apply_and_name_missing_mo
     let o = braille(&["calibrate-reader", "--braille", "ueb-g2", "--models", d, "--out", d]);
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("snn-segment.safetensors"), "{err}");
+    // a cell reader's words are never judged: its abstention is not chosen
+    let o = braille(&["calibrate-reader", "--braille", "ueb-g2", "--abstain", "--out", d]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--abstain") && err.contains("not judged"), "{err}");
 }
 
 /// `braille ... | head` closes the pipe early: the process ends quietly (as other command-line

@@ -146,6 +146,12 @@ fn name(p: &Path) -> String {
 pub fn run(job: &CalibrateJob, shipped: &Shipped, progress: &dyn Progress) -> Result<Calibrated> {
     let models = job.models_dir(shipped);
     if job.braille != BrailleCode::Grade1Letters {
+        if job.abstain {
+            return Err(Error::Options(format!(
+                "--abstain judges words of the paper's letters; the {} readers' words are not judged",
+                job.braille
+            )));
+        }
         return run_cells(job, &models, progress);
     }
     let ReaderFiles { segmenter: s, classifier: c } = pipeline::shipped::reader_in(&models, job.arch);
