@@ -107,50 +107,48 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         for (board, depth_mm, speed_mm_s) in conditions {
-            {
-                let spec = WordsSpec {
-                    board: board.clone(),
-                    speed_mm_s,
-                    speed_variation: 0.0,
-                    depth_mm,
-                    trials,
-                    seed: VALIDATION_SEED,
-                    world: world.clone(),
-                };
-                let lines = read_scans_in(&spec, &setup, &refs, &[TimingMode::Estimated], &())?;
-                for scan in &lines {
-                    for (k, &arch) in archs.iter().enumerate() {
-                        let l = &scan[k];
-                        let read: Vec<String> = l.words.iter().map(|w| lexicon.correct(&w.chars)).collect();
-                        for step in alignment(&l.truth, &read) {
-                            let (j, label) = match step {
-                                Step::Hit(_, j) => (j, "hit"),
-                                Step::Sub(_, j) => (j, "sub"),
-                                Step::Ins(j) => (j, "ins"),
-                                Step::Del(_) => continue,
-                            };
-                            let (chars, m, in_lexicon) = measures(&l.words[j], &decoder);
-                            records.push(WordRecord {
-                                arch,
-                                realism,
-                                speed_mm_s,
-                                depth_mm,
-                                label,
-                                chars,
-                                mean_confidence: m[0],
-                                min_confidence: m[1],
-                                frames_per_char: m[2],
-                                rate_ratio: m[3],
-                                lexicon_score_per_char: m[4],
-                                lexicon_fit_per_char: m[5],
-                                in_lexicon,
-                            });
-                        }
+            let spec = WordsSpec {
+                board: board.clone(),
+                speed_mm_s,
+                speed_variation: 0.0,
+                depth_mm,
+                trials,
+                seed: VALIDATION_SEED,
+                world: world.clone(),
+            };
+            let lines = read_scans_in(&spec, &setup, &refs, &[TimingMode::Estimated], &())?;
+            for scan in &lines {
+                for (k, &arch) in archs.iter().enumerate() {
+                    let l = &scan[k];
+                    let read: Vec<String> = l.words.iter().map(|w| lexicon.correct(&w.chars)).collect();
+                    for step in alignment(&l.truth, &read) {
+                        let (j, label) = match step {
+                            Step::Hit(_, j) => (j, "hit"),
+                            Step::Sub(_, j) => (j, "sub"),
+                            Step::Ins(j) => (j, "ins"),
+                            Step::Del(_) => continue,
+                        };
+                        let (chars, m, in_lexicon) = measures(&l.words[j], &decoder);
+                        records.push(WordRecord {
+                            arch,
+                            realism,
+                            speed_mm_s,
+                            depth_mm,
+                            label,
+                            chars,
+                            mean_confidence: m[0],
+                            min_confidence: m[1],
+                            frames_per_char: m[2],
+                            rate_ratio: m[3],
+                            lexicon_score_per_char: m[4],
+                            lexicon_fit_per_char: m[5],
+                            in_lexicon,
+                        });
                     }
                 }
-                let board = corpus::boards::board_name(board);
-                eprintln!("{board} {realism} {speed_mm_s} mm/s {depth_mm} mm: {} words so far", records.len());
             }
+            let board = corpus::boards::board_name(board);
+            eprintln!("{board} {realism} {speed_mm_s} mm/s {depth_mm} mm: {} words so far", records.len());
         }
     }
     if !out.is_empty() {

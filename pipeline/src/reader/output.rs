@@ -25,16 +25,8 @@ pub struct ReadWord {
 impl std::fmt::Display for ReadWord {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let start_s = self.chars.first().map_or(0, |c| c.t_start_us) as f64 / 1e6;
-        if self.unreadable {
-            return write!(
-                f,
-                "{start_s:>9.3} s  {:<12} (read {}, {} characters)",
-                "[unreadable]",
-                self.raw,
-                self.chars.len()
-            );
-        }
-        write!(f, "{start_s:>9.3} s  {:<12} (read {}, {} characters)", self.text, self.raw, self.chars.len())
+        let text = if self.unreadable { "[unreadable]" } else { &self.text };
+        write!(f, "{start_s:>9.3} s  {text:<12} (read {}, {} characters)", self.raw, self.chars.len())
     }
 }
 

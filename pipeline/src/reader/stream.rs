@@ -210,11 +210,14 @@ impl<'m, S: WindowClassifier, C: WindowClassifier> StreamReader<'m, S, C> {
             return Err(Error::OutOfOrder { index: self.stats.events, t_us: e.t_us, previous_t_us: self.last_t });
         }
         self.last_t = e.t_us;
-        self.first_t.get_or_insert(e.t_us);
         self.stats.events += 1;
-        if self.denoiser.as_mut().is_some_and(|d| !d.retain(e)) {
-            self.stats.events_denoised += 1;
-            return Ok(());
+        if let Some(d) = self.denoiser.as_mut() {
+            // the span the background rate is estimated over starts at the first filtered event
+            self.first_t.get_or_insert(e.t_us);
+            if !d.retain(e) {
+                self.stats.events_denoised += 1;
+                return Ok(());
+            }
         }
         if let Some(est) = self.estimator.as_mut() {
             est.push(e);

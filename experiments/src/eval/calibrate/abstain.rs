@@ -9,7 +9,7 @@
 //! threshold marks the words under it unreadable before [`score`] counts them (a printed word
 //! under an unreadable mark counts as missed).
 
-use crate::eval::words::{LineRead, WordsSpec, read_scans_in, score};
+use crate::eval::words::{WordsSpec, read_scans_in, score};
 use crate::{Progress, Result};
 use corpus::world::{SensorBuilds, VALIDATION_SEED, World};
 use pipeline::classify::ReaderModels;
@@ -159,26 +159,18 @@ pub fn calibrate_abstention(
                         seed: VALIDATION_SEED,
                         world: world.clone(),
                     };
-                    let lines = read_scans_in(&words, &setup, &[reader], &[TimingMode::Estimated], progress)?;
-                    let scores: Vec<Vec<Option<f64>>> = lines
-                        .iter()
-                        .map(|scan| scan[0].words.iter().map(|w| pipeline::abstain::score_per_char(&w.chars)).collect())
-                        .collect();
+                    // one reader: `lines[scan][0]`, marked in place for each threshold in turn
+                    let mut lines = read_scans_in(&words, &setup, &[reader], &[TimingMode::Estimated], progress)?;
+                    for w in lines.iter_mut().flat_map(|scan| &mut scan[0].words) {
+                        w.lexicon_score_per_char = pipeline::abstain::score_per_char(&w.chars);
+                    }
                     for (row, &t) in rows.iter_mut().zip(&thresholds) {
-                        let marked: Vec<Vec<LineRead>> = lines
-                            .iter()
-                            .zip(&scores)
-                            .map(|(scan, score)| {
-                                let mut l = scan[0].clone();
-                                for (w, f) in l.words.iter_mut().zip(score) {
-                                    w.unreadable = matches!((t, f), (Some(t), Some(f)) if *f < t);
-                                }
-                                vec![l]
-                            })
-                            .collect();
-                        row.words += marked.iter().map(|s| s[0].words.len()).sum::<usize>();
-                        row.unreadable += marked.iter().flat_map(|s| &s[0].words).filter(|w| w.unreadable).count();
-                        let s = score(arch, TimingMode::Estimated, 0, &marked, words.condition());
+                        for w in lines.iter_mut().flat_map(|scan| &mut scan[0].words) {
+                            w.unreadable = matches!((t, w.lexicon_score_per_char), (Some(t), Some(s)) if s < t);
+                        }
+                        row.words += lines.iter().map(|s| s[0].words.len()).sum::<usize>();
+                        row.unreadable += lines.iter().flat_map(|s| &s[0].words).filter(|w| w.unreadable).count();
+                        let s = score(arch, TimingMode::Estimated, 0, &lines, words.condition());
                         let of = |spell: Spell| {
                             s.by_spell.iter().find(|b| b.spell == spell).map_or(f64::NAN, |b| b.word_accuracy)
                         };

@@ -194,16 +194,7 @@ fn run_abstain(
         chosen_by: format!("braille calibrate-reader --abstain: {} (SIMULATED validation data)", abstain::RULE),
     });
     let stem = job.out_dir()?.join(format!("abstention_{}", job.arch));
-    let io = |path: PathBuf| move |source| Error::Io { path, source };
-    if let Some(out) = stem.parent() {
-        std::fs::create_dir_all(out).map_err(io(out.to_path_buf()))?;
-    }
-    std::fs::write(stem.with_extension("md"), abstain::markdown(&c)).map_err(io(stem.with_extension("md")))?;
-    crate::write_json(&stem.with_extension("json"), &c, true)?;
-    if job.write {
-        super::record(&s_path, &point)?;
-    }
-    Ok(Calibrated { segmenter: s_path, chosen: point, whose: "", stem, written: job.write })
+    conclude(job, s_path, point, "", stem, &abstain::markdown(&c), &c)
 }
 
 /// The cell readers' shared segmentation network, calibrated on the validation sentences with
@@ -242,7 +233,8 @@ fn run_cells(job: &CalibrateJob, models: &Path, progress: &dyn Progress) -> Resu
     conclude(job, s_path, joint.chosen.clone(), " (both architectures)", stem, &md, &written)
 }
 
-/// The grid as `stem`.md and `stem`.json and, with `write`, the point recorded in `segmenter`.
+/// The table as `stem`.md and `written` as `stem`.json and, with `write`, the point recorded in
+/// `segmenter`.
 fn conclude(
     job: &CalibrateJob,
     segmenter: PathBuf,
@@ -250,7 +242,7 @@ fn conclude(
     whose: &'static str,
     stem: PathBuf,
     md: &str,
-    written: &Written,
+    written: &impl serde::Serialize,
 ) -> Result<Calibrated> {
     let io = |path: PathBuf| move |source| Error::Io { path, source };
     if let Some(out) = stem.parent() {
